@@ -1,0 +1,1 @@
+"""Contact area to resistance, normalisation, fits of measured against simulated curves, figures, reports."""

@@ -1,0 +1,66 @@
+"""The ``contactrig`` command: a thin dispatcher over functions a notebook can call.
+
+Each package registers its own subcommands in ``<package>/commands.py`` (``register(subparsers)``); those
+modules import nothing heavy at module level, so ``contactrig --help`` starts fast and a command that needs no
+instrument never imports pyvisa, and none imports matplotlib until a figure is drawn.
+
+Errors a user can act on (bad settings, unreadable files, instrument faults) print one line and exit 2;
+``--debug`` shows the traceback instead. Ctrl-C exits 130.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+_COMMAND_MODULES = ("instruments.commands", "sims.commands", "daq.commands", "analysis.commands")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The full argument parser (every package's subcommands)."""
+    parser = argparse.ArgumentParser(
+        prog="contactrig",
+        description="Piston/liner contact area by electrical contact resistance: bench, simulation, analysis.",
+    )
+    parser.add_argument("--debug", action="store_true", help="show tracebacks instead of one-line errors")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name in _COMMAND_MODULES:
+        module = importlib.import_module(name)
+        module.register(sub)
+    return parser
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("contactrig")
+    except PackageNotFoundError:
+        return "0+unknown"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``contactrig`` console script; returns the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    handler = getattr(args, "handler", None)
+    if handler is None:
+        parser.print_help()
+        return 2
+    try:
+        return int(handler(args) or 0)
+    except KeyboardInterrupt:
+        print("contactrig: interrupted", file=sys.stderr)
+        return 130
+    except (ValueError, OSError, RuntimeError, TimeoutError) as exc:
+        if args.debug:
+            raise
+        print(f"contactrig {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
