@@ -15,7 +15,13 @@ import importlib
 import sys
 from collections.abc import Sequence
 
-_COMMAND_MODULES = ("instruments.commands", "sims.commands", "daq.commands", "analysis.commands")
+_COMMAND_MODULES = (
+    "instruments.commands",
+    "sims.commands",
+    "sims.rig_commands",
+    "daq.commands",
+    "analysis.commands",
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
