@@ -21,6 +21,7 @@ _COMMAND_MODULES = (
     "sims.rig_commands",
     "daq.commands",
     "analysis.commands",
+    "analysis.studies.commands",
 )
 
 

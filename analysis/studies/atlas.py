@@ -1,0 +1,129 @@
+"""Stability atlas: what each method returns on stiff and extreme cases.
+
+Each :class:`Case` calls one method on one extreme input and declares what a user should get: a finite, correct
+answer (``"finite"``), a finite answer with an explicit warning (``"warning"``), or an explicit error
+(``"error"``). :func:`run_atlas` runs every case under a time limit and classifies what actually happened; anything
+else — NaN, inf, a negative pressure or area, an unexpected exception type, a hang — is ``"FAIL"``. The test suite
+runs the atlas (``tests/analysis/test_studies_atlas.py``), so a regression in any method's edge behaviour fails CI.
+"""
+
+from __future__ import annotations
+
+import signal
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Case", "Outcome", "run_atlas"]
+
+EXPECTED = ("finite", "warning", "error")
+
+
+@dataclass(frozen=True)
+class Case:
+    """``call()`` returns the numbers to check (array-like or dict of them); all must be finite and, when
+    ``non_negative``, ≥ 0. ``check`` (optional) asserts correctness of the returned value beyond finiteness."""
+
+    name: str
+    method: str
+    description: str
+    call: Callable[[], Any]
+    expect: str
+    non_negative: bool = True
+    check: Callable[[Any], None] | None = None
+
+
+@dataclass(frozen=True)
+class Outcome:
+    case: Case
+    got: str  # finite | warning | error | FAIL
+    detail: str
+    seconds: float
+
+    @property
+    def ok(self) -> bool:
+        return self.got == self.case.expect
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "case": self.case.name,
+            "method": self.case.method,
+            "description": self.case.description,
+            "expected": self.case.expect,
+            "got": self.got,
+            "ok": self.ok,
+            "detail": self.detail,
+            "seconds": self.seconds,
+        }
+
+
+class _Hang(Exception):
+    pass
+
+
+def _numbers(value: Any) -> list[np.ndarray]:
+    if isinstance(value, dict):
+        return [np.asarray(v, dtype=float) for v in value.values() if v is not None and not isinstance(v, str)]
+    if isinstance(value, (list, tuple)):
+        return [np.asarray(v, dtype=float) for v in value]
+    return [np.asarray(value, dtype=float)]
+
+
+def _classify(case: Case, limit_s: float) -> Outcome:
+    t0 = time.perf_counter()
+
+    def alarm(signum: int, frame: Any) -> None:  # pragma: no cover - only on a hang
+        raise _Hang
+
+    use_alarm = hasattr(signal, "SIGALRM")
+    if use_alarm:
+        previous = signal.signal(signal.SIGALRM, alarm)
+        signal.setitimer(signal.ITIMER_REAL, limit_s)
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            value = case.call()
+        for arr in _numbers(value):
+            if not np.all(np.isfinite(arr)):
+                return Outcome(case, "FAIL", "non-finite value returned", time.perf_counter() - t0)
+            if case.non_negative and np.any(arr < 0):
+                return Outcome(case, "FAIL", f"negative value {float(arr.min()):.3g}", time.perf_counter() - t0)
+        if case.check is not None:
+            case.check(value)
+        relevant = [w for w in caught if not issubclass(w.category, (DeprecationWarning, PendingDeprecationWarning))]
+        if relevant:
+            return Outcome(case, "warning", str(relevant[0].message)[:200], time.perf_counter() - t0)
+        return Outcome(case, "finite", _summary(value), time.perf_counter() - t0)
+    except _Hang:
+        return Outcome(case, "FAIL", f"no answer within {limit_s:g} s", time.perf_counter() - t0)
+    except AssertionError as exc:
+        return Outcome(case, "FAIL", f"wrong value: {exc}", time.perf_counter() - t0)
+    except (ValueError, RuntimeError, OSError, ArithmeticError) as exc:
+        return Outcome(case, "error", f"{type(exc).__name__}: {exc}"[:200], time.perf_counter() - t0)
+    except Exception as exc:  # anything else is a defect: an unexpected exception type
+        return Outcome(case, "FAIL", f"unexpected {type(exc).__name__}: {exc}"[:200], time.perf_counter() - t0)
+    finally:
+        if use_alarm:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, previous)
+
+
+def _summary(value: Any) -> str:
+    arrs = _numbers(value)
+    flat = np.concatenate([a.ravel() for a in arrs]) if arrs else np.array([])
+    if flat.size == 0:
+        return "empty"
+    if flat.size == 1:
+        return f"{float(flat[0]):.4g}"
+    return f"{flat.size} values in [{float(flat.min()):.3g}, {float(flat.max()):.3g}]"
+
+
+def run_atlas(cases: list[Case] | None = None, *, limit_s: float = 20.0) -> list[Outcome]:
+    """Run ``cases`` (default: every case of :mod:`analysis.studies.atlas_cases`); one :class:`Outcome` each."""
+    from analysis.studies.atlas_cases import all_cases
+
+    return [_classify(c, limit_s) for c in (cases if cases is not None else all_cases())]

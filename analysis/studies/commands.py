@@ -1,0 +1,54 @@
+"""``contactrig bench``: error against run time for every numerical method, and the stability atlas."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add ``bench`` to ``subparsers``."""
+    p = subparsers.add_parser(
+        "bench",
+        help="error against run time of the numerical methods, and the stability atlas",
+        description="Run the error-against-run-time studies and the stability atlas; print a table, and with -o "
+        "write log-log figures and a Markdown report. --quick finishes in under a minute.",
+    )
+    p.add_argument("--quick", action="store_true", help="smaller sizes (under a minute; what CI runs)")
+    p.add_argument("--json", action="store_true", help='print {"rows": [...], "atlas": [...]} as JSON')
+    p.add_argument("-o", "--output", metavar="DIR", help="write figures and report.md into DIR")
+    p.add_argument(
+        "--study",
+        action="append",
+        metavar="NAME",
+        help="run only this study (repeatable); default all. --study none runs only the atlas",
+    )
+    p.add_argument("--no-atlas", action="store_true", help="skip the stability atlas")
+    p.set_defaults(handler=_bench)
+
+
+def _bench(args: argparse.Namespace) -> int:
+    import json
+
+    from analysis.studies.report import format_atlas, format_rows, write_report
+    from analysis.studies.rows import run, study_names
+
+    names = study_names() if not args.study else [s for s in args.study if s != "none"]
+    rows = run(names, quick=args.quick)
+    outcomes = []
+    if not args.no_atlas:
+        from analysis.studies.atlas import run_atlas
+
+        outcomes = run_atlas()
+    if args.json:
+        print(json.dumps({"rows": [r.as_dict() for r in rows], "atlas": [o.as_dict() for o in outcomes]}, indent=1))
+    else:
+        print(format_rows(rows))
+        if outcomes:
+            print()
+            print(format_atlas(outcomes))
+    if args.output:
+        path = write_report(rows, outcomes, args.output, studies=names, quick=args.quick)
+        if not args.json:
+            print(f"\nreport written to {path}")
+    failed = [o for o in outcomes if not o.ok]
+    return 1 if failed else 0
