@@ -1,9 +1,203 @@
-"""``contactrig`` subcommands of the ``analysis`` package (registered by ``daq.cli``)."""
+"""``contactrig`` subcommands of the ``analysis`` package (registered by ``daq.cli``).
+
+``circuit`` (seed eq. 23–25 design calculator), ``fit`` (measured R(W) against every model's simulated A(W)),
+``figures``, ``report`` and ``demo``. Nothing heavy is imported here: each handler imports what it needs.
+"""
 
 from __future__ import annotations
 
 import argparse
+import json
+import sys
+from typing import Any
+
+_TAB1 = "tab1"
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add this package's subcommands to ``subparsers``."""
+    c = subparsers.add_parser(
+        "circuit",
+        help="measuring-circuit design calculator (seed eq. 23-25): R_T, current, voltage across the contact",
+        description="Seed eq. 23-25: R_T = ζh/A, I = U/(R_T + R_s + R_piston + R_liner + R_added), U_c = R_T·I. "
+        "Defaults come from the scene's [circuit] table (the packaged default reproduces the paper's design "
+        "example, about 120 mA and 13.4 nV); options override single values.",
+    )
+    c.add_argument("--scene", help="scene TOML (default: the packaged default scene)")
+    c.add_argument("--resistivity", type=float, metavar="OHM_M", help="ζ, resistivity [Ω·m]")
+    c.add_argument("--height", type=float, metavar="M", help="h_R, electric contact height [m]")
+    c.add_argument("--area", type=float, metavar="M2", help="A_R, contact area [m²]")
+    c.add_argument("--voltage", type=float, metavar="V", help="U_R, source voltage [V]")
+    c.add_argument("--added-resistance", type=float, metavar="OHM", help="R_P, added resistor [Ω]")
+    c.add_argument("--series-resistance", type=float, metavar="OHM", help="R_s, leads and other contacts [Ω]")
+    c.add_argument("--piston-resistance", type=float, metavar="OHM", help="piston body resistance [Ω]")
+    c.add_argument("--liner-resistance", type=float, metavar="OHM", help="liner body resistance [Ω]")
+    c.add_argument(
+        "--current", type=float, metavar="A", help="drive with a current source (e.g. the 6221) instead of --voltage"
+    )
+    c.add_argument("--json", action="store_true", help="print JSON")
+    c.set_defaults(handler=_circuit)
+
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("session", metavar="SESSION.h5", help=f"session file, or '{_TAB1}' for the seed paper's Tab. 1")
+    common.add_argument("--sim", metavar="SIM.h5", help="rig sweep file (default: simulate the session's scene now)")
+    common.add_argument("--models", nargs="+", metavar="NAME", help="only these models (default: all in the sweep)")
+    common.add_argument(
+        "--conversion", choices=("bulk", "holm"), default="bulk",
+        help="area → resistance: bulk = seed eq. 23 ζh/A (default), holm = one Holm spot ζ√π/(2√A)",
+    )  # fmt: skip
+    common.add_argument(
+        "--weighting", choices=("repeats", "pooled", "blocks"), default="repeats",
+        help="σ per weight: SEM of the repeats (default), pooled SD, or within-block SEM (single repeats)",
+    )  # fmt: skip
+    common.add_argument("--bootstrap", type=int, default=2000, metavar="N", help="bootstrap resamples (0: none)")
+    common.add_argument("--seed", type=int, default=0, help="bootstrap random seed")
+
+    f = subparsers.add_parser(
+        "fit",
+        parents=[common],
+        help="fit R = R_s + s·h/A(W) per model, rank the models, say whether the data discriminate",
+    )
+    f.add_argument("--json", action="store_true", help="print the fits as JSON")
+    f.set_defaults(handler=_fit)
+
+    g = subparsers.add_parser("figures", parents=[common], help="draw seed Figs. 2, 9, 11, 12 and the fit residuals")
+    g.add_argument("-o", "--output", required=True, metavar="DIR", help="directory for the figures")
+    g.add_argument("--format", choices=("svg", "pdf"), default="svg", help="vector format written beside the PNG")
+    g.set_defaults(handler=_figures)
+
+    r = subparsers.add_parser("report", parents=[common], help="Markdown report with tables, figures, provenance")
+    r.add_argument("-o", "--output", required=True, metavar="DIR", help="directory for report.md and figures/")
+    r.set_defaults(handler=_report)
+
+    d = subparsers.add_parser(
+        "demo",
+        help="the main job in one command: simulate, acquire on the simulated bench, replay, fit, figures, report",
+    )
+    d.add_argument("-o", "--output", default="contactrig-demo", metavar="DIR", help="output directory")
+    d.add_argument("--bootstrap", type=int, default=2000, metavar="N", help="bootstrap resamples (0: none)")
+    d.set_defaults(handler=_demo)
+
+
+def _circuit(args: argparse.Namespace) -> int:
+    from analysis.circuit import CircuitSettings
+    from sims.scene import load_scene
+
+    settings = CircuitSettings.from_scene(load_scene(args.scene)).replace(
+        resistivity_ohm_m=args.resistivity,
+        contact_height_m=args.height,
+        contact_area_m2=args.area,
+        source_voltage_v=args.voltage,
+        added_resistance_ohm=args.added_resistance,
+        series_resistance_ohm=args.series_resistance,
+        piston_resistance_ohm=args.piston_resistance,
+        liner_resistance_ohm=args.liner_resistance,
+    )
+    d = settings.design(current_a=args.current)
+    if args.json:
+        print(json.dumps({"inputs": settings.__dict__, "result": d.as_dict()}, indent=2))
+        return 0
+    s = settings
+    if args.current:
+        drive = f"current source I = {d.current_a:g} A"
+    else:
+        drive = f"voltage source U_R = {s.source_voltage_v:g} V"
+    print(f"inputs: ζ = {s.resistivity_ohm_m:g} Ω·m, h_R = {s.contact_height_m:g} m, A_R = {s.contact_area_m2:g} m², "
+          f"{drive}")  # fmt: skip
+    print(f"        R_added = {s.added_resistance_ohm:g} Ω, R_series = {s.series_resistance_ohm:g} Ω, "
+          f"R_piston = {s.piston_resistance_ohm:g} Ω, R_liner = {s.liner_resistance_ohm:g} Ω")  # fmt: skip
+    print(f"R_T  (eq. 23) = {d.contact_resistance_ohm:.4g} Ω")
+    print(f"R_loop        = {d.loop_resistance_ohm:.6g} Ω")
+    print(f"I    (eq. 24) = {d.current_a:.4g} A  ({d.current_a * 1e3:.4g} mA)")
+    print(f"U_c  (eq. 25) = {d.contact_voltage_v:.4g} V  ({d.contact_voltage_v * 1e9:.4g} nV)")
+    if args.current:
+        print(f"source must supply U = {d.source_voltage_v:.4g} V (compliance)")
+    for w in d.warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    return 0
+
+
+def _analysis(args: argparse.Namespace) -> Any:
+    kw = {"conversion": args.conversion, "weighting": args.weighting, "n_boot": args.bootstrap, "seed": args.seed}
+    if args.session == _TAB1:
+        from analysis.pipeline import analyse_tab1
+
+        if args.sim:
+            from analysis.pipeline import _load_sim
+            from sims.scene import load_scene
+
+            scene = load_scene(None)
+            sweep_result, _, info = _load_sim(args.sim, scene, None, args.models)
+            return analyse_tab1(sweep_result, scene, sim_info=info, **kw)
+        return analyse_tab1(models=args.models, **kw)
+    from analysis.pipeline import analyse_session
+
+    return analyse_session(args.session, args.sim, models=args.models, **kw)
+
+
+def _fit(args: argparse.Namespace) -> int:
+    a = _analysis(args)
+    cmp = a.comparison
+    if args.json:
+        d = cmp.as_dict()
+        d["measured"] = {k: v for k, v in a.measured_info.items() if k in ("path", "kind", "complete", "status")}
+        d["simulation"] = a.sim_info.get("source")
+        print(json.dumps(d, indent=2))
+        return 0
+    from analysis.figures import model_label
+
+    if not a.measured_info.get("complete", True):
+        print("INCOMPLETE SESSION: no stop record; analysing the blocks on disk", file=sys.stderr)
+    first = next(iter(cmp.fits.values()))
+    print(f"{a.title}: {cmp.n_weights} weights × {cmp.n_repeats} repeats; simulation: {a.sim_info.get('source')}")
+    print(f"R = R_s + s·x(A), conversion {a.conversion}, weighting {first.weighting}, "
+          f"{first.n_boot} bootstrap resamples ({first.bootstrap})")  # fmt: skip
+    lvl = round(first.ci_level * 100)
+    print(f"{'model':<20} {'R_s [mΩ]':>18} {'s [Ω·m]':>22} {'χ²/dof':>8} {'AIC':>8} {'ΔAIC':>7} {'RMSE [mΩ]':>10}")
+    for name in cmp.ranking:
+        f = cmp.fits[name]
+        print(
+            f"{model_label(name):<20} {f.R_series_ohm * 1e3:>9.4g} ± {f.R_series_se * 1e3:<6.2g}"
+            f" {f.scale:>12.4g} ± {f.scale_se:<7.2g} {f.reduced_chi2:>8.3g} {f.aic:>8.5g}"
+            f" {cmp.delta_aic[name]:>7.3g} {f.rmse_ohm * 1e3:>10.3g}"
+        )
+    best = cmp.fits[cmp.ranking[0]]
+    print(f"{model_label(best.model)}: R_s {lvl}% t-interval [{best.R_series_ci[0] * 1e3:.3g}, "
+          f"{best.R_series_ci[1] * 1e3:.3g}] mΩ, bootstrap [{best.R_series_boot_ci[0] * 1e3:.3g}, "
+          f"{best.R_series_boot_ci[1] * 1e3:.3g}] mΩ")  # fmt: skip
+    print(cmp.statement)
+    for w in a.measured_info.get("warnings", []):
+        print(f"note: {w}", file=sys.stderr)
+    return 0
+
+
+def _figures(args: argparse.Namespace) -> int:
+    from analysis.report import write_figures
+
+    a = _analysis(args)
+    written = write_figures(a, args.output, formats=("png", args.format))
+    for name, paths in written.items():
+        print(f"{name}: " + ", ".join(str(p) for p in paths))
+    if a.database is None:
+        print("fig02_database: not drawn (the contact database is built only when the rig is simulated now; "
+              "omit --sim)", file=sys.stderr)  # fmt: skip
+    return 0
+
+
+def _report(args: argparse.Namespace) -> int:
+    from analysis.report import write_report
+
+    a = _analysis(args)
+    path = write_report([a], args.output)
+    if not a.measured_info.get("complete", True):
+        print("INCOMPLETE SESSION: the report says so at the top", file=sys.stderr)
+    print(f"report: {path}")
+    return 0
+
+
+def _demo(args: argparse.Namespace) -> int:
+    from analysis.demo import run_demo
+
+    result = run_demo(args.output, n_boot=args.bootstrap, stream=sys.stdout)
+    print(f"report: {result.report}")
+    return 0

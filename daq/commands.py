@@ -1,9 +1,141 @@
-"""``contactrig`` subcommands of the ``daq`` package (registered by ``daq.cli``)."""
+"""``contactrig acquire``, ``replay`` and ``import`` (registered by ``daq.cli``): a thin layer over daq functions.
+
+Nothing heavy is imported at module level: h5py, pyvisa and pandas load only when a command runs.
+"""
 
 from __future__ import annotations
 
 import argparse
+import json
+import math
+import sys
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add this package's subcommands to ``subparsers``."""
+    acq = subparsers.add_parser(
+        "acquire",
+        help="run a bench session: Delta-mode resistance for each weight, written to HDF5 block by block",
+        description=(
+            "Run the session plan of SCENE ([instrument], [delta], [session]; default: the packaged scene). For "
+            "each weight the operator is asked to place it (Enter go on, s skip, q stop) unless --yes. Every block "
+            "is on disk before the next starts. Ctrl-C once stops after the current block, twice stops now; the "
+            "source is always left idle and the stop record written. Exit 0 when the plan is done, 1 when stopped "
+            "early (the file is kept; --resume continues it), 2 on an error."
+        ),
+    )
+    acq.add_argument("scene", nargs="?", default=None, help="scene TOML (default: the packaged scene)")
+    acq.add_argument("-o", "--output", required=True, help="session file to write (HDF5, .h5)")
+    acq.add_argument("--sim", action="store_true", help="use the simulated bench driven by the rig simulation")
+    acq.add_argument("--yes", action="store_true", help="unattended: do not ask the operator to place weights")
+    acq.add_argument(
+        "--sim-speed",
+        type=_speed,
+        default=None,
+        metavar="X",
+        help="simulated instrument time runs X times faster than real (1 = real pace, inf = no waiting; default 1000)",
+    )
+    acq.add_argument("--resume", action="store_true", help="continue an incomplete session file where it stopped")
+    acq.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    acq.set_defaults(handler=acquire_command)
+
+    rep = subparsers.add_parser(
+        "replay",
+        help="re-run a recorded session through the acquisition code against its recorded instrument replies",
+        description=(
+            "Replay SESSION through the same acquisition code path with the recorded instrument replies and check "
+            "that every block's summary and readings come out identical. Exit 0 if identical, 1 if not."
+        ),
+    )
+    rep.add_argument("session", help="session file (HDF5)")
+    rep.add_argument("--pace", action="store_true", help="replay at the recorded pace instead of at once")
+    rep.add_argument("--json", action="store_true", help='print {"identical": true|false, ...} as JSON')
+    rep.set_defaults(handler=replay_command)
+
+    imp = subparsers.add_parser(
+        "import",
+        help="convert a table of resistance per weight (like the seed paper's Tab. 1) into a session file",
+        description=(
+            "TABLE is CSV with a header: first column the weight in kg, then one column per repeat. Use "
+            "`contactrig import --tab1` for the seed paper's Tab. 1 shipped with contactrig (mΩ)."
+        ),
+    )
+    imp.add_argument("table", nargs="?", default=None, help="CSV table (omit with --tab1)")
+    imp.add_argument("--tab1", action="store_true", help="import the seed paper's Tab. 1 (shipped, in mohm)")
+    imp.add_argument("--unit", choices=("ohm", "mohm", "uohm"), default=None, help="unit of the table's values")
+    imp.add_argument("-o", "--output", required=True, help="session file to write (HDF5)")
+    imp.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    imp.add_argument("--operator", default="", help="who imports the table (recorded)")
+    imp.set_defaults(handler=import_command)
+
+
+def _speed(text: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--sim-speed = {text!r}: expected a number > 0 or inf") from None
+    if not (x > 0) or math.isnan(x):
+        raise argparse.ArgumentTypeError(f"--sim-speed = {text!r}: expected a number > 0 (1 = real pace) or inf")
+    return x
+
+
+def acquire_command(args: argparse.Namespace) -> int:
+    from daq.acquire import DEFAULT_SIM_SPEED, acquire
+
+    if args.sim_speed is not None and not args.sim:
+        raise ValueError("--sim-speed only applies to --sim")
+    if args.resume and args.force:
+        raise ValueError("--resume and --force contradict each other: --resume keeps the file, --force replaces it")
+    result = acquire(
+        args.scene,
+        args.output,
+        sim=args.sim,
+        yes=args.yes,
+        sim_speed=args.sim_speed if args.sim_speed is not None else DEFAULT_SIM_SPEED,
+        resume=args.resume,
+        force=args.force,
+    )
+    print(
+        f"{result.path}: {result.status}, {result.blocks_done} of {result.blocks_planned} blocks — {result.reason}",
+        file=sys.stderr,
+    )
+    return 0 if result.status == "success" else 1
+
+
+def replay_command(args: argparse.Namespace) -> int:
+    from daq.replay import replay_session
+
+    report = replay_session(args.session, pace=args.pace)
+    if args.json:
+        print(json.dumps(report.as_dict(), indent=2))
+    else:
+        verdict = "identical" if report.identical else "DIFFERENT"
+        print(
+            f"{report.path}: replayed {report.blocks_replayed} of {report.blocks_recorded} blocks "
+            f"({report.readings_replayed} readings, {report.runs} run(s)) in {report.elapsed_s:.3f} s: {verdict}"
+        )
+        for line in report.notes:
+            print(f"  note: {line}")
+        for line in report.differences:
+            print(f"  difference: {line}")
+    return 0 if report.identical else 1
+
+
+def import_command(args: argparse.Namespace) -> int:
+    from daq.table_import import import_table, tab1_path
+
+    if args.tab1:
+        if args.table is not None:
+            raise ValueError("give either TABLE or --tab1, not both")
+        if args.unit not in (None, "mohm"):
+            raise ValueError("Tab. 1 is in mΩ: leave out --unit or use --unit mohm")
+        table, unit = tab1_path(), "mohm"
+    else:
+        if args.table is None:
+            raise ValueError("give a TABLE (CSV) to import, or --tab1 for the seed paper's Tab. 1")
+        if args.unit is None:
+            raise ValueError("--unit is required: ohm, mohm or uohm (the unit of the table's values)")
+        table, unit = args.table, args.unit
+    out = import_table(table, args.output, unit=unit, force=args.force, operator=args.operator)
+    print(f"{out}: imported {table} ({unit})", file=sys.stderr)
+    return 0

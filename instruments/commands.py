@@ -1,9 +1,153 @@
-"""``contactrig`` subcommands of the ``instruments`` package (registered by ``daq.cli``)."""
+"""``contactrig instruments …`` subcommands (registered by ``daq.cli``): a thin layer over the driver.
+
+Nothing heavy is imported at module level: pyvisa and numpy load only when a command runs.
+"""
 
 from __future__ import annotations
 
 import argparse
+import json
+import math
+from typing import Any
+
+SIM_DEFAULT_ADDRESS = "GPIB0::12::INSTR"
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add this package's subcommands to ``subparsers``."""
+    parser = subparsers.add_parser(
+        "instruments",
+        help="talk to the Keithley 6221/2182A (or the simulated bench)",
+        description="Identify the 6221/2182A pair or run one Delta block. --sim uses the simulated bench.",
+    )
+    sub = parser.add_subparsers(dest="instruments_command", metavar="ACTION")
+    parser.set_defaults(handler=lambda args: _help(parser))
+
+    ident = sub.add_parser("identify", help="*IDN? of the 6221 and (relayed) the 2182A")
+    _common(ident)
+    ident.set_defaults(handler=identify_command)
+
+    delta = sub.add_parser("delta", help="run one Delta block and print its statistics")
+    _common(delta)
+    delta.add_argument("--current", type=float, required=True, metavar="A", help="high current in A (low = -high)")
+    delta.add_argument("--count", type=int, required=True, metavar="N", help="Delta readings, 1 … 65536")
+    delta.add_argument("--delay", type=float, default=2e-3, metavar="S", help="delay per step in s (default 0.002)")
+    delta.add_argument("--nplc", type=float, default=1.0, help="2182A integration time in PLC (default 1)")
+    delta.add_argument("--compliance", type=float, default=10.0, metavar="V", help="compliance in V (default 10)")
+    delta.add_argument("--unit", choices=("V", "OHMS"), default="V", help="reading unit (default V)")
+    delta.add_argument("--json", action="store_true", help="print readings and statistics as JSON")
+    delta.set_defaults(handler=delta_command)
+
+
+def _help(parser: argparse.ArgumentParser) -> int:
+    parser.print_help()
+    return 2
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("address", nargs="?", metavar="ADDRESS", help="VISA address of the 6221 (e.g. GPIB0::12::INSTR)")
+    p.add_argument("--sim", action="store_true", help="use the simulated bench (default address GPIB0::12::INSTR)")
+    p.add_argument("--timeout-ms", type=int, default=5000, help="VISA timeout in ms (default 5000)")
+    p.add_argument("--seed", type=int, default=0, help="noise seed of the simulated bench (with --sim)")
+
+
+def _open(args: argparse.Namespace) -> Any:
+    from sims.validation import SettingError, check_int
+
+    check_int("--timeout-ms", args.timeout_ms, 1, 3_600_000)
+    from instruments.k6221 import Keithley6221
+
+    address = args.address
+    rm = None
+    if args.sim:
+        from instruments.simulated import SimulatedBench, simulated_resource_manager
+
+        address = address or SIM_DEFAULT_ADDRESS
+        rm = simulated_resource_manager(SimulatedBench(seed=args.seed, time_scale=0.0))
+    elif not address:
+        raise SettingError("ADDRESS", None, "give the 6221's VISA address, or --sim for the simulated bench")
+    return Keithley6221.open(address, resource_manager=rm, timeout_ms=args.timeout_ms)
+
+
+def identify_command(args: argparse.Namespace) -> int:
+    """Print the identity of the source and of the voltmeter."""
+    with _open(args) as k:
+        ident = k.identify()
+    print(f"source:    {ident.source}")
+    print(f"voltmeter: {ident.voltmeter}")
+    return 0
+
+
+def delta_command(args: argparse.Namespace) -> int:
+    """Run one Delta block; print mean, SD, SEM, N and the invalid count (or JSON with --json)."""
+    from instruments.delta import DeltaSettings
+    from sims.validation import SettingError
+
+    try:  # validated before any connection is opened
+        settings = DeltaSettings(
+            high_a=args.current,
+            count=args.count,
+            delay_s=args.delay,
+            nplc=args.nplc,
+            compliance_v=args.compliance,
+            unit=args.unit,
+        )
+    except SettingError as exc:
+        flag = _FLAGS.get(exc.field)
+        if flag is None:
+            raise
+        raise SettingError(f"{flag} ({exc.field})", exc.value, exc.allowed) from None
+    with _open(args) as k:
+        block = k.run_delta(settings)
+    print(format_block(block, as_json=args.json))
+    return 0
+
+
+_FLAGS = {
+    "high_a": "--current",
+    "low_a": "--current",
+    "count": "--count",
+    "delay_s": "--delay",
+    "nplc": "--nplc",
+    "compliance_v": "--compliance",
+    "unit": "--unit",
+}
+
+
+def _num(x: float) -> float | None:
+    return None if not math.isfinite(x) else float(x)
+
+
+def format_block(block: Any, as_json: bool = False) -> str:
+    """Text (or JSON) summary of a :class:`instruments.delta.DeltaBlock`; NaN becomes JSON null."""
+    if as_json:
+        return json.dumps(
+            {
+                "readings": [_num(x) for x in block.readings.tolist()],
+                "mean": _num(block.mean),
+                "sd": _num(block.sd),
+                "sem": _num(block.sem),
+                "n": block.n,
+                "n_invalid": block.n_invalid,
+                "unit": block.unit,
+            }
+        )
+    u = block.unit
+    return "\n".join(
+        [
+            f"mean      {block.mean:.6e} {u}",
+            f"SD        {block.sd:.3e} {u}",
+            f"SEM       {block.sem:.3e} {u}",
+            f"N         {block.n}",
+            f"invalid   {block.n_invalid}",
+            f"R (mean)  {float(_mean_ohm(block)):.6e} Ω",
+        ]
+    )
+
+
+def _mean_ohm(block: Any) -> float:
+    import numpy as np
+
+    r = block.resistance_ohm()
+    r = r[np.isfinite(r)]
+    return float(r.mean()) if r.size else math.nan

@@ -90,7 +90,7 @@ def check_int(field: str, value: Any, lo: int | None = None, hi: int | None = No
         except TypeError:
             raise SettingError(field, value, "expected a whole number") from None
     if (lo is not None and value < lo) or (hi is not None and value > hi):
-        raise SettingError(field, value, "expected a whole number " + _describe(lo, hi, False, False, ""))
+        raise SettingError(field, value, _describe(lo, hi, False, False, "").replace("a value", "a whole number"))
     return value
 
 

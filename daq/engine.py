@@ -1,0 +1,313 @@
+"""The acquisition engine: carries out a plan's steps on an instrument link and hands records to writers.
+
+What to do (the plan's steps, :mod:`daq.plan`), who does it (this engine, on an :class:`~daq.link.InstrumentLink`)
+and what is kept (writers: the HDF5 file, the live display, replay's in-memory collector) are separate, after
+Bluesky, kept synchronous. Acquisition and replay run this same engine; only the link and the writers differ.
+
+Exit guarantees (every path — success, error, Ctrl-C): the link is closed in ``finally`` (``SOUR:SWE:ABOR``, the
+source idle) and the stop record is written after it. Each block is handed to the writers — flushed and fsynced
+to disk — before the next block starts. Ctrl-C once stops after the current block; twice stops now (the block
+under way is discarded, its readings were never complete); while a block is being written, even a second Ctrl-C
+waits until the block is on disk.
+"""
+
+from __future__ import annotations
+
+import math
+import signal
+import threading
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal, Protocol
+
+import numpy as np
+
+from daq.link import InstrumentLink
+from daq.plan import Measure, PlaceWeight
+from daq.records import BlockRecord, StopRecord, now_iso
+from instruments.transport import Exchange
+
+__all__ = [
+    "AcquisitionEngine",
+    "Interrupts",
+    "OperatorQuit",
+    "Prompter",
+    "RunOutcome",
+    "Writer",
+    "answer_yes",
+]
+
+Decision = Literal["go", "skip", "quit"]
+Prompter = Callable[[PlaceWeight], Decision]
+
+
+def answer_yes(step: PlaceWeight) -> Decision:
+    """The unattended operator (``--yes``): every weight is taken as placed."""
+    return "go"
+
+
+class OperatorQuit(Exception):
+    """The operator chose to stop (``q``) or no operator input is available."""
+
+
+class Writer(Protocol):
+    """A consumer of session records."""
+
+    def start(self, start: dict[str, Any], scene_text: str) -> None: ...
+
+    def exchanges(self, exchanges: Sequence[Exchange], block: int) -> None: ...
+
+    def block(self, rec: BlockRecord) -> None: ...
+
+    def stop(self, stop: StopRecord) -> None: ...
+
+
+class Interrupts:
+    """SIGINT policy while a session runs: first Ctrl-C → stop after the block, second → stop now.
+
+    Outside a block (prompt, set-up) any Ctrl-C stops at once; while a block is being written, interrupts are
+    deferred until it is on disk. Installed only in the main thread (signal handlers cannot be set elsewhere).
+    """
+
+    def __init__(self, notify: Callable[[str], None] | None = None) -> None:
+        self.count = 0
+        self.phase: Literal["idle", "instrument", "writing"] = "idle"
+        self.deferred = False
+        self._notify = notify or (lambda msg: None)
+        self._previous: Any = None
+        self._installed = False
+
+    @property
+    def stop_requested(self) -> bool:
+        return self.count > 0
+
+    def _handler(self, signum: int, frame: Any) -> None:
+        self.count += 1
+        if self.phase == "idle":
+            raise KeyboardInterrupt
+        if self.count == 1:
+            self._notify("Ctrl-C: stopping after this block (press Ctrl-C again to stop now)")
+            return
+        if self.phase == "instrument":
+            raise KeyboardInterrupt
+        self.deferred = True
+
+    def enter(self, phase: Literal["idle", "instrument", "writing"]) -> None:
+        self.phase = phase
+        if phase != "writing" and self.deferred:
+            self.deferred = False
+            raise KeyboardInterrupt
+
+    def __enter__(self) -> Interrupts:
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._handler)
+            self._installed = True
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._installed:
+            signal.signal(signal.SIGINT, self._previous)
+            self._installed = False
+
+
+@dataclass
+class RunOutcome:
+    """What a run did: the stop record, the blocks it completed, and the exception that ended it (if any)."""
+
+    stop: StopRecord
+    blocks: list[BlockRecord] = field(default_factory=list)
+    error: BaseException | None = None
+    interrupted: bool = False
+
+
+class AcquisitionEngine:
+    """Runs plan steps on ``link`` for ``run`` number ``run`` and hands every record to ``writers``.
+
+    ``settings`` are the Delta settings of every block. ``blocks_planned`` and ``blocks_before`` (already on
+    file, for ``--resume``) only feed the counts of the stop record.
+    """
+
+    def __init__(
+        self,
+        link: InstrumentLink,
+        settings: Any,
+        writers: Sequence[Writer],
+        *,
+        run: int = 0,
+        prompter: Prompter = answer_yes,
+        interrupts: Interrupts | None = None,
+        blocks_planned: int = 0,
+        blocks_before: int = 0,
+        readings_before: int = 0,
+    ) -> None:
+        self.link = link
+        self.settings = settings
+        self.writers = list(writers)
+        self.run_number = run
+        self.prompter = prompter
+        self.interrupts = interrupts or Interrupts()
+        self.blocks_planned = blocks_planned
+        self.blocks_before = blocks_before
+        self.readings_before = readings_before
+
+    def _emit_exchanges(self, block: int) -> None:
+        ex = self.link.take_exchanges()
+        if ex:
+            for w in self.writers:
+                w.exchanges(ex, block)
+
+    def start(self, start: dict[str, Any], scene_text: str) -> None:
+        """Hand the start record (and the set-up exchanges so far) to the writers."""
+        for w in self.writers:
+            w.start(start, scene_text)
+        self._emit_exchanges(-1)
+
+    def run(self, steps: Iterable[PlaceWeight | Measure]) -> RunOutcome:
+        """Carry out ``steps``; close the link; write the stop record. Never raises: see ``RunOutcome.error``."""
+        done: list[BlockRecord] = []
+        skipped: list[float] = []
+        status: Literal["success", "aborted", "failed"] = "success"
+        reason = ""
+        error: BaseException | None = None
+        interrupted = False
+        current: Measure | None = None
+        skip_weight: int | None = None
+        intr = self.interrupts
+        try:
+            for step in steps:
+                intr.enter("idle")
+                if intr.stop_requested:
+                    status, reason = "aborted", _after_block_reason(done)
+                    interrupted = True
+                    break
+                if isinstance(step, PlaceWeight):
+                    decision = self.prompter(step)
+                    if decision == "quit":
+                        raise OperatorQuit(f"operator stopped the session at weight {step.weight_kg:g} kg")
+                    if decision == "skip":
+                        skipped.append(step.weight_kg)
+                        skip_weight = step.weight_index
+                        continue
+                    skip_weight = None
+                    self.link.place_weight(step.weight_kg)
+                    continue
+                if step.weight_index == skip_weight:
+                    continue
+                current = step
+                started = now_iso()
+                intr.enter("instrument")
+                block = self.link.run_block(self.settings)
+                intr.enter("writing")
+                rec = self._record(step, block, started)
+                for w in self.writers:
+                    w.block(rec)
+                done.append(rec)
+                current = None
+                intr.enter("idle")
+            else:
+                intr.enter("idle")
+                reason = (
+                    f"all {self.blocks_planned} planned blocks done"
+                    if not skipped
+                    else (f"plan done; weights skipped by the operator: {', '.join(f'{w:g} kg' for w in skipped)}")
+                )
+        except KeyboardInterrupt:
+            interrupted = True
+            status = "aborted"
+            if current is not None:
+                reason = (
+                    f"interrupted (Ctrl-C twice) during the block at {current.weight_kg:g} kg, repeat "
+                    f"{current.repeat} (block #{current.block}); that block was discarded, every completed one is kept"
+                )
+            elif intr.count >= 1 and done:
+                reason = _after_block_reason(done)
+            else:
+                reason = "interrupted (Ctrl-C)"
+        except OperatorQuit as exc:
+            status, reason = "aborted", str(exc)
+        except Exception as exc:
+            status = "failed"
+            error = exc
+            where = (
+                f" in the block at {current.weight_kg:g} kg, repeat {current.repeat} (block #{current.block})"
+                if current is not None
+                else ""
+            )
+            reason = f"{type(exc).__name__}{where}: {exc}"
+        finally:
+            intr.phase = "writing"  # the stop record must not be cut short by another Ctrl-C
+            close_error = self._close(current)
+            if close_error is not None and error is None:
+                status, error = "failed", close_error
+                reason = f"closing the instrument failed: {close_error}"
+            stop = StopRecord(
+                status=status,
+                reason=reason,
+                stopped=now_iso(),
+                blocks_planned=self.blocks_planned,
+                blocks_done=self.blocks_before + len(done),
+                readings_done=self.readings_before + sum(int(r.reading.size) for r in done),
+                weights_skipped=tuple(skipped),
+            )
+            stop_error = None
+            for w in self.writers:
+                try:
+                    w.stop(stop)
+                except Exception as exc:  # a full disk must not hide the original error
+                    stop_error = stop_error or exc
+            intr.phase = "idle"
+        if stop_error is not None and error is None:
+            error = stop_error
+        return RunOutcome(stop=stop, blocks=done, error=error, interrupted=interrupted)
+
+    def _close(self, current: Measure | None) -> BaseException | None:
+        err = None
+        try:
+            self.link.close()
+        except Exception as exc:
+            err = exc
+        # exchanges of a block that did not complete stay tagged with its number (no summary row refers to them)
+        try:
+            self._emit_exchanges(current.block if current is not None else -1)
+        except Exception as exc:  # e.g. a full disk: must not hide how the run ended
+            err = err or exc
+        return err
+
+    def _record(self, step: Measure, block: Any, started: str) -> BlockRecord:
+        ex = self.link.take_exchanges()
+        resistance = np.asarray(block.resistance_ohm(), dtype=np.float64)
+        return BlockRecord(
+            block=step.block,
+            run=self.run_number,
+            weight_kg=float(step.weight_kg),
+            repeat=int(step.repeat),
+            unit=str(block.unit),
+            reading=np.asarray(block.readings, dtype=np.float64),
+            time_s=np.asarray(block.timestamps_s, dtype=np.float64),
+            resistance_ohm=resistance,
+            valid=np.isfinite(resistance),
+            started=started,
+            exchanges=tuple(ex),
+        )
+
+
+def _after_block_reason(done: list[BlockRecord]) -> str:
+    if not done:
+        return "interrupted (Ctrl-C) before the first block completed"
+    last = done[-1]
+    return (
+        f"interrupted (Ctrl-C): stopped after the block at {last.weight_kg:g} kg, repeat {last.repeat} "
+        f"(block #{last.block})"
+    )
+
+
+def format_live_line(rec: BlockRecord, index: int, total: int) -> str:
+    """``block 3/48  5.44 kg  repeat 3  R = 8.0913 mΩ ± 0.0123 mΩ (SEM, n = 100)`` — the live line."""
+    st = rec.stats
+    if st.n == 0:
+        value = "no valid readings"
+    else:
+        sem = "" if math.isnan(st.sem_ohm) else f" ± {st.sem_ohm * 1e3:.4f} mΩ"
+        value = f"R = {st.mean_ohm * 1e3:.4f} mΩ{sem} (SEM, n = {st.n})"
+    invalid = f", {st.n_invalid} invalid" if st.n_invalid else ""
+    return f"block {index}/{total}  {rec.weight_kg:g} kg  repeat {rec.repeat}  {value}{invalid}"

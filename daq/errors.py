@@ -1,0 +1,56 @@
+"""Errors and warnings of bench sessions, each subclassing what the ``contactrig`` dispatcher reports in one line.
+
+``ValueError`` for bad files and settings, ``OSError`` for the file system, ``RuntimeError`` for the session state.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "ChecksumError",
+    "FileLockingError",
+    "IncompleteSessionWarning",
+    "NewerSchemaError",
+    "SessionExistsError",
+    "SessionFileError",
+    "SessionStateError",
+    "SessionWriteError",
+]
+
+
+class SessionFileError(ValueError):
+    """A session file cannot be read: not HDF5, truncated, corrupted, or not a contactrig session."""
+
+
+class ChecksumError(SessionFileError):
+    """Recorded data do not match the SHA-256 stored with them: the file was altered or damaged.
+
+    ``position`` is the row of the failing block in the summary (None when the whole file is at fault).
+    """
+
+    def __init__(self, message: str, position: int | None = None) -> None:
+        super().__init__(message)
+        self.position = position
+
+
+class NewerSchemaError(SessionFileError):
+    """The file was written with a newer session schema than this contactrig understands."""
+
+
+class SessionExistsError(FileExistsError):
+    """The output file exists; it is never overwritten without ``--force`` (or continued without ``--resume``)."""
+
+
+class SessionWriteError(OSError):
+    """Writing the session file failed (unwritable path, full disk, lost network drive)."""
+
+
+class FileLockingError(OSError):
+    """HDF5 could not lock the file: in use by another process, or on a file system without locking (NFS/SMB)."""
+
+
+class SessionStateError(RuntimeError):
+    """The session cannot do what was asked in its current state (resume a complete session, replay an import…)."""
+
+
+class IncompleteSessionWarning(UserWarning):
+    """The session has no stop record: it was killed, lost power, or is still being written."""

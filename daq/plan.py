@@ -1,0 +1,210 @@
+"""The session plan: what to measure, from the scene's ``[instrument]``, ``[delta]`` and ``[session]`` tables.
+
+A plan is data (a frozen dataclass, validated on construction) plus :func:`session_steps`, a pure generator of the
+steps the acquisition engine carries out — ask the operator to place a weight, then run the Delta blocks — so
+a plan can be inspected and tested without any instrument (after Bluesky's plans).
+
+Scene keys (SI units; every key validated, unknown keys are errors naming the key):
+
+``[instrument]``
+    ``address``     VISA resource of the 6221 (e.g. ``GPIB0::12::INSTR``, ``TCPIP0::<ip>::1394::SOCKET``)
+    ``timeout_ms``  VISA I/O timeout, 100 … 600 000 ms
+``[delta]``
+    passed to ``instruments.delta.DeltaSettings`` (``high_a``, ``low_a``, ``delay_s``, ``count``, ``nplc``,
+    ``unit``, ``compliance_v``, ``compliance_abort`` …), which validates them; ``count`` = readings per block
+``[session]``
+    ``repeats``     Delta blocks per weight, 1 … 1000
+    ``weights_kg``  weights placed in the piston, in order (optional: default ``[rig].weights_kg``), each in
+                    (0, 1000] kg
+    ``operator``    who runs the session (empty: the login name is recorded)
+    ``sample``      free-text sample description
+    ``rig``         free-text rig description
+    ``sim_model``   contact model whose simulated contact area drives ``--sim`` (one of ``[database].models``)
+    ``sim_seed``    seed of the simulated bench's noise (whole number ≥ 0; default 1)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from sims.scene import Scene
+from sims.validation import SettingError, check_choice, check_int, check_keys, check_range
+
+__all__ = [
+    "INSTRUMENT_KEYS",
+    "SESSION_KEYS",
+    "InstrumentSettings",
+    "Measure",
+    "PlaceWeight",
+    "SessionPlan",
+    "SessionSettings",
+    "session_steps",
+]
+
+INSTRUMENT_KEYS = ("address", "timeout_ms")
+SESSION_KEYS = ("repeats", "weights_kg", "operator", "sample", "rig", "sim_model", "sim_seed")
+MAX_WEIGHT_KG = 1000.0
+
+
+def _check_str(field: str, value: Any, *, nonempty: bool = False) -> str:
+    if not isinstance(value, str):
+        raise SettingError(field, value, "expected a text string")
+    if nonempty and not value.strip():
+        raise SettingError(field, value, "expected a non-empty text string")
+    return value
+
+
+@dataclass(frozen=True)
+class InstrumentSettings:
+    """How to reach the 6221: VISA ``address`` and I/O ``timeout_ms`` (ms)."""
+
+    address: str = "GPIB0::12::INSTR"
+    timeout_ms: int = 5000
+
+    def __post_init__(self) -> None:
+        _check_str("instrument.address", self.address, nonempty=True)
+        if "::" not in self.address:
+            raise SettingError(
+                "instrument.address", self.address, "expected a VISA resource such as 'GPIB0::12::INSTR'"
+            )
+        object.__setattr__(self, "timeout_ms", check_int("instrument.timeout_ms", self.timeout_ms, 100, 600_000))
+
+    @classmethod
+    def from_table(cls, table: Mapping[str, Any]) -> InstrumentSettings:
+        check_keys("instrument", table, INSTRUMENT_KEYS)
+        return cls(**table)
+
+
+@dataclass(frozen=True)
+class SessionSettings:
+    """The ``[session]`` table: repeats per weight, weights (kg) in order, who and what, simulated-bench options."""
+
+    weights_kg: tuple[float, ...]
+    repeats: int = 6
+    operator: str = ""
+    sample: str = ""
+    rig: str = ""
+    sim_model: str = "greenwood_tripp"
+    sim_seed: int = 1
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "repeats", check_int("session.repeats", self.repeats, 1, 1000))
+        if isinstance(self.weights_kg, (str, bytes)) or not hasattr(self.weights_kg, "__iter__"):
+            raise SettingError("session.weights_kg", self.weights_kg, "expected a list of weights in kg")
+        weights = tuple(
+            check_range(f"session.weights_kg[{i}]", w, 0.0, MAX_WEIGHT_KG, lo_open=True, unit="kg")
+            for i, w in enumerate(self.weights_kg)
+        )
+        if not weights:
+            raise SettingError("session.weights_kg", list(self.weights_kg), "expected at least one weight")
+        object.__setattr__(self, "weights_kg", weights)
+        for name in ("operator", "sample", "rig"):
+            _check_str(f"session.{name}", getattr(self, name))
+        _check_str("session.sim_model", self.sim_model, nonempty=True)
+        object.__setattr__(self, "sim_seed", check_int("session.sim_seed", self.sim_seed, 0, 2**63 - 1))
+
+
+@dataclass(frozen=True)
+class SessionPlan:
+    """Everything a session needs, validated: instrument, Delta settings, session settings and the scene itself."""
+
+    instrument: InstrumentSettings
+    delta: Any  # instruments.delta.DeltaSettings
+    session: SessionSettings
+    scene: Scene
+
+    @property
+    def blocks_planned(self) -> int:
+        return len(self.session.weights_kg) * self.session.repeats
+
+    @property
+    def readings_per_block(self) -> int:
+        return int(self.delta.count)
+
+    @classmethod
+    def from_scene(cls, scene: Scene) -> SessionPlan:
+        """Validate the scene's ``[instrument]``, ``[delta]`` and ``[session]`` tables into a plan."""
+        instrument = InstrumentSettings.from_table(scene.table("instrument"))
+        delta = delta_settings_from_table(scene.table("delta"))
+        table = dict(scene.table("session"))
+        check_keys("session", table, SESSION_KEYS)
+        if "weights_kg" not in table:
+            rig_weights = scene.table("rig").get("weights_kg")
+            if rig_weights is None:
+                raise SettingError("session.weights_kg", None, "give the weights here or in [rig].weights_kg")
+            table["weights_kg"] = rig_weights
+        session = SessionSettings(**table)
+        models = scene.table("database").get("models")
+        if isinstance(models, list) and models:
+            check_choice("session.sim_model", session.sim_model, models)
+        return cls(instrument=instrument, delta=delta, session=session, scene=scene)
+
+    def describe(self) -> dict[str, Any]:
+        """The plan as plain JSON-able data, for the start record."""
+        return {
+            "instrument": dataclasses.asdict(self.instrument),
+            "delta": _settings_dict(self.delta),
+            "session": {**dataclasses.asdict(self.session), "weights_kg": list(self.session.weights_kg)},
+            "blocks_planned": self.blocks_planned,
+        }
+
+
+def delta_settings_from_table(table: Mapping[str, Any]) -> Any:
+    """``instruments.delta.DeltaSettings`` from the ``[delta]`` table; unknown keys are errors naming the key."""
+    from instruments.delta import DeltaSettings
+
+    allowed = [f.name for f in dataclasses.fields(DeltaSettings) if f.init]
+    check_keys("delta", table, allowed)
+    try:
+        return DeltaSettings(**table)
+    except SettingError as exc:
+        if not exc.field.startswith("delta."):
+            raise SettingError(f"delta.{exc.field}", exc.value, exc.allowed) from None
+        raise
+
+
+def _settings_dict(settings: Any) -> dict[str, Any]:
+    if dataclasses.is_dataclass(settings):
+        return {f.name: getattr(settings, f.name) for f in dataclasses.fields(settings)}
+    return dict(settings)
+
+
+# ---- steps -----------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class PlaceWeight:
+    """Ask the operator to place weight number ``weight_index`` (``weight_kg``) in the piston."""
+
+    weight_index: int
+    weight_kg: float
+    repeats_left: int
+
+
+@dataclass(frozen=True)
+class Measure:
+    """Run one Delta block: block number ``block`` (position in the plan), ``repeat`` 1 … repeats."""
+
+    block: int
+    weight_index: int
+    weight_kg: float
+    repeat: int
+
+
+def session_steps(plan: SessionPlan, done: set[int] | frozenset[int] = frozenset()) -> Iterator[PlaceWeight | Measure]:
+    """The steps of ``plan`` in order, leaving out blocks whose number is in ``done`` (for ``--resume``).
+
+    Block numbers are positions in the full plan (weight index × repeats + repeat − 1), so a resumed session
+    numbers its blocks exactly as an uninterrupted one would.
+    """
+    repeats = plan.session.repeats
+    for wi, weight in enumerate(plan.session.weights_kg):
+        todo = [r for r in range(1, repeats + 1) if wi * repeats + r - 1 not in done]
+        if not todo:
+            continue
+        yield PlaceWeight(weight_index=wi, weight_kg=weight, repeats_left=len(todo))
+        for r in todo:
+            yield Measure(block=wi * repeats + r - 1, weight_index=wi, weight_kg=weight, repeat=r)

@@ -1,0 +1,168 @@
+"""Consumers of session records: the HDF5 file, the live display, and an in-memory collector (replay, tests)."""
+
+from __future__ import annotations
+
+import errno
+import sys
+import tempfile
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+from daq.engine import format_live_line
+from daq.errors import SessionWriteError
+from daq.records import BlockRecord, StopRecord
+from daq.session_file import SessionFile
+from instruments.transport import Exchange
+
+__all__ = ["FileWriter", "LiveDisplay", "MemoryWriter"]
+
+
+class FileWriter:
+    """Writes records to a :class:`~daq.session_file.SessionFile`; each block is flushed and fsynced.
+
+    If a block cannot be written (full disk, lost drive), its data are saved to a rescue ``.npz`` in the
+    temporary folder and the error says where; blocks already on file stay there.
+    """
+
+    def __init__(self, session_file: SessionFile) -> None:
+        self.file = session_file
+        #: set after a failed write: nothing more goes into the file, so what is already there stays readable
+        self.failed = False
+
+    def start(self, start: dict[str, Any], scene_text: str) -> None:
+        self.file.write_start(start, scene_text)
+
+    def exchanges(self, exchanges: Sequence[Exchange], block: int) -> None:
+        if self.failed:
+            return
+        try:
+            self.file.append_exchanges(exchanges, block=block)
+        except OSError:
+            self.failed = True
+            raise
+
+    def block(self, rec: BlockRecord) -> None:
+        if self.failed:
+            raise SessionWriteError(errno.EIO, f"{self.file.path} failed earlier; {_rescue(rec, self.file.path)}")
+        try:
+            self.file.append_block(rec)
+        except OSError as exc:  # SessionWriteError / FileLockingError from the session file
+            self.failed = True
+            raise SessionWriteError(exc.errno or errno.EIO, f"{exc}; {_rescue(rec, self.file.path)}") from exc
+
+    def stop(self, stop: StopRecord) -> None:
+        if self.failed:
+            return  # no stop record: readers will say the session is incomplete, which it is
+        self.file.write_stop(stop)
+
+
+def _rescue(rec: BlockRecord, path: Path) -> str:
+    target = Path(tempfile.gettempdir()) / f"{path.stem}.block{rec.block}.rescue.npz"
+    try:
+        np.savez(
+            target,
+            weight_kg=rec.weight_kg,
+            repeat=rec.repeat,
+            reading=rec.reading,
+            time_s=rec.time_s,
+            resistance_ohm=rec.resistance_ohm,
+            valid=rec.valid,
+            started=rec.started,
+            unit=rec.unit,
+        )
+    except OSError as exc:
+        target.unlink(missing_ok=True)
+        return f"block {rec.block} could not be rescued either ({target}: {exc.strerror or exc})"
+    return f"block {rec.block} was saved to {target}; every earlier block is safe in the session file"
+
+
+class MemoryWriter:
+    """Keeps every record in memory."""
+
+    def __init__(self) -> None:
+        self.start_record: dict[str, Any] | None = None
+        self.blocks: list[BlockRecord] = []
+        self.exchange_log: list[tuple[int, Exchange]] = []
+        self.stop_record: StopRecord | None = None
+
+    def start(self, start: dict[str, Any], scene_text: str) -> None:
+        self.start_record = start
+
+    def exchanges(self, exchanges: Sequence[Exchange], block: int) -> None:
+        self.exchange_log.extend((block, e) for e in exchanges)
+
+    def block(self, rec: BlockRecord) -> None:
+        self.blocks.append(rec)
+
+    def stop(self, stop: StopRecord) -> None:
+        self.stop_record = stop
+
+
+class LiveDisplay:
+    """Progress bar (tqdm) with the live line — weight, mean R, SEM — on a terminal; one plain line per block
+    otherwise (logs, pipes, tests)."""
+
+    def __init__(self, total: int, done: int = 0, stream: TextIO | None = None, quiet: bool = False) -> None:
+        self.total = total
+        self.index = done
+        self.stream = stream if stream is not None else sys.stderr
+        self.quiet = quiet
+        self._bar: Any = None
+        if not quiet and _isatty(self.stream):
+            from tqdm import tqdm
+
+            self._bar = tqdm(total=total, initial=done, unit="block", file=self.stream, dynamic_ncols=True)
+
+    def message(self, text: str) -> None:
+        if self.quiet:
+            return
+        if self._bar is not None:
+            self._bar.write(text, file=self.stream)
+        else:
+            print(text, file=self.stream, flush=True)
+
+    @contextmanager
+    def paused(self) -> Iterator[None]:
+        """Clear the bar while the operator is asked something; draw it again afterwards."""
+        if self._bar is not None:
+            self._bar.clear()
+        try:
+            yield
+        finally:
+            if self._bar is not None:
+                self._bar.refresh()
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+    def start(self, start: dict[str, Any], scene_text: str) -> None:
+        pass
+
+    def exchanges(self, exchanges: Sequence[Exchange], block: int) -> None:
+        pass
+
+    def block(self, rec: BlockRecord) -> None:
+        self.index += 1
+        line = format_live_line(rec, self.index, self.total)
+        if self._bar is not None:
+            self._bar.update(1)
+            self._bar.set_postfix_str(line.split("  ", 1)[1], refresh=True)
+        elif not self.quiet:
+            print(line, file=self.stream, flush=True)
+
+    def stop(self, stop: StopRecord) -> None:
+        self.close()
+        self.message(f"session {stop.status}: {stop.reason}")
+
+
+def _isatty(stream: TextIO) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):
+        return False

@@ -1,0 +1,228 @@
+"""Delta-mode settings and results: one validated, immutable settings object and one block of readings.
+
+Delta mode (seed paper sect. 2.3; Keithley 6221/2182A manuals): the 6221 alternates its output between ``high_a``
+and ``low_a``; the 2182A converts once per step and the 6221 forms each Delta reading from three consecutive
+conversions,
+
+    Δn = (Vn − 2·Vn+1 + Vn+2) / 4 · (−1)^(n−1),
+
+which equals R·(high − low)/2 and cancels a constant thermal EMF and a linear drift (:func:`delta_readings`).
+This module imports only numpy and :mod:`sims.validation`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sims.validation import SettingError, check_choice, check_int, check_range
+
+__all__ = [
+    "CURRENT_RANGES_A",
+    "INVALID_THRESHOLD",
+    "VOLTMETER_RANGES_V",
+    "DeltaBlock",
+    "DeltaSettings",
+    "delta_readings",
+    "parse_buffer",
+]
+
+#: 6221 source ranges (A); each allows 5 % over-range.
+CURRENT_RANGES_A = (2e-9, 2e-8, 2e-7, 2e-6, 2e-5, 2e-4, 2e-3, 2e-2, 1e-1)
+#: 2182A channel-1 voltage ranges (V).
+VOLTMETER_RANGES_V = (0.01, 0.1, 1.0, 10.0, 100.0)
+#: Overflow / invalid readings come back as +9.9E37; anything at or above this magnitude is invalid.
+INVALID_THRESHOLD = 9.9e37
+_MAX_CURRENT_A = 0.105
+_OVER_RANGE = 1.05
+
+
+@dataclass(frozen=True)
+class DeltaSettings:
+    """One Delta block's settings, validated on construction (SI units; nothing is clamped).
+
+    high_a, low_a: source levels in A, each within ±0.105 A and different; ``low_a`` defaults to ``-high_a``.
+    delay_s: delay before each conversion, 1e-3 … 9999.999 s.
+    count: Delta readings per block, 1 … 65536 (the buffer is sized to it).
+    compliance_v: voltage compliance, 0.1 … 105 V in 10 mV steps.
+    compliance_abort: abort the sweep when the source goes into compliance.
+    current_range_a: fixed source range (one of :data:`CURRENT_RANGES_A`) or ``None`` for auto range.
+    unit: reading unit, ``"V"`` or ``"OHMS"``.
+    nplc: 2182A integration time in power-line cycles, 0.01 … 50 (60 Hz lines: 60).
+    voltmeter_range_v: 2182A range (one of :data:`VOLTMETER_RANGES_V`) or ``None`` for auto range.
+    line_frequency_hz: mains frequency, 50 or 60 (sets the NPLC limit and the conversion time).
+    """
+
+    high_a: float
+    low_a: float | None = None
+    delay_s: float = 2e-3
+    count: int = 10
+    compliance_v: float = 10.0
+    compliance_abort: bool = True
+    current_range_a: float | None = None
+    unit: str = "V"
+    nplc: float = 1.0
+    voltmeter_range_v: float | None = None
+    line_frequency_hz: float = 50.0
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        set_(self, "line_frequency_hz", float(check_choice("line_frequency_hz", self.line_frequency_hz, (50, 60))))
+        high = check_range("high_a", self.high_a, -_MAX_CURRENT_A, _MAX_CURRENT_A, unit="A")
+        low = (
+            -high if self.low_a is None else check_range("low_a", self.low_a, -_MAX_CURRENT_A, _MAX_CURRENT_A, unit="A")
+        )
+        if high == low:
+            raise SettingError("low_a", low, f"must differ from high_a = {high:g} A (Delta alternates between them)")
+        set_(self, "high_a", high)
+        set_(self, "low_a", low)
+        set_(self, "delay_s", check_range("delay_s", self.delay_s, 1e-3, 9999.999, unit="s"))
+        set_(self, "count", check_int("count", self.count, 1, 65536))
+        comp = check_range("compliance_v", self.compliance_v, 0.1, 105.0, unit="V")
+        if abs(round(comp * 100) - comp * 100) > 1e-6:
+            raise SettingError("compliance_v", self.compliance_v, "the 6221 sets compliance in 10 mV steps")
+        set_(self, "compliance_v", comp)
+        if not isinstance(self.compliance_abort, (bool, np.bool_)):
+            raise SettingError("compliance_abort", self.compliance_abort, "expected True or False")
+        set_(self, "compliance_abort", bool(self.compliance_abort))
+        if self.current_range_a is not None:
+            rng = check_range("current_range_a", self.current_range_a, unit="A")
+            if not any(math.isclose(rng, r, rel_tol=1e-9) for r in CURRENT_RANGES_A):
+                raise SettingError(
+                    "current_range_a", self.current_range_a, "expected None (auto) or one of " + _fmt(CURRENT_RANGES_A)
+                )
+            limit = rng * _OVER_RANGE
+            for name, value in (("high_a", high), ("low_a", low)):
+                if abs(value) > limit * (1 + 1e-12):
+                    raise SettingError(name, value, f"exceeds the {rng:g} A range (at most ±{limit:g} A)")
+            set_(self, "current_range_a", rng)
+        set_(self, "unit", check_choice("unit", self.unit, ("V", "OHMS")))
+        nplc_max = 50.0 if self.line_frequency_hz == 50.0 else 60.0
+        set_(self, "nplc", check_range("nplc", self.nplc, 0.01, nplc_max))
+        if self.voltmeter_range_v is not None:
+            vr = check_range("voltmeter_range_v", self.voltmeter_range_v, unit="V")
+            if not any(math.isclose(vr, r, rel_tol=1e-9) for r in VOLTMETER_RANGES_V):
+                raise SettingError(
+                    "voltmeter_range_v",
+                    self.voltmeter_range_v,
+                    "expected None (auto) or one of " + _fmt(VOLTMETER_RANGES_V),
+                )
+            set_(self, "voltmeter_range_v", vr)
+
+    @property
+    def delta_current_a(self) -> float:
+        """ΔI = (high − low)/2 in A: a V Delta reading divided by ΔI is the resistance in Ω."""
+        return (self.high_a - self.low_a) / 2.0
+
+    @property
+    def conversion_period_s(self) -> float:
+        """Nominal time per 2182A conversion: delay + NPLC / line frequency (s), without instrument overhead."""
+        return self.delay_s + self.nplc / self.line_frequency_hz
+
+    def expected_duration_s(self) -> float:
+        """Nominal duration of the block in s: count + 2 conversions (the first reading needs three)."""
+        return (self.count + 2) * self.conversion_period_s
+
+    def deadline_s(self, margin_s: float = 10.0, factor: float = 2.0) -> float:
+        """Time (s) after INIT after which a block that has not finished is declared hung."""
+        return factor * self.expected_duration_s() + margin_s
+
+
+def _fmt(values: tuple[float, ...]) -> str:
+    return ", ".join(f"{v:g}" for v in values)
+
+
+@dataclass(frozen=True)
+class DeltaBlock:
+    """One Delta block as read from the 6221 buffer.
+
+    readings: in ``unit`` (V or Ω); invalid readings (+9.9E37) are NaN and counted in ``n_invalid``.
+    timestamps_s: 6221 buffer timestamps in s, the first is 0.
+    Statistics (``mean``, ``sd``, ``sem``, ``n``) use valid readings only; ``sd`` is the sample SD (ddof = 1),
+    ``sem = sd/√n``; they are NaN when there are too few valid readings (n = 0 for the mean, n < 2 for SD/SEM).
+    """
+
+    settings: DeltaSettings
+    readings: np.ndarray
+    timestamps_s: np.ndarray
+    n_invalid: int
+    unit: str
+    started_at_s: float = 0.0
+    info: dict = field(default_factory=dict, compare=False)
+
+    def __post_init__(self) -> None:
+        r = np.array(self.readings, dtype=float)
+        t = np.array(self.timestamps_s, dtype=float)
+        if r.shape != t.shape or r.ndim != 1:
+            raise ValueError(f"readings {r.shape} and timestamps {t.shape} must be 1-D and of equal length")
+        r.flags.writeable = False
+        t.flags.writeable = False
+        object.__setattr__(self, "readings", r)
+        object.__setattr__(self, "timestamps_s", t)
+
+    @property
+    def valid(self) -> np.ndarray:
+        """Boolean mask of valid readings."""
+        return np.isfinite(self.readings)
+
+    @property
+    def n(self) -> int:
+        """Number of valid readings."""
+        return int(np.count_nonzero(self.valid))
+
+    def resistance_ohm(self) -> np.ndarray:
+        """Readings in Ω: V readings divided by ΔI = (high − low)/2; OHMS readings as they are."""
+        if self.unit == "OHMS":
+            return self.readings.copy()
+        return self.readings / self.settings.delta_current_a
+
+    @property
+    def mean(self) -> float:
+        v = self.readings[self.valid]
+        return float(np.mean(v)) if v.size else math.nan
+
+    @property
+    def sd(self) -> float:
+        v = self.readings[self.valid]
+        return float(np.std(v, ddof=1)) if v.size >= 2 else math.nan
+
+    @property
+    def sem(self) -> float:
+        n = self.n
+        return self.sd / math.sqrt(n) if n >= 2 else math.nan
+
+
+def delta_readings(conversions_v: np.ndarray) -> np.ndarray:
+    """3-point Delta readings from alternating-polarity conversions V1, V2, … (first conversion at high current).
+
+    Δn = (Vn − 2·Vn+1 + Vn+2)/4 · (−1)^(n−1) for n = 1 … len − 2 (Keithley 6221 manual, Delta mode).
+    """
+    v = np.asarray(conversions_v, dtype=float)
+    if v.size < 3:
+        return np.empty(0)
+    d = (v[:-2] - 2.0 * v[1:-1] + v[2:]) / 4.0
+    sign = np.where(np.arange(d.size) % 2 == 0, 1.0, -1.0)
+    return d * sign
+
+
+def parse_buffer(text: str, elements: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """Parse ``reading,timestamp,…`` buffer text into (readings, timestamps); raise ValueError if malformed.
+
+    Values with ``abs(x) >= 9.9e37`` (the instrument's overflow/invalid marker) become NaN.
+    """
+    text = text.strip()
+    if not text:
+        return np.empty(0), np.empty(0)
+    parts = text.split(",")
+    if len(parts) % elements:
+        raise ValueError(f"{len(parts)} values is not a whole number of {elements}-element readings")
+    values = np.array([float(p) for p in parts], dtype=float)  # ValueError on garbage
+    if not np.all(np.isfinite(values)):
+        raise ValueError("non-finite value in buffer")
+    values = values.reshape(-1, elements)
+    readings = values[:, 0].copy()
+    readings[np.abs(readings) >= INVALID_THRESHOLD] = np.nan
+    stamps = values[:, 1].copy() if elements > 1 else np.zeros(len(readings))
+    return readings, stamps

@@ -1,0 +1,84 @@
+"""Typed errors of the instrument layer.
+
+Every error a user can act on subclasses :class:`RuntimeError`, so the ``contactrig`` dispatcher prints it as one
+line (exit 2) instead of a traceback. Invalid *settings* raise :class:`sims.validation.SettingError` (a ValueError)
+before anything is sent to an instrument.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "CommunicationError",
+    "InstrumentError",
+    "InstrumentTimeout",
+    "NanovoltmeterMissing",
+    "ReplayMismatch",
+    "ReplyError",
+    "SweepAborted",
+]
+
+
+class CommunicationError(RuntimeError):
+    """The VISA layer failed: the address cannot be opened, or a transfer failed for a reason other than a timeout."""
+
+
+class InstrumentError(RuntimeError):
+    """The instrument reported an error in its queue (``SYST:ERR?``): ``code`` and ``message`` as it gave them.
+
+    ``others`` holds any further errors drained from the queue at the same time, as ``(code, message)`` pairs.
+    """
+
+    def __init__(self, code: int, message: str, others: tuple[tuple[int, str], ...] = ()) -> None:
+        self.code = int(code)
+        self.message = message
+        self.others = tuple(others)
+        text = f"instrument error {self.code}: {message}"
+        if self.others:
+            text += " (and " + "; ".join(f"{c}: {m}" for c, m in self.others) + ")"
+        super().__init__(text)
+
+
+class InstrumentTimeout(RuntimeError):
+    """No (complete) answer in time. ``command`` is the command that was waiting for it."""
+
+    def __init__(self, command: str, timeout_s: float, detail: str = "") -> None:
+        self.command = command
+        self.timeout_s = float(timeout_s)
+        text = f"timeout after {self.timeout_s:g} s waiting for {command!r}"
+        if detail:
+            text += f": {detail}"
+        super().__init__(text)
+
+
+class NanovoltmeterMissing(RuntimeError):
+    """``SOUR:DELT:NVPR?`` says no 2182A answers on the 6221's serial link."""
+
+    def __init__(self, reply: str = "0") -> None:
+        self.reply = reply
+        super().__init__(
+            f"the 6221 does not see a 2182A nanovoltmeter (SOUR:DELT:NVPR? answered {reply!r}): check that the "
+            "2182A is switched on and that BOTH the RS-232 cable and the Trigger Link cable connect it to the 6221"
+        )
+
+
+class ReplyError(RuntimeError):
+    """The instrument answered something that cannot be parsed as the expected value."""
+
+    def __init__(self, command: str, reply: str, expected: str) -> None:
+        self.command = command
+        self.reply = reply
+        shown = reply if len(reply) <= 80 else reply[:77] + "..."
+        super().__init__(f"{command!r} answered {shown!r}, expected {expected}")
+
+
+class SweepAborted(RuntimeError):
+    """The Delta sweep was aborted by the instrument (status bit 2), e.g. on compliance with compliance abort on."""
+
+    def __init__(self, reason: str, n_stored: int = 0) -> None:
+        self.reason = reason
+        self.n_stored = int(n_stored)
+        super().__init__(f"Delta sweep aborted by the 6221: {reason} ({self.n_stored} readings stored)")
+
+
+class ReplayMismatch(RuntimeError):
+    """A replayed session diverged: the driver sent something other than what was recorded."""

@@ -1,0 +1,576 @@
+"""The simulated contact database: nominal pressure and real-area fraction against separation (seed Fig. 2).
+
+For the scene's surface pair and materials, each requested model gives a :class:`ContactCurve` on a uniform grid
+of separations h (distance between the mean planes of the two surfaces, m):
+
+* ``"greenwood_tripp"`` — seed eq. 1–3 from statistics only: σ = √(Sq1² + Sq2²) (eq. 3); η and β are the geometric
+  means of the two surfaces' McCool values from their spectral moments (exact when the surfaces are alike, GT's own
+  assumption). No surface is generated for it. Grid: h from ``h_min_sigma``·σ to ``h_max_sigma``·σ.
+* the asperity models (:mod:`sims.asperity`) — deterministic summation over the summits of the composite surface
+  z = z_liner + z_piston against a flat (the standard reduction of two rough surfaces to one: the gap at a point is
+  h − z_liner − z_piston). A summit of height z_i and mean-curvature radius R_i (seed eq. 8) has interference
+  δ_i = z_i − h; pressure = Σ F(δ_i)/A0 and area fraction = Σ A(δ_i)/A0 with A0 the map's nominal area.
+  Grid: h from ``h_min_sigma``·σ up to the highest summit (first contact, where p = 0).
+
+Curves interpolate ln p and ln(A/A0) with a monotone cubic (Fritsch–Carlson) so ``pressure(h)`` is smooth,
+monotone, positive and has the analytic slope ``dpressure_dh``. Between the last tabulated point in contact and the
+first contact (asperity models) p follows the single-summit law (h_top − h)^(3/2) and A/A0 ∝ (h_top − h); above
+``h_max`` p = 0 (asperity) or the log-linear tail (GT); below ``h_min`` the curve continues along its tangent
+(linear in p: a log-linear extrapolation overflows a few µm below the table) and ``in_range`` is False (the rig
+warns).
+
+Scene table ``[database]``: ``models`` (list), ``n_separations`` (16…100000), ``h_min_sigma`` (deepest separation
+/ σ, −3…3), ``h_max_sigma`` (GT's largest separation / σ, 1…10).
+
+HDF5 layout (:func:`save_database`): one group per model with datasets ``separation_m`` (units "m"),
+``pressure_pa`` ("Pa") and ``area_fraction`` ("1"); group attributes hold the model's parameters; the root
+attribute ``provenance`` holds the JSON provenance (scene name and text, materials, surface statistics, software
+version).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from sims.materials import ContactMaterials, materials_from_scene
+from sims.validation import SettingError, check_int, check_keys, check_range
+
+__all__ = [
+    "DATABASE_KEYS",
+    "KNOWN_MODELS",
+    "ContactCurve",
+    "ContactDatabase",
+    "DatabaseSettings",
+    "MissingModelError",
+    "build_database",
+    "load_database",
+    "save_database",
+]
+
+KNOWN_MODELS = ("greenwood_tripp", "hertz", "lagemann", "pasaribu_schipper", "jackson_green")
+DATABASE_KEYS = ("models", "n_separations", "h_min_sigma", "h_max_sigma")
+ASPERITY_MODELS = KNOWN_MODELS[1:]
+
+_ONSET_EXPONENT_P = 1.5  # a single Hertzian summit: F ∝ δ^(3/2)
+_ONSET_EXPONENT_A = 1.0  # ... and A ∝ δ
+
+
+class MissingModelError(KeyError, ValueError):
+    """A model that is not in the database was asked for."""
+
+    def __str__(self) -> str:  # KeyError quotes its argument; keep the message readable
+        return str(self.args[0]) if self.args else ""
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Monotone interpolation in log space.
+
+
+def _pchip_slopes(x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Fritsch–Carlson/Butland node slopes (shape preserving, as SciPy's PCHIP)."""
+    h = np.diff(x)
+    s = np.diff(y) / h
+    d = np.zeros_like(y)
+    if y.size == 2:
+        d[:] = s[0]
+        return d
+    w1 = 2.0 * h[1:] + h[:-1]
+    w2 = h[1:] + 2.0 * h[:-1]
+    same = (s[:-1] * s[1:]) > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        hm = (w1 + w2) / (w1 / s[:-1] + w2 / s[1:])
+    d[1:-1] = np.where(same, hm, 0.0)
+
+    def edge(h0: float, h1: float, s0: float, s1: float) -> float:
+        e = ((2.0 * h0 + h1) * s0 - h0 * s1) / (h0 + h1)
+        if np.sign(e) != np.sign(s0):
+            return 0.0
+        if np.sign(s0) != np.sign(s1) and abs(e) > abs(3.0 * s0):
+            return 3.0 * s0
+        return e
+
+    d[0] = edge(h[0], h[1], s[0], s[1])
+    d[-1] = edge(h[-1], h[-2], s[-1], s[-2])
+    return d
+
+
+@dataclass(frozen=True)
+class _LogCurve:
+    """ln y(x) by monotone cubic Hermite on [x0, x_last]; log-linear beyond; optional power-law onset at x_top."""
+
+    x: NDArray[np.float64]
+    ly: NDArray[np.float64]
+    d: NDArray[np.float64]
+    x_top: float | None  # y(x_top) = 0 (contact onset); None: y > 0 everywhere (log-linear above)
+    exponent: float
+
+    @classmethod
+    def build(cls, x: NDArray[np.float64], y: NDArray[np.float64], onset: bool, exponent: float) -> _LogCurve:
+        if onset:
+            xs, ys, x_top = x[:-1], y[:-1], float(x[-1])
+        else:
+            xs, ys, x_top = x, y, None
+        ly = np.log(ys)
+        d = _pchip_slopes(xs, ly)
+        if x_top is not None:
+            # slope of the onset law at the last node, limited to keep the last cubic monotone
+            s_last = (ly[-1] - ly[-2]) / (xs[-1] - xs[-2])
+            d_top = -exponent / (x_top - xs[-1])
+            d[-1] = max(d_top, 3.0 * s_last) if s_last < 0 else d_top
+            # the onset law (x_top − x)^m meets the cubic with a continuous slope; m >= 1 keeps dp/dh finite
+            exponent = max(-d[-1] * (x_top - xs[-1]), 1.0)
+            d[-1] = -exponent / (x_top - xs[-1])
+        return cls(xs, ly, d, x_top, exponent)
+
+    def __call__(self, xq: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(y, dy/dx) at ``xq``."""
+        x, ly, d = self.x, self.ly, self.d
+        y = np.zeros_like(xq)
+        dy = np.zeros_like(xq)
+        lo = xq < x[0]
+        mid = (xq >= x[0]) & (xq <= x[-1])
+        hi = xq > x[-1]
+        if lo.any():
+            # Linear in y (tangent at the first node): finite for every h, where a log-linear tail would overflow.
+            y0 = math.exp(ly[0])
+            y[lo] = y0 * (1.0 + d[0] * (xq[lo] - x[0]))
+            dy[lo] = d[0] * y0
+        if mid.any():
+            xm = xq[mid]
+            i = np.clip(np.searchsorted(x, xm, side="right") - 1, 0, x.size - 2)
+            hh = x[i + 1] - x[i]
+            u = (xm - x[i]) / hh
+            y0, y1, d0, d1 = ly[i], ly[i + 1], d[i] * hh, d[i + 1] * hh
+            h00 = (1 + 2 * u) * (1 - u) ** 2
+            h10 = u * (u - 1) ** 2
+            h01 = u * u * (3 - 2 * u)
+            h11 = u * u * (u - 1)
+            l_val = h00 * y0 + h10 * d0 + h01 * y1 + h11 * d1
+            dl = (6 * u * u - 6 * u) * (y0 - y1) / hh + (3 * u * u - 4 * u + 1) * d[i] + (3 * u * u - 2 * u) * d[i + 1]
+            v = np.exp(l_val)
+            y[mid] = v
+            dy[mid] = dl * v
+        if hi.any():
+            xh = xq[hi]
+            if self.x_top is None:
+                with np.errstate(under="ignore"):
+                    v = np.exp(ly[-1] + d[-1] * (xh - x[-1]))
+                y[hi] = v
+                dy[hi] = d[-1] * v
+            else:
+                span = self.x_top - x[-1]
+                r = np.clip((self.x_top - xh) / span, 0.0, None)
+                v = math.exp(ly[-1]) * r**self.exponent
+                y[hi] = v
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    dv = np.where(r > 0, -self.exponent * v / (r * span), 0.0)
+                dy[hi] = dv
+        return y, dy
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Curves and the database.
+
+
+def _positive_monotone(name: str, values: NDArray[np.float64], model: str) -> None:
+    if not np.all(np.isfinite(values)) or values.min() < 0:
+        raise SettingError(f"{model}.{name}", "table", "expected finite, non-negative values")
+    if np.any(np.diff(values) > 0):
+        k = int(np.argmax(np.diff(values) > 0))
+        raise SettingError(f"{model}.{name}", f"index {k}", "expected values non-increasing in separation")
+
+
+@dataclass(frozen=True, eq=False)
+class ContactCurve:
+    """Tabulated p(h) and A(h)/A0 of one model with smooth monotone interpolation (see the module docstring).
+
+    ``separation_m`` increasing (m); ``pressure_pa`` (Pa) and ``area_fraction`` (−) non-increasing and >= 0; at
+    most the last point may be 0 (the contact onset of an asperity model).
+    """
+
+    model: str
+    separation_m: NDArray[np.float64]
+    pressure_pa: NDArray[np.float64]
+    area_fraction: NDArray[np.float64]
+    parameters: dict[str, Any] = field(default_factory=dict)
+    _p: _LogCurve = field(init=False, repr=False, compare=False)
+    _a: _LogCurve = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        h = np.asarray(self.separation_m, dtype=float)
+        p = np.asarray(self.pressure_pa, dtype=float)
+        a = np.asarray(self.area_fraction, dtype=float)
+        if not (h.ndim == p.ndim == a.ndim == 1 and h.size == p.size == a.size and h.size >= 3):
+            raise SettingError(self.model, h.size, "expected three 1-D tables of equal length >= 3")
+        if not np.all(np.isfinite(h)) or np.any(np.diff(h) <= 0):
+            raise SettingError(f"{self.model}.separation_m", "table", "expected finite, strictly increasing values")
+        _positive_monotone("pressure_pa", p, self.model)
+        _positive_monotone("area_fraction", a, self.model)
+        if a.max() > 1.0:
+            raise SettingError(f"{self.model}.area_fraction", float(a.max()), "expected values <= 1")
+        onset = p[-1] == 0.0
+        if np.any(p[:-1] <= 0) or np.any(a[:-1] <= 0) or (onset != (a[-1] == 0.0)):
+            raise SettingError(self.model, "table", "only the last point may be out of contact (p = A = 0)")
+        for name, arr in (("separation_m", h), ("pressure_pa", p), ("area_fraction", a)):
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+        object.__setattr__(self, "_p", _LogCurve.build(h, p, onset, _ONSET_EXPONENT_P))
+        object.__setattr__(self, "_a", _LogCurve.build(h, a, onset, _ONSET_EXPONENT_A))
+
+    @property
+    def h_min(self) -> float:
+        return float(self.separation_m[0])
+
+    @property
+    def h_max(self) -> float:
+        return float(self.separation_m[-1])
+
+    def in_range(self, h: ArrayLike) -> NDArray[np.bool_]:
+        """True where ``h`` (m) is not below the tabulated range (above it the curve is exact: no contact/tail)."""
+        return np.asarray(h, dtype=float) >= self.h_min
+
+    def _eval(self, curve: _LogCurve, h: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        hh = np.asarray(h, dtype=float)
+        if hh.size and np.isnan(hh).any():
+            raise SettingError("h", "nan", "expected separations in m (got NaN)")
+        flat = np.atleast_1d(hh).ravel()
+        y, dy = curve(flat)
+        return y.reshape(hh.shape), dy.reshape(hh.shape)
+
+    def pressure(self, h: ArrayLike) -> NDArray[np.float64]:
+        """Nominal contact pressure at separation ``h`` (m), Pa."""
+        return self._eval(self._p, h)[0]
+
+    def dpressure_dh(self, h: ArrayLike) -> NDArray[np.float64]:
+        """Analytic slope of :meth:`pressure`, Pa/m (<= 0)."""
+        return self._eval(self._p, h)[1]
+
+    def area_fraction_at(self, h: ArrayLike) -> NDArray[np.float64]:
+        """Real / nominal contact area at ``h`` (m), in [0, 1] (1 is a bound reached only far below ``h_min``)."""
+        return np.minimum(self._eval(self._a, h)[0], 1.0)
+
+    def darea_fraction_dh(self, h: ArrayLike) -> NDArray[np.float64]:
+        """Slope of the area fraction, 1/m (<= 0)."""
+        return self._eval(self._a, h)[1]
+
+
+@dataclass(frozen=True)
+class ContactDatabase(Mapping[str, ContactCurve]):
+    """Curves by model name, with ``provenance`` (dict: scene, materials, surface statistics, software version)."""
+
+    curves: dict[str, ContactCurve]
+    provenance: dict[str, Any] = field(default_factory=dict)
+
+    def __getitem__(self, name: str) -> ContactCurve:
+        try:
+            return self.curves[name]
+        except KeyError:
+            have = ", ".join(self.curves) or "none"
+            raise MissingModelError(f"model {name!r} is not in this database (it has: {have})") from None
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.curves)
+
+    def __len__(self) -> int:
+        return len(self.curves)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Settings.
+
+
+@dataclass(frozen=True)
+class DatabaseSettings:
+    """The ``[database]`` table."""
+
+    models: tuple[str, ...] = KNOWN_MODELS
+    n_separations: int = 256
+    h_min_sigma: float = -1.5
+    h_max_sigma: float = 6.0
+
+    def __post_init__(self) -> None:
+        models = _check_models("database.models", self.models)
+        object.__setattr__(self, "models", models)
+        check_int("database.n_separations", self.n_separations, 16, 100_000)
+        check_range("database.h_min_sigma", self.h_min_sigma, -3.0, 3.0)
+        check_range("database.h_max_sigma", self.h_max_sigma, 1.0, 10.0)
+        if self.h_max_sigma <= self.h_min_sigma:
+            raise SettingError("database.h_max_sigma", self.h_max_sigma, f"expected > h_min_sigma = {self.h_min_sigma}")
+
+    @classmethod
+    def from_scene(cls, scene: Any) -> DatabaseSettings:
+        table = scene.table("database")
+        check_keys("database", table, DATABASE_KEYS)
+        kwargs = {k: table[k] for k in DATABASE_KEYS if k in table}
+        if "models" in kwargs:
+            kwargs["models"] = _check_models("database.models", kwargs["models"])
+        return cls(**kwargs)
+
+
+def _check_models(field_name: str, models: Any) -> tuple[str, ...]:
+    if isinstance(models, str) or not isinstance(models, Sequence) or len(models) == 0:
+        raise SettingError(field_name, models, "expected a non-empty list of: " + ", ".join(KNOWN_MODELS))
+    out = []
+    for m in models:
+        if m not in KNOWN_MODELS:
+            raise SettingError(field_name, m, "unknown model; expected one of " + ", ".join(KNOWN_MODELS))
+        if m not in out:
+            out.append(m)
+    return tuple(out)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Building.
+
+
+def _software_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("contactrig")
+    except PackageNotFoundError:  # pragma: no cover
+        return "0+unknown"
+
+
+def _gt_curve(sigma: float, eta: float, beta: float, E_star: float, settings: DatabaseSettings) -> ContactCurve:
+    from sims import greenwood_tripp as gt
+
+    h = np.linspace(settings.h_min_sigma * sigma, settings.h_max_sigma * sigma, settings.n_separations)
+    p = gt.pressure(h, sigma=sigma, eta=eta, beta=beta, E_star=E_star)
+    a = gt.area_fraction(h, sigma=sigma, eta=eta, beta=beta)
+    params = {"sigma_m": sigma, "eta_per_m2": eta, "beta_m": beta, "E_star_pa": E_star}
+    return ContactCurve("greenwood_tripp", h, p, a, params)
+
+
+def asperity_sums(
+    asp_model: Any, heights_m: NDArray[np.float64], h: NDArray[np.float64], area_m2: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Σ force/A0 (Pa) and Σ area/A0 over summits for each separation in ``h`` (the model's R per summit).
+
+    Summits must be sorted by height, highest first (``asp_model.R`` in the same order); at each h only the
+    contacting prefix is evaluated.
+    """
+    n_contact = np.searchsorted(-heights_m, -h, side="left")  # summits with z > h: a prefix of the sorted list
+    rows = np.repeat(np.arange(h.size), n_contact)
+    starts = np.cumsum(n_contact) - n_contact
+    cols = np.arange(rows.size) - np.repeat(starts, n_contact)  # 0 … n_contact[k]−1 for each row k
+    delta = heights_m[cols] - h[rows]
+    R = np.asarray(asp_model.R, dtype=float)
+    sub = _with_radius(asp_model, R[cols] if R.ndim else R)
+    f = sub.force(delta)
+    a = sub.area(delta)
+    p = np.bincount(rows, weights=f, minlength=h.size) / area_m2
+    af = np.bincount(rows, weights=a, minlength=h.size) / area_m2
+    return p, af
+
+
+def _with_radius(asp_model: Any, R: Any) -> Any:
+    from dataclasses import replace
+
+    return replace(asp_model, R=R)
+
+
+def build_database(
+    scene: Any, models: Sequence[str] | None = None, *, n_separations: int | None = None
+) -> ContactDatabase:
+    """Build the curves of ``models`` (default: the scene's ``[database].models``) for ``scene``.
+
+    Only the models asked for are built; surfaces are generated (or loaded) only when an asperity model is asked
+    for. ``n_separations`` overrides the scene's. Raises :class:`~sims.validation.SettingError` (a ValueError)
+    naming the scene key on bad settings.
+    """
+    from sims import asperity
+    from sims.surface import combined_sigma, mccool, statistics_of, summit_data, surfaces_from_scene
+
+    t_start = time.perf_counter()
+    settings = DatabaseSettings.from_scene(scene)
+    if models is not None:
+        settings = DatabaseSettings(
+            models=_check_models("models", list(models)),
+            n_separations=settings.n_separations,
+            h_min_sigma=settings.h_min_sigma,
+            h_max_sigma=settings.h_max_sigma,
+        )
+    if n_separations is not None:
+        settings = DatabaseSettings(
+            settings.models,
+            check_int("n_separations", n_separations, 16, 100_000),
+            settings.h_min_sigma,
+            settings.h_max_sigma,
+        )
+    mats: ContactMaterials = materials_from_scene(scene)
+    liner, piston = surfaces_from_scene(scene)
+    E_star = mats.E_star
+
+    prov: dict[str, Any] = {
+        "software": "contactrig",
+        "software_version": _software_version(),
+        "scene_name": getattr(scene, "name", ""),
+        "scene_source": getattr(scene, "source", ""),
+        "scene_text": getattr(scene, "text", ""),
+        "models": list(settings.models),
+        "settings": {
+            "n_separations": settings.n_separations,
+            "h_min_sigma": settings.h_min_sigma,
+            "h_max_sigma": settings.h_max_sigma,
+        },
+        "materials": mats.as_dict(),
+        "surfaces": {"liner": liner.as_dict(), "piston": piston.as_dict()},
+    }
+    curves: dict[str, ContactCurve] = {}
+
+    want_asperity = [m for m in settings.models if m in ASPERITY_MODELS]
+    heights = {}
+    if want_asperity or liner.kind == "file" or piston.kind == "file":
+        heights = {"liner": liner.heights(), "piston": piston.heights()}
+    sq = {}
+    stats = {}
+    for body, spec in (("liner", liner), ("piston", piston)):
+        mom = spec.moments() if body not in heights else _moments_of(heights[body], spec)
+        st = mccool(mom)
+        sq[body] = math.sqrt(mom.m0)
+        stats[body] = st
+        prov["surfaces"][body]["mccool"] = st.as_dict()
+        prov["surfaces"][body]["sq_m"] = sq[body]
+    sigma = combined_sigma(sq["liner"], sq["piston"])
+    eta = math.sqrt(stats["liner"].eta * stats["piston"].eta)
+    beta = math.sqrt(stats["liner"].beta * stats["piston"].beta)
+    prov["greenwood_tripp"] = {"sigma_m": sigma, "eta_per_m2": eta, "beta_m": beta}
+    prov["plasticity_index"] = (E_star / mats.H) * math.sqrt(sigma / beta)
+
+    if "greenwood_tripp" in settings.models:
+        curves["greenwood_tripp"] = _gt_curve(sigma, eta, beta, E_star, settings)
+
+    if want_asperity:
+        z1, z2 = heights["liner"], heights["piston"]
+        if z1.shape != z2.shape or not math.isclose(liner.pixel_m, piston.pixel_m, rel_tol=1e-9):
+            raise SettingError(
+                "surfaces.piston",
+                f"{z2.shape} at {piston.pixel_m:g} m",
+                f"the asperity models need both surfaces on one grid: liner is {z1.shape} at {liner.pixel_m:g} m",
+            )
+        periodic = liner.periodic and piston.periodic
+        composite = z1 + z2
+        data = summit_data(composite, liner.pixel_m, periodic=periodic)
+        if data.height_m.size < 2:
+            raise SettingError("surfaces", data.height_m.size, "the composite surface has fewer than 2 summits")
+        order = np.argsort(-data.height_m, kind="stable")
+        zs = data.height_m[order]
+        Rs = data.radius_m[order]
+        comp_stats = statistics_of(data)
+        prov["composite_surface"] = {
+            "sq_m": float(np.std(composite)),
+            "summits": comp_stats.as_dict(),
+            "highest_summit_m": float(zs[0]),
+            "area_m2": data.area_m2,
+        }
+        h_lo = settings.h_min_sigma * sigma
+        h_top = float(zs[0])
+        if h_top <= h_lo:
+            raise SettingError("database.h_min_sigma", settings.h_min_sigma, "is above the highest summit")
+        h = np.linspace(h_lo, h_top, settings.n_separations)
+        soft = mats.softer
+        for name in want_asperity:
+            m = asperity.model(name, E_star=E_star, R=Rs, H=mats.H, yield_strength=soft.yield_strength_pa, nu=soft.nu)
+            p, af = asperity_sums(m, zs, h, data.area_m2)
+            p[-1] = 0.0
+            af[-1] = 0.0
+            if af.max() > 1.0:
+                raise SettingError(
+                    "database.h_min_sigma",
+                    settings.h_min_sigma,
+                    f"model {name!r}: real-area fraction {af.max():.3g} > 1 at the deepest separation "
+                    "(independent-asperity models fail there); raise h_min_sigma",
+                )
+            params = {"E_star_pa": E_star, "H_pa": mats.H, "n_summits": int(zs.size), "area_m2": data.area_m2}
+            if name == "jackson_green":
+                params.update(yield_pa=soft.yield_strength_pa, nu=soft.nu)
+            try:
+                curves[name] = ContactCurve(name, h, p, af, params)
+            except SettingError as exc:
+                raise RuntimeError(f"model {name!r}: the summed curve is not monotone ({exc})") from None
+    prov["build_time_s"] = time.perf_counter() - t_start
+    # order the curves as asked
+    ordered = {m: curves[m] for m in settings.models}
+    return ContactDatabase(ordered, prov)
+
+
+def _moments_of(z: NDArray[np.float64], spec: Any) -> Any:
+    from sims.surface import spectral_moments
+
+    if spec.kind == "file":
+        return spectral_moments(z, spec.pixel_m)
+    return spec.moments()
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# HDF5.
+
+_UNITS = {"separation_m": "m", "pressure_pa": "Pa", "area_fraction": "1"}
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    return str(obj)
+
+
+def save_database(db: ContactDatabase, path: str | Path) -> Path:
+    """Write ``db`` to HDF5 at ``path`` (see the module docstring for the layout); returns the path."""
+    import h5py
+
+    p = Path(path)
+    tmp = p.with_name(p.name + ".part")
+    with h5py.File(tmp, "w") as f:
+        f.attrs["format"] = "contactrig-contact-database"
+        f.attrs["format_version"] = 1
+        f.attrs["provenance"] = json.dumps(db.provenance, default=_json_default)
+        for name, curve in db.curves.items():
+            g = f.create_group(name)
+            for key in ("separation_m", "pressure_pa", "area_fraction"):
+                ds = g.create_dataset(key, data=np.asarray(getattr(curve, key)))
+                ds.attrs["units"] = _UNITS[key]
+            g.attrs["parameters"] = json.dumps(curve.parameters, default=_json_default)
+    tmp.replace(p)
+    return p
+
+
+def load_database(path: str | Path) -> ContactDatabase:
+    """Read a database written by :func:`save_database`."""
+    import h5py
+
+    p = Path(path)
+    if not p.exists():
+        raise SettingError("database", str(p), "file not found")
+    try:
+        f = h5py.File(p, "r")
+    except OSError as exc:
+        raise SettingError("database", str(p), f"not a readable HDF5 file ({exc})") from None
+    with f:
+        if f.attrs.get("format") != "contactrig-contact-database":
+            raise SettingError("database", str(p), "not a contactrig contact database")
+        prov = json.loads(f.attrs.get("provenance", "{}"))
+        curves = {}
+        for name in f:
+            g = f[name]
+            params = json.loads(g.attrs.get("parameters", "{}"))
+            curves[name] = ContactCurve(
+                name,
+                np.asarray(g["separation_m"][()], dtype=float),
+                np.asarray(g["pressure_pa"][()], dtype=float),
+                np.asarray(g["area_fraction"][()], dtype=float),
+                params,
+            )
+    order = [m for m in prov.get("models", []) if m in curves] + [m for m in curves if m not in prov.get("models", [])]
+    return ContactDatabase({m: curves[m] for m in order}, prov)

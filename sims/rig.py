@@ -1,0 +1,312 @@
+"""The piston/liner rig model: real contact area against added weight (seed section 2.1, Fig. 11).
+
+A piston lies in a horizontal liner; the weight presses its skirt down onto the liner's bottom. Piston and liner are
+rigid, the asperities deform (the paper's MBS assumption), and the contact law of each model — nominal pressure and
+real-area fraction against mean-plane separation, from :mod:`sims.database` — gives the load and the real area on a
+mesh of the skirt. For every weight the static equilibrium is solved (:func:`equilibrium`); :func:`sweep` does this
+for every model a scene asks for. The damped release-to-rest dynamics of seed eq. 22 are in :mod:`sims.rig_dynamics`,
+the HDF5 file in :mod:`sims.rig_file`.
+
+Load convention: ``W = (weight_kg + piston_mass_kg)·g`` with standard gravity. The paper's "255 N (26 kg)" is
+25.966 kg × g, i.e. its Tab. 1 weights are the whole load on the skirt; the default scene therefore sets
+``piston_mass_kg = 0``.
+
+Contract (used by ``daq`` and ``analysis``)::
+
+    result = sweep(scene, models=["greenwood_tripp"], weights_kg=None)   # None → the scene's [rig].weights_kg
+    result.models["greenwood_tripp"].weight_kg, .contact_area_m2, .min_separation_m, .force_n   # numpy arrays
+    result.warnings      # list[str]
+    result.provenance    # dict: scene text, database provenance, software version
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+
+from sims.rig_batch import BatchEquilibrium, batch_equilibrium
+from sims.rig_file import load_sweep, save_sweep
+from sims.rig_law import ContactLaw, check_law
+from sims.rig_settings import STANDARD_GRAVITY, RigSettings, check_weights
+from sims.rig_statics import ALPHA_WARN, Equilibrium, RigLoadError, equilibrium, roughness_parameter
+
+if TYPE_CHECKING:
+    from sims.scene import Scene
+
+__all__ = [
+    "BatchEquilibrium",
+    "ContactLaw",
+    "Equilibrium",
+    "ModelSweep",
+    "RigLoadError",
+    "RigSettings",
+    "SweepResult",
+    "batch_equilibrium",
+    "equilibrium",
+    "load_sweep",
+    "save_sweep",
+    "sweep",
+]
+
+
+@dataclass(frozen=True)
+class ModelSweep:
+    """A(W) of one contact model: one entry per weight, in the order the weights were given.
+
+    ``weight_kg`` added weight [kg]; ``force_n`` contact force at equilibrium [N] (= load ``(weight + piston
+    mass)·g``); ``contact_area_m2`` real contact area [m²]; ``min_separation_m`` minimum gap h0 [m];
+    ``peak_pressure_pa`` nominal pressure at the minimum gap [Pa]; ``contact_width_m`` nominal contact width [m];
+    ``n_nodes`` mesh nodes used; ``converged`` mesh and root both converged.
+    """
+
+    name: str
+    weight_kg: np.ndarray
+    contact_area_m2: np.ndarray
+    min_separation_m: np.ndarray
+    force_n: np.ndarray
+    peak_pressure_pa: np.ndarray
+    contact_width_m: np.ndarray
+    n_nodes: np.ndarray
+    converged: np.ndarray
+
+    #: Array fields and their units (HDF5 ``units`` attributes).
+    UNITS: ClassVar[dict[str, str]] = {
+        "weight_kg": "kg",
+        "contact_area_m2": "m^2",
+        "min_separation_m": "m",
+        "force_n": "N",
+        "peak_pressure_pa": "Pa",
+        "contact_width_m": "m",
+        "n_nodes": "1",
+        "converged": "1",
+    }
+
+    @classmethod
+    def from_batch(cls, name: str, batch: BatchEquilibrium) -> ModelSweep:
+        n = batch.weight_kg.size
+        return cls(
+            name=name,
+            weight_kg=batch.weight_kg.copy(),
+            contact_area_m2=batch.contact_area_m2,
+            min_separation_m=batch.min_separation_m,
+            force_n=batch.contact_force_n,
+            peak_pressure_pa=batch.peak_pressure_pa,
+            contact_width_m=batch.contact_width_m,
+            n_nodes=np.full(n, batch.n_nodes, dtype=int),
+            converged=np.asarray(batch.converged, dtype=bool),
+        )
+
+    @classmethod
+    def from_equilibria(cls, name: str, results: Sequence[Equilibrium]) -> ModelSweep:
+        def col(attr: str, dtype: Any = float) -> np.ndarray:
+            return np.array([getattr(r, attr) for r in results], dtype=dtype)
+
+        return cls(
+            name=name,
+            weight_kg=col("weight_kg"),
+            contact_area_m2=col("contact_area_m2"),
+            min_separation_m=col("min_separation_m"),
+            force_n=col("contact_force_n"),
+            peak_pressure_pa=col("peak_pressure_pa"),
+            contact_width_m=col("contact_width_m"),
+            n_nodes=col("n_nodes", int),
+            converged=col("converged", bool),
+        )
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    """Load sweep of every requested model: ``models[name]`` → :class:`ModelSweep`, plus warnings and provenance."""
+
+    models: dict[str, ModelSweep]
+    warnings: list[str] = field(default_factory=list)
+    provenance: dict[str, Any] = field(default_factory=dict)
+
+    def to_json_dict(self) -> dict[str, Any]:
+        """``{"models": {name: {"weight_kg", "contact_area_m2", "min_separation_m"}}, "warnings": [...]}`` (lists)."""
+        return {
+            "models": {
+                name: {
+                    "weight_kg": m.weight_kg.tolist(),
+                    "contact_area_m2": m.contact_area_m2.tolist(),
+                    "min_separation_m": m.min_separation_m.tolist(),
+                }
+                for name, m in self.models.items()
+            },
+            "warnings": list(self.warnings),
+        }
+
+
+def _software_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("contactrig")
+    except PackageNotFoundError:
+        return "0+unknown"
+
+
+def roughness_and_modulus(scene: Scene, database: Any = None) -> tuple[float | None, float | None]:
+    """Combined RMS roughness σ [m] (seed eq. 3) and composite modulus E* [Pa] (seed eq. 4) for the α check.
+
+    From the database's provenance when it has them (``greenwood_tripp.sigma_m``, ``materials.E_star_pa``), else
+    from the scene (``[surfaces.*].sq_m`` and ``[materials.*]``); ``None`` where neither gives a value.
+    """
+    prov = dict(getattr(database, "provenance", {}) or {})
+    sigma = prov.get("greenwood_tripp", {}).get("sigma_m") if isinstance(prov.get("greenwood_tripp"), dict) else None
+    modulus = prov.get("materials", {}).get("E_star_pa") if isinstance(prov.get("materials"), dict) else None
+    if sigma is None:
+        surfaces = scene.table("surfaces")
+        sq = [t.get("sq_m") for t in surfaces.values() if isinstance(t, dict)]
+        if sq and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in sq):
+            sigma = math.sqrt(sum(float(v) ** 2 for v in sq))
+    if modulus is None and scene.table("materials"):
+        from sims.materials import materials_from_scene
+
+        modulus = materials_from_scene(scene).E_star
+    return (None if sigma is None else float(sigma)), (None if modulus is None else float(modulus))
+
+
+def sweep(
+    scene: Scene | None = None,
+    models: Sequence[str] | None = None,
+    weights_kg: Sequence[float] | None = None,
+    *,
+    laws: Mapping[str, ContactLaw] | None = None,
+    database: Any = None,
+    settings: RigSettings | None = None,
+    roughness_m: float | None = None,
+    composite_modulus_pa: float | None = None,
+) -> SweepResult:
+    """Contact area against weight for every model: static equilibrium per (model, weight).
+
+    All weights of a model are solved together on a shared mesh (:func:`sims.rig_batch.batch_equilibrium`); the
+    per-model solver diagnostics are in ``provenance["solver"]``.
+
+    ``scene`` (None → the packaged default) gives ``[rig]`` (unless ``settings`` is given) and the database
+    settings. ``models`` restricts the models (None → the scene's ``[database].models``); only those databases are
+    built. ``weights_kg`` overrides ``[rig].weights_kg``. ``laws`` (name → contact law) or a prebuilt ``database``
+    replace the database build. ``roughness_m``/``composite_modulus_pa`` (default: from the scene) drive the
+    roughness-parameter check. Raises :class:`RigLoadError` when a law cannot carry a load.
+    """
+    from sims.scene import load_scene
+
+    if scene is None:
+        scene = load_scene(None)
+    settings = settings if settings is not None else RigSettings.from_scene(scene)
+    weights = check_weights(weights_kg, "weights_kg") if weights_kg is not None else settings.weights_kg
+    if models is not None:
+        if isinstance(models, str) or not all(isinstance(m, str) for m in models) or len(models) == 0:
+            raise RigLoadError(f"models = {models!r} is not allowed: expected a non-empty list of model names")
+        models = list(dict.fromkeys(models))
+    provenance: dict[str, Any] = {
+        "software_version": _software_version(),
+        "scene_name": scene.name,
+        "scene_source": scene.source,
+        "scene_text": scene.text,
+        "rig_settings": settings.as_dict(),
+        "weights_kg": list(weights),
+        "gravity_m_per_s2": STANDARD_GRAVITY,
+    }
+    if laws is not None:
+        names = list(laws) if models is None else models
+        unknown = [n for n in names if n not in laws]
+        if unknown:
+            raise RigLoadError(f"models {unknown} are not among the given laws {list(laws)}")
+        law_map = {n: laws[n] for n in names}
+        provenance["database"] = {"source": "contact laws given by the caller", "models": names}
+    else:
+        if database is None:
+            from sims.database import build_database
+
+            database = build_database(scene, models=models)
+        names = list(models) if models is not None else _database_names(database, scene)
+        law_map = {n: database[n] for n in names}
+        provenance["database"] = dict(getattr(database, "provenance", {}) or {})
+    for n, law in law_map.items():
+        check_law(law, n)
+
+    if roughness_m is None or composite_modulus_pa is None:
+        sigma, modulus = roughness_and_modulus(scene, database) if laws is None else (None, None)
+        roughness_m = roughness_m if roughness_m is not None else sigma
+        composite_modulus_pa = composite_modulus_pa if composite_modulus_pa is not None else modulus
+
+    warnings: list[str] = []
+    if roughness_m is not None and composite_modulus_pa is not None:
+        provenance["roughness_m"] = roughness_m
+        provenance["composite_modulus_pa"] = composite_modulus_pa
+        for w in weights:
+            alpha = roughness_parameter(settings.load_n(w), settings.skirt_length_m, roughness_m, composite_modulus_pa)
+            if alpha < ALPHA_WARN:
+                warnings.append(
+                    f"weight {w:g} kg: roughness parameter σ·R_eff/b² = {alpha:.3g} < {ALPHA_WARN:g}: bulk elastic "
+                    "deformation is no longer small against asperity deformation (rigid-body model)"
+                )
+        provenance["line_contact_check"] = _line_contact_check(settings, max(weights), composite_modulus_pa, warnings)
+
+    result_models: dict[str, ModelSweep] = {}
+    for name, law in law_map.items():
+        batch = batch_equilibrium(law, settings, weights, name=name)
+        warnings.extend(w for w in batch.warnings if w not in warnings)
+        result_models[name] = ModelSweep.from_batch(name, batch)
+        provenance.setdefault("solver", {})[name] = {
+            "law_calls": batch.law_calls,
+            "iterations": batch.iterations,
+            "mesh_levels": batch.mesh_levels,
+            "mesh_change": batch.mesh_change,
+            "n_nodes": batch.n_nodes,
+            "max_abs_residual_n": float(np.max(np.abs(batch.residual_n))),
+        }
+    return SweepResult(models=result_models, warnings=warnings, provenance=provenance)
+
+
+def _line_contact_check(
+    settings: RigSettings, weight_kg: float, composite_modulus_pa: float, warnings: list[str]
+) -> dict[str, Any]:
+    """Smooth elastic half-width of the heaviest load from the line-contact solver on the exact gap, vs Johnson's.
+
+    The roughness parameter uses Johnson's b (``α = πσE*/(4P′)``); this records how well Johnson's formula holds
+    for the rig's conformal geometry, and warns when it does not (contact wider than a small angle).
+    """
+    from sims.line_contact import conformal_line_contact, hertz_line_contact
+    from sims.rig_geometry import effective_radius_m
+
+    load = settings.load_n(weight_kg)
+    if load <= 0 or settings.clearance_m <= 0:
+        return {"weight_kg": weight_kg, "status": "not applicable (zero load or zero clearance)"}
+    p_line = load / settings.skirt_length_m
+    b_johnson, p0 = hertz_line_contact(
+        p_line, effective_radius_m(settings.liner_radius_m, settings.clearance_m), composite_modulus_pa
+    )
+    sol = conformal_line_contact(
+        settings.liner_radius_m, settings.clearance_m, p_line, composite_modulus_pa, n_strips=101
+    )
+    if not sol.converged or abs(sol.half_width_m - b_johnson) > max(2 * sol.dx_m, 0.05 * b_johnson):
+        warnings.append(
+            f"weight {weight_kg:g} kg: the smooth elastic contact of the conformal gap (half-width "
+            f"{sol.half_width_m:.3g} m, {sol.status}) departs from Johnson's line contact (b = {b_johnson:.3g} m): "
+            "the roughness parameter is only indicative"
+        )
+    return {
+        "weight_kg": weight_kg,
+        "johnson_half_width_m": b_johnson,
+        "johnson_peak_pressure_pa": p0,
+        "solver_half_width_m": sol.half_width_m,
+        "solver_peak_pressure_pa": sol.peak_pressure_pa,
+        "solver_strip_m": sol.dx_m,
+        "status": sol.status,
+    }
+
+
+def _database_names(database: Any, scene: Scene) -> list[str]:
+    for attr in ("models", "names"):
+        value = getattr(database, attr, None)
+        if value is not None and not callable(value):
+            return list(value)
+    if hasattr(database, "keys"):
+        return list(database.keys())
+    return list(scene.table("database").get("models", []))

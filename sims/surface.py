@@ -1,0 +1,566 @@
+"""Rough surfaces: generation, measured height maps, roughness, summits and their statistics.
+
+Heights ``z`` are n×m arrays in metres on a square grid of pitch ``pixel_m``; generated surfaces are periodic.
+
+* :func:`gaussian` — Gaussian autocorrelation ``Sq² exp(−r²/λ²)`` (power spectrum ∝ exp(−q²λ²/4)), exact Sq.
+* :func:`self_affine` — power spectrum ∝ q^−2(1+H) between a roll-off and a short-wavelength cut-off, exact Sq.
+  Both use deterministic spectral amplitudes with random phases, so the spectral moments of a realisation are
+  those of the prescribed spectrum (:func:`expected_spectral_moments`), not a random draw around them.
+* :func:`load_height_map` — a plain-text/CSV grid of heights with its pixel size (mean plane removed).
+* :func:`rms_roughness` (Sq), :func:`combined_sigma` (seed eq. 3), :func:`summits` (8-neighbour),
+  :func:`radius_of_curvature` (seed eq. 8, per point, x and y, negative at peaks), :func:`summit_statistics`
+  (η, β, σ_s from the summits) and :func:`mccool` (the same from spectral moments, McCool 1986 after Nayak 1971).
+
+Scene tables ``[surfaces.liner]`` and ``[surfaces.piston]``: see :class:`SurfaceSpec`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from sims.validation import SettingError, check_choice, check_int, check_keys, check_range
+
+__all__ = [
+    "SURFACE_KINDS",
+    "SpectralMoments",
+    "SummitData",
+    "SummitStatistics",
+    "SurfaceSpec",
+    "combined_sigma",
+    "curvature",
+    "expected_spectral_moments",
+    "gaussian",
+    "load_height_map",
+    "mccool",
+    "radius_of_curvature",
+    "rms_roughness",
+    "self_affine",
+    "spectral_moments",
+    "statistics_of",
+    "summit_data",
+    "summit_statistics",
+    "summits",
+    "surfaces_from_scene",
+]
+
+SURFACE_KINDS = ("gaussian", "self_affine", "file")
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Generation.
+
+
+def _wavenumbers(n: int, pixel_m: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """q_x (full axis) and q_y (half axis, rfft layout), rad/m."""
+    qx = 2.0 * np.pi * np.fft.fftfreq(n, d=pixel_m)
+    qy = 2.0 * np.pi * np.fft.rfftfreq(n, d=pixel_m)
+    return qx, qy
+
+
+def _check_grid(n: int, pixel_m: float) -> tuple[int, float]:
+    n = check_int("n", n, 8, 8192)
+    if n % 2:
+        raise SettingError("n", n, "expected an even number of points (FFT layout)")
+    pixel_m = check_range("pixel_m", pixel_m, 0.0, 1.0, lo_open=True, unit="m")
+    return n, pixel_m
+
+
+def _gaussian_psd(q2: NDArray[np.float64], correlation_m: float) -> NDArray[np.float64]:
+    return np.exp(-q2 * correlation_m**2 / 4.0)
+
+
+def _self_affine_psd(q2: NDArray[np.float64], hurst: float, q_roll: float, q_cut: float) -> NDArray[np.float64]:
+    q = np.sqrt(q2)
+    with np.errstate(divide="ignore"):
+        c = np.power(np.maximum(q, q_roll), -2.0 * (1.0 + hurst))
+    return np.where(q <= q_cut, c, 0.0)
+
+
+def _synthesise(psd: NDArray[np.float64], n: int, sq_m: float, seed: int) -> NDArray[np.float64]:
+    rng = np.random.default_rng(seed)
+    phase = rng.uniform(0.0, 2.0 * np.pi, size=psd.shape)
+    spec = np.sqrt(psd) * np.exp(1j * phase)
+    # The q_y = 0 and Nyquist columns of the half spectrum must be Hermitian themselves; otherwise irfft2 keeps
+    # only their Hermitian part and the realised power there is random, not the prescribed spectrum.
+    half = n // 2
+    for col in (0, spec.shape[1] - 1):
+        c = spec[:, col]
+        c[half + 1 :] = np.conj(c[1:half][::-1])
+        c[0] = abs(c[0])
+        c[half] = abs(c[half])
+    spec[0, 0] = 0.0
+    z = np.fft.irfft2(spec, s=(n, n))
+    z -= z.mean()
+    s = float(np.sqrt(np.mean(z * z)))
+    if not s > 0.0:
+        raise SettingError("surface", "spectrum", "the spectrum has no power between the cut-offs on this grid")
+    z *= sq_m / s
+    return z
+
+
+def gaussian(n: int, *, pixel_m: float, sq_m: float, correlation_m: float, seed: int = 0) -> NDArray[np.float64]:
+    """n×n periodic Gaussian surface, heights in m, RMS exactly ``sq_m``.
+
+    Autocorrelation ``sq_m² exp(−r²/λ²)`` with λ = ``correlation_m`` (its 1/e length). Resolve λ with at least
+    8 pixels for summit statistics that agree with McCool's (resolution-independent) values.
+    """
+    n, pixel_m = _check_grid(n, pixel_m)
+    sq_m = check_range("sq_m", sq_m, 0.0, 1.0, lo_open=True, unit="m")
+    correlation_m = check_range("correlation_m", correlation_m, 0.0, 1.0, lo_open=True, unit="m")
+    qx, qy = _wavenumbers(n, pixel_m)
+    q2 = qx[:, None] ** 2 + qy[None, :] ** 2
+    return _synthesise(_gaussian_psd(q2, correlation_m), n, sq_m, check_int("seed", seed, 0))
+
+
+def _self_affine_q(n: int, pixel_m: float, rolloff_m: float | None, cutoff_m: float | None) -> tuple[float, float]:
+    box = n * pixel_m
+    rolloff_m = box if rolloff_m is None else check_range("rolloff_m", rolloff_m, 2 * pixel_m, box, unit="m")
+    cutoff_m = 2 * pixel_m if cutoff_m is None else check_range("cutoff_m", cutoff_m, 2 * pixel_m, box, unit="m")
+    if cutoff_m > rolloff_m:
+        raise SettingError("cutoff_m", cutoff_m, f"expected a value <= rolloff_m = {rolloff_m:g} m")
+    return 2 * np.pi / rolloff_m, 2 * np.pi / cutoff_m
+
+
+def self_affine(
+    n: int,
+    *,
+    pixel_m: float,
+    sq_m: float,
+    hurst: float,
+    rolloff_m: float | None = None,
+    cutoff_m: float | None = None,
+    seed: int = 0,
+) -> NDArray[np.float64]:
+    """n×n periodic self-affine surface (heights in m, RMS exactly ``sq_m``).
+
+    Isotropic power spectrum C(q) ∝ q^−2(1+H) for 2π/``rolloff_m`` ≤ q ≤ 2π/``cutoff_m``, flat below the
+    roll-off, zero above the cut-off. Defaults: roll-off at the box size, cut-off at 2 pixels (Nyquist). Summit
+    statistics of such broadband surfaces depend on the cut-off/pixel size: report them together.
+    """
+    n, pixel_m = _check_grid(n, pixel_m)
+    sq_m = check_range("sq_m", sq_m, 0.0, 1.0, lo_open=True, unit="m")
+    hurst = check_range("hurst", hurst, 0.0, 1.0, lo_open=True)
+    q_roll, q_cut = _self_affine_q(n, pixel_m, rolloff_m, cutoff_m)
+    qx, qy = _wavenumbers(n, pixel_m)
+    q2 = qx[:, None] ** 2 + qy[None, :] ** 2
+    return _synthesise(_self_affine_psd(q2, hurst, q_roll, q_cut), n, sq_m, check_int("seed", seed, 0))
+
+
+def load_height_map(path: str | Path, *, pixel_m: float, height_unit_m: float = 1.0) -> NDArray[np.float64]:
+    """Read a measured height map: a plain-text grid (whitespace or comma separated, ``#`` comments).
+
+    ``height_unit_m`` converts the file's numbers to metres (1e-6 for µm). The least-squares mean plane is
+    removed (form and tilt are not roughness). The map is not periodic: summits on its border are not counted.
+    """
+    pixel_m = check_range("pixel_m", pixel_m, 0.0, 1.0, lo_open=True, unit="m")
+    height_unit_m = check_range("height_unit_m", height_unit_m, 0.0, 1e3, lo_open=True, unit="m")
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise SettingError("path", str(p), "file not found") from None
+    except OSError as exc:
+        raise SettingError("path", str(p), f"cannot be read ({exc.strerror})") from None
+    rows = []
+    for line_no, line in enumerate(text.splitlines(), 1):
+        line = line.split("#", 1)[0].strip()
+        if not line:
+            continue
+        parts = line.replace(",", " ").replace(";", " ").split()
+        try:
+            rows.append([float(v) for v in parts])
+        except ValueError:
+            raise SettingError("path", f"{p}:{line_no}", "expected numbers only") from None
+    if not rows or len({len(r) for r in rows}) != 1:
+        raise SettingError("path", str(p), "expected a rectangular grid of numbers (same count on every line)")
+    z = np.asarray(rows, dtype=float) * height_unit_m
+    if z.shape[0] < 8 or z.shape[1] < 8:
+        raise SettingError("path", str(p), f"expected at least 8×8 heights, got {z.shape[0]}×{z.shape[1]}")
+    if not np.isfinite(z).all():
+        raise SettingError("path", str(p), "contains non-finite heights")
+    ny, nx = z.shape
+    yy, xx = np.mgrid[0:ny, 0:nx]
+    a = np.column_stack([np.ones(z.size), xx.ravel(), yy.ravel()])
+    coef, *_ = np.linalg.lstsq(a, z.ravel(), rcond=None)
+    return z - (a @ coef).reshape(z.shape)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Roughness and summits.
+
+
+def rms_roughness(z: ArrayLike) -> float:
+    """Sq: RMS of heights about their mean, m."""
+    z = np.asarray(z, dtype=float)
+    return float(np.sqrt(np.mean((z - z.mean()) ** 2)))
+
+
+def combined_sigma(sq1_m: float, sq2_m: float) -> float:
+    """σ = √(Sq1² + Sq2²), m (seed eq. 3)."""
+    return math.hypot(check_range("sq1_m", sq1_m, 0.0), check_range("sq2_m", sq2_m, 0.0))
+
+
+def summits(z: ArrayLike, *, periodic: bool = True) -> NDArray[np.bool_]:
+    """Boolean mask of summits: points strictly higher than all 8 neighbours.
+
+    ``periodic=False`` (measured maps): border points are never summits.
+    """
+    z = np.asarray(z, dtype=float)
+    if periodic:
+        mask = np.ones(z.shape, dtype=bool)
+        for dx in (-1, 0, 1):
+            for dy in (-1, 0, 1):
+                if dx or dy:
+                    mask &= z > np.roll(np.roll(z, dx, axis=0), dy, axis=1)
+        return mask
+    mask = np.zeros(z.shape, dtype=bool)
+    c = z[1:-1, 1:-1]
+    inner = np.ones(c.shape, dtype=bool)
+    ny, nx = z.shape
+    for dx in (-1, 0, 1):
+        for dy in (-1, 0, 1):
+            if dx or dy:
+                inner &= c > z[1 + dx : ny - 1 + dx, 1 + dy : nx - 1 + dy]
+    mask[1:-1, 1:-1] = inner
+    return mask
+
+
+def _derivatives(z: NDArray[np.float64], pixel_m: float, axis: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Central 3-point first and second derivatives along ``axis`` (periodic wrap; edges of measured maps are
+    never summits, so their wrapped values are not used there)."""
+    zp = np.roll(z, -1, axis=axis)
+    zm = np.roll(z, 1, axis=axis)
+    return (zp - zm) / (2.0 * pixel_m), (zp - 2.0 * z + zm) / pixel_m**2
+
+
+def curvature(z: ArrayLike, pixel_m: float, axis: int) -> NDArray[np.float64]:
+    """Profile curvature z″/(1 + z′²)^(3/2) along ``axis`` (0: x = rows, 1: y), 1/m; negative at peaks."""
+    z = np.asarray(z, dtype=float)
+    d1, d2 = _derivatives(z, pixel_m, axis)
+    return d2 / (1.0 + d1 * d1) ** 1.5
+
+
+def radius_of_curvature(z: ArrayLike, pixel_m: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Seed eq. 8 per point: (R_x, R_y) = (1 + z′²)^(3/2) / z″ in x and y, m; negative at peaks, ±inf where flat."""
+    out = []
+    for axis in (0, 1):
+        k = curvature(z, pixel_m, axis)
+        with np.errstate(divide="ignore"):
+            out.append(1.0 / k)
+    return out[0], out[1]
+
+
+@dataclass(frozen=True)
+class SummitStatistics:
+    """Asperity statistics: ``eta`` summit density (m⁻²), ``beta`` mean summit radius (m), ``sigma_s`` SD of summit
+    heights (m), ``n_summits`` (0 for the spectral estimate), ``alpha`` bandwidth (spectral estimate only)."""
+
+    eta: float
+    beta: float
+    sigma_s: float
+    n_summits: int = 0
+    alpha: float = math.nan
+
+    def as_dict(self) -> dict[str, float]:
+        return {k: float(v) for k, v in asdict(self).items()}
+
+
+@dataclass(frozen=True)
+class SummitData:
+    """The summits of one height map: heights (m, from the mean plane) and mean-curvature radii (m)."""
+
+    height_m: NDArray[np.float64]
+    radius_m: NDArray[np.float64]
+    area_m2: float
+
+
+def summit_data(z: ArrayLike, pixel_m: float, *, periodic: bool = True) -> SummitData:
+    """Heights and radii of all summits; radius = 1/κ with κ = −(κ_x + κ_y)/2 from eq. 8's curvatures (> 0).
+
+    The curvatures are evaluated at the summits only (3-point stencils, periodic wrap for generated maps).
+    """
+    z = np.asarray(z, dtype=float)
+    pixel_m = check_range("pixel_m", pixel_m, 0.0, 1.0, lo_open=True, unit="m")
+    zc = z - z.mean()
+    mask = summits(zc, periodic=periodic)
+    i, j = np.nonzero(mask)
+    ny, nx = zc.shape
+    c = zc[i, j]
+    neighbours = (
+        (zc[(i + 1) % ny, j], zc[(i - 1) % ny, j]),  # x (axis 0)
+        (zc[i, (j + 1) % nx], zc[i, (j - 1) % nx]),  # y (axis 1)
+    )
+    kappa = np.zeros(c.shape)
+    for zp, zm in neighbours:
+        slope = (zp - zm) / (2.0 * pixel_m)
+        kappa -= (zp - 2.0 * c + zm) / pixel_m**2 / (1.0 + slope * slope) ** 1.5  # eq. 8 curvature, < 0 at peaks
+    kappa /= 2.0  # strictly positive: a summit is above its 4 axial neighbours
+    if periodic:
+        area = z.size * pixel_m**2
+    else:
+        area = (ny - 2) * (nx - 2) * pixel_m**2
+    return SummitData(height_m=c, radius_m=1.0 / kappa, area_m2=area)
+
+
+def statistics_of(d: SummitData) -> SummitStatistics:
+    """η, β, σ_s of the summits in ``d`` (see :func:`summit_statistics`)."""
+    n = d.height_m.size
+    if n < 2:
+        raise SettingError("surface", n, "fewer than 2 summits: no statistics (grid too small or too smooth)")
+    return SummitStatistics(
+        eta=n / d.area_m2,
+        beta=float(1.0 / np.mean(1.0 / d.radius_m)),
+        sigma_s=float(np.std(d.height_m)),
+        n_summits=int(n),
+    )
+
+
+def summit_statistics(z: ArrayLike, pixel_m: float, *, periodic: bool = True) -> SummitStatistics:
+    """η (m⁻²), β (m), σ_s (m) directly from the 8-neighbour summits of ``z``.
+
+    β = 1/mean(κ) with κ the mean curvature at a summit (mean(1/κ) is dominated by the flattest summits).
+    """
+    return statistics_of(summit_data(z, pixel_m, periodic=periodic))
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Spectral moments and McCool.
+
+
+@dataclass(frozen=True)
+class SpectralMoments:
+    """Profile moments of an isotropic surface: m0 = Sq² (m²), m2 = ⟨z_x²⟩ (−), m4 = ⟨z_xx²⟩ (m⁻²)."""
+
+    m0: float
+    m2: float
+    m4: float
+
+    @property
+    def alpha(self) -> float:
+        """Nayak's bandwidth parameter α = m0 m4 / m2²."""
+        return self.m0 * self.m4 / self.m2**2
+
+
+def _moments_from_power(
+    power: NDArray[np.float64], qx: NDArray[np.float64], qy: NDArray[np.float64]
+) -> SpectralMoments:
+    """``power[i, j]`` at (qx[i], qy[j]) over the full plane; x/y averaged (isotropic estimate)."""
+    qx2 = (qx**2)[:, None]
+    qy2 = (qy**2)[None, :]
+    m0 = float(power.sum())
+    m2 = float(0.5 * ((power * qx2).sum() + (power * qy2).sum()))
+    m4 = float(0.5 * ((power * qx2**2).sum() + (power * qy2**2).sum()))
+    return SpectralMoments(m0, m2, m4)
+
+
+def spectral_moments(z: ArrayLike, pixel_m: float) -> SpectralMoments:
+    """m0, m2, m4 of a height map from its Fourier transform (spectral derivatives; periodic assumption)."""
+    z = np.asarray(z, dtype=float)
+    z = z - z.mean()
+    ny, nx = z.shape
+    power = np.abs(np.fft.fft2(z)) ** 2 / (z.size**2)
+    qx = 2.0 * np.pi * np.fft.fftfreq(ny, d=pixel_m)
+    qy = 2.0 * np.pi * np.fft.fftfreq(nx, d=pixel_m)
+    return _moments_from_power(power, qx, qy)
+
+
+def expected_spectral_moments(psd_half: NDArray[np.float64], n: int, pixel_m: float, sq_m: float) -> SpectralMoments:
+    """Moments of the surface :func:`_synthesise` makes from ``psd_half`` (rfft layout), without making it."""
+    qx, qy = _wavenumbers(n, pixel_m)
+    w = np.full(psd_half.shape[1], 2.0)  # the rfft half-plane stands for both halves ...
+    w[0] = 1.0  # ... except the q_y = 0 column
+    if n % 2 == 0:
+        w[-1] = 1.0  # and the Nyquist column
+    power = psd_half * w[None, :]
+    power[0, 0] = 0.0
+    m = _moments_from_power(power, qx, qy)
+    scale = sq_m**2 / m.m0
+    return SpectralMoments(sq_m**2, m.m2 * scale, m.m4 * scale)
+
+
+def mccool(moments: SpectralMoments) -> SummitStatistics:
+    """Summit statistics from spectral moments (McCool 1986, after Nayak 1971), for an isotropic Gaussian surface.
+
+    η = m4/(6π√3 m2) (m⁻²), β = 0.375 √(π/m4) (m), σ_s = √(1 − 0.8968/α) σ (m), α = m0 m4/m2².
+    (A public generator library writes β with √(m4/m2): dimensionally wrong.)
+    """
+    m0, m2, m4 = moments.m0, moments.m2, moments.m4
+    if not (m0 > 0 and m2 > 0 and m4 > 0):
+        raise SettingError("moments", (m0, m2, m4), "expected positive spectral moments")
+    alpha = moments.alpha
+    if alpha <= 0.8968:  # pragma: no cover - impossible for a real spectrum (α >= 1 by Cauchy–Schwarz)
+        raise SettingError("alpha", alpha, "expected a bandwidth parameter > 0.8968")
+    return SummitStatistics(
+        eta=m4 / (6.0 * math.pi * math.sqrt(3.0) * m2),
+        beta=0.375 * math.sqrt(math.pi / m4),
+        sigma_s=math.sqrt(1.0 - 0.8968 / alpha) * math.sqrt(m0),
+        n_summits=0,
+        alpha=alpha,
+    )
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Scene specification.
+
+_KIND_KEYS = {
+    "gaussian": ("kind", "n", "pixel_m", "sq_m", "correlation_m", "seed"),
+    "self_affine": ("kind", "n", "pixel_m", "sq_m", "hurst", "rolloff_m", "cutoff_m", "seed"),
+    "file": ("kind", "path", "pixel_m", "height_unit_m"),
+}
+_REQUIRED = {
+    "gaussian": ("n", "pixel_m", "sq_m", "correlation_m"),
+    "self_affine": ("n", "pixel_m", "sq_m", "hurst"),
+    "file": ("path", "pixel_m"),
+}
+
+
+@dataclass(frozen=True)
+class SurfaceSpec:
+    """One ``[surfaces.<body>]`` table, validated. Keys (SI):
+
+    ``kind``           ``"gaussian"`` | ``"self_affine"`` | ``"file"``
+    ``n``              grid points per side (even, 8…8192) — generated kinds
+    ``pixel_m``        grid pitch, m (all kinds; for ``file`` the measured pixel size)
+    ``sq_m``           RMS roughness Sq, m — generated kinds (exact in the realisation)
+    ``correlation_m``  1/e autocorrelation length λ, m — ``gaussian``
+    ``hurst``          Hurst exponent H in (0, 1] — ``self_affine``
+    ``rolloff_m``      roll-off wavelength, m (default: box size) — ``self_affine``
+    ``cutoff_m``       short-wavelength cut-off, m (default: 2 pixels) — ``self_affine``
+    ``seed``           random seed, integer ≥ 0 (default 0) — generated kinds
+    ``path``           height-map file, relative to the scene file — ``file``
+    ``height_unit_m``  metres per unit of the file's numbers (default 1.0; 1e-6 for µm) — ``file``
+    """
+
+    section: str
+    kind: str
+    pixel_m: float
+    n: int = 0
+    sq_m: float = 0.0
+    correlation_m: float | None = None
+    hurst: float | None = None
+    rolloff_m: float | None = None
+    cutoff_m: float | None = None
+    seed: int = 0
+    path: str | None = None
+    height_unit_m: float = 1.0
+
+    @classmethod
+    def from_table(cls, section: str, table: dict[str, Any], base_dir: Path | None = None) -> SurfaceSpec:
+        if not isinstance(table, dict):
+            raise SettingError(section, table, "expected a TOML table")
+        if "kind" not in table:
+            raise SettingError(f"{section}.kind", None, "required key is missing; one of " + ", ".join(SURFACE_KINDS))
+        kind = check_choice(f"{section}.kind", table["kind"], SURFACE_KINDS)
+        check_keys(section, table, _KIND_KEYS[kind])
+        for key in _REQUIRED[kind]:
+            if key not in table:
+                raise SettingError(f"{section}.{key}", None, f"required key for kind {kind!r} is missing")
+        try:
+            if kind == "file":
+                path = table["path"]
+                if not isinstance(path, str) or not path:
+                    raise SettingError("path", path, "expected a file name")
+                p = Path(path)
+                if not p.is_absolute() and base_dir is not None:
+                    p = base_dir / p
+                return cls(
+                    section=section,
+                    kind=kind,
+                    pixel_m=check_range("pixel_m", table["pixel_m"], 0.0, 1.0, lo_open=True, unit="m"),
+                    path=str(p),
+                    height_unit_m=check_range(
+                        "height_unit_m", table.get("height_unit_m", 1.0), 0.0, 1e3, lo_open=True, unit="m"
+                    ),
+                )
+            n, pixel_m = _check_grid(table["n"], table["pixel_m"])
+            spec = cls(
+                section=section,
+                kind=kind,
+                n=n,
+                pixel_m=pixel_m,
+                sq_m=check_range("sq_m", table["sq_m"], 0.0, 1e-2, lo_open=True, unit="m"),
+                seed=check_int("seed", table.get("seed", 0), 0),
+            )
+            if kind == "gaussian":
+                lam = check_range("correlation_m", table["correlation_m"], 0.0, 1.0, lo_open=True, unit="m")
+                if lam < 2 * pixel_m or lam > n * pixel_m / 4:
+                    raise SettingError(
+                        "correlation_m",
+                        lam,
+                        f"expected 2 pixels to a quarter box: [{2 * pixel_m:g}, {n * pixel_m / 4:g}] m",
+                    )
+                return cls(**{**asdict(spec), "correlation_m": lam})
+            hurst = check_range("hurst", table["hurst"], 0.0, 1.0, lo_open=True)
+            q_roll, q_cut = _self_affine_q(n, pixel_m, table.get("rolloff_m"), table.get("cutoff_m"))
+            return cls(
+                **{
+                    **asdict(spec),
+                    "hurst": hurst,
+                    "rolloff_m": 2 * np.pi / q_roll,
+                    "cutoff_m": 2 * np.pi / q_cut,
+                }
+            )
+        except SettingError as exc:
+            if exc.field.startswith(section):
+                raise
+            raise SettingError(f"{section}.{exc.field}", exc.value, exc.allowed) from None
+
+    @property
+    def periodic(self) -> bool:
+        return self.kind != "file"
+
+    def heights(self) -> NDArray[np.float64]:
+        """The height map, m (generated or loaded)."""
+        if self.kind == "gaussian":
+            return gaussian(
+                self.n, pixel_m=self.pixel_m, sq_m=self.sq_m, correlation_m=float(self.correlation_m), seed=self.seed
+            )
+        if self.kind == "self_affine":
+            return self_affine(
+                self.n,
+                pixel_m=self.pixel_m,
+                sq_m=self.sq_m,
+                hurst=float(self.hurst),
+                rolloff_m=self.rolloff_m,
+                cutoff_m=self.cutoff_m,
+                seed=self.seed,
+            )
+        return load_height_map(str(self.path), pixel_m=self.pixel_m, height_unit_m=self.height_unit_m)
+
+    def moments(self) -> SpectralMoments:
+        """Spectral moments without generating the surface (generated kinds); measured maps are loaded."""
+        if self.kind == "file":
+            return spectral_moments(self.heights(), self.pixel_m)
+        qx, qy = _wavenumbers(self.n, self.pixel_m)
+        q2 = qx[:, None] ** 2 + qy[None, :] ** 2
+        if self.kind == "gaussian":
+            psd = _gaussian_psd(q2, float(self.correlation_m))
+        else:
+            q_roll = 2 * np.pi / float(self.rolloff_m)
+            psd = _self_affine_psd(q2, float(self.hurst), q_roll, 2 * np.pi / float(self.cutoff_m))
+        return expected_spectral_moments(psd, self.n, self.pixel_m, self.sq_m)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {k: v for k, v in asdict(self).items() if v is not None}
+
+
+def surfaces_from_scene(scene: Any) -> tuple[SurfaceSpec, SurfaceSpec]:
+    """Parse ``[surfaces.liner]`` and ``[surfaces.piston]`` of ``scene``."""
+    table = scene.table("surfaces")
+    check_keys("surfaces", table, ("liner", "piston"))
+    base = None
+    source = getattr(scene, "source", "")
+    if source and not source.startswith("<"):
+        base = Path(source).resolve().parent
+    out = []
+    for body in ("liner", "piston"):
+        if body not in table:
+            raise SettingError(f"surfaces.{body}", None, "required table is missing")
+        out.append(SurfaceSpec.from_table(f"surfaces.{body}", table[body], base))
+    return out[0], out[1]

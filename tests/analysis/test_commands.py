@@ -1,0 +1,113 @@
+"""The analysis subcommands end to end: circuit, fit --json, figures, report (incomplete-session banner), demo."""
+
+import json
+
+import numpy as np
+import pytest
+
+from daq.cli import main
+
+W = np.array([5.0, 10.0, 15.0, 20.0])
+
+
+def _sweep_file(path):
+    from sims.rig import ModelSweep, SweepResult, save_sweep
+
+    models = {}
+    for name, expo in (("greenwood_tripp", 0.8), ("hertz", 2 / 3)):
+        n = W.size
+        models[name] = ModelSweep(
+            name=name, weight_kg=W, contact_area_m2=1e-7 * (W / 5) ** expo, min_separation_m=np.full(n, 1e-6),
+            force_n=W * 9.80665, peak_pressure_pa=np.full(n, 1e6), contact_width_m=np.full(n, 1e-3),
+            n_nodes=np.full(n, 10), converged=np.ones(n, bool),
+        )  # fmt: skip
+    return save_sweep(SweepResult(models=models, warnings=[], provenance={"software_version": "test"}), path)
+
+
+def _incomplete_session(path):
+    from daq.records import BlockRecord, now_iso
+    from daq.session_file import SessionFile
+
+    rng = np.random.default_rng(0)
+    with SessionFile.create(path) as sf:
+        sf.write_start({"started": now_iso(), "operator": "tester"}, "")
+        block = 0
+        for rep in range(3):
+            for w in W:
+                r = 2e-4 + 5e-10 / (1e-7 * (w / 5) ** 0.8) * (1 + 0.01 * rng.normal()) + 1e-7 * rng.normal(size=5)
+                sf.append_block(
+                    BlockRecord(
+                        block=block, run=0, weight_kg=float(w), repeat=rep, unit="V", reading=r,
+                        time_s=np.arange(5.0), resistance_ohm=r, valid=np.ones(5, bool), started=now_iso(),
+                    )
+                )  # fmt: skip
+                block += 1
+    return path
+
+
+def test_circuit_prints_the_paper_example(capsys):
+    assert main(["circuit"]) == 0
+    out = capsys.readouterr()
+    assert "120 mA" in out.out and "13.42 nV" in out.out
+    assert "105" in out.err  # the 6221 cannot source it
+
+
+def test_circuit_json_and_bad_value(capsys):
+    assert main(["circuit", "--current", "0.1", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["result"]["current_a"] == 0.1
+    assert main(["circuit", "--area", "-1"]) == 2
+    assert "circuit.contact_area_m2" in capsys.readouterr().err
+
+
+def test_fit_json_on_an_incomplete_session(tmp_path, capsys):
+    sim = _sweep_file(tmp_path / "sim.h5")
+    session = _incomplete_session(tmp_path / "inc.h5")
+    assert main(["fit", str(session), "--sim", str(sim), "--json", "--bootstrap", "200"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert set(d["models"]) == {"greenwood_tripp", "hertz"}
+    assert d["ranking"][0] == "greenwood_tripp"
+    for key in ("R_series_ohm", "R_series_se", "scale", "scale_se", "aic", "rmse_ohm"):
+        assert isinstance(d["models"]["hertz"][key], float)
+    assert d["measured"]["complete"] is False
+    assert abs(d["models"]["greenwood_tripp"]["scale"] - 1e-7) < 5 * d["models"]["greenwood_tripp"]["scale_se"]
+
+
+def test_report_has_banner_tables_and_figures(tmp_path, capsys):
+    sim = _sweep_file(tmp_path / "sim.h5")
+    session = _incomplete_session(tmp_path / "inc.h5")
+    out = tmp_path / "rep"
+    assert main(["report", str(session), "--sim", str(sim), "-o", str(out), "--bootstrap", "100"]) == 0
+    text = (out / "report.md").read_text()
+    assert text.count("INCOMPLETE SESSION") >= 1
+    assert "| weight [kg] |" in text and "ΔAIC" in text and "Provenance" in text
+    for ref in [line.split("](")[1].split(")")[0] for line in text.splitlines() if line.startswith("![")]:
+        assert (out / ref).is_file()
+
+
+def test_figures_command_writes_png_and_pdf(tmp_path, capsys):
+    sim = _sweep_file(tmp_path / "sim.h5")
+    session = _incomplete_session(tmp_path / "inc.h5")
+    out = tmp_path / "figs"
+    rc = main(["figures", str(session), "--sim", str(sim), "-o", str(out), "--format", "pdf", "--bootstrap", "0"])
+    assert rc == 0
+    names = {p.name for p in out.iterdir()}
+    assert {"fig09_measured.png", "fig09_measured.pdf", "fig12_normalised.png", "fit_residuals.pdf"} <= names
+    assert "fig02_database: not drawn" in capsys.readouterr().err
+
+
+def test_missing_session_is_a_one_line_error(tmp_path, capsys):
+    assert main(["fit", str(tmp_path / "nope.h5"), "--sim", str(tmp_path / "nope-sim.h5")]) == 2
+    assert "nope.h5" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_demo_end_to_end(tmp_path, capsys):
+    out = tmp_path / "demo"
+    assert main(["demo", "-o", str(out), "--bootstrap", "100"]) == 0
+    printed = capsys.readouterr().out
+    assert "report:" in printed
+    text = (out / "report.md").read_text()
+    assert "Simulated session" in text and "Seed paper Tab. 1" in text
+    assert (out / "session.h5").is_file() and (out / "sim.h5").is_file()
+    assert "every block reproduced identically" in text

@@ -1,0 +1,120 @@
+"""Figures contain the expected artists, labels and units (not pixels); files are written in two formats."""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from analysis import figures as F
+from analysis.fit import compare_models
+from analysis.measured import MeasuredCurve
+from analysis.normalisation import normalise_measured, normalise_simulated
+from sims.validation import SettingError
+
+W = np.array([5.0, 10.0, 15.0, 20.0])
+RNG = np.random.default_rng(0)
+CURVE = MeasuredCurve(W, (8e-3 / (W / 5.0) ** 0.8)[:, None] * (1 + 0.05 * RNG.normal(size=(4, 3))), paired=True)
+AREAS = {"greenwood_tripp": 1e-7 * (W / 5) ** 0.8, "hertz": 1e-7 * (W / 5) ** (2 / 3)}
+
+
+def _units(ax):
+    return "[" in ax.get_xlabel() and "]" in ax.get_xlabel() and "[" in ax.get_ylabel() and "]" in ax.get_ylabel()
+
+
+def _visible_axes(fig):
+    return [ax for ax in fig.axes if ax.get_visible()]
+
+
+def test_measured_has_every_repeat_and_mean_with_sd():
+    fig = F.figure_measured(CURVE)
+    ax = fig.axes[0]
+    repeat_lines = [ln for ln in ax.get_lines() if (ln.get_gid() or "").startswith("repeat-")]
+    assert len(repeat_lines) == 3
+    assert len(ax.containers) == 1  # the errorbar of mean ± SD
+    mean_line = ax.containers[0].lines[0]
+    assert np.allclose(mean_line.get_ydata(), CURVE.mean_ohm * 1e3)
+    assert _units(ax) and "mΩ" in ax.get_ylabel() and "kg" in ax.get_xlabel()
+    assert any("SD" in t.get_text() for t in ax.get_legend().get_texts())
+
+
+def test_simulated_area_one_line_per_model_with_names():
+    fig = F.figure_simulated_area({k: (W, a) for k, a in AREAS.items()})
+    ax = fig.axes[0]
+    assert len(ax.get_lines()) == 2
+    assert {t.get_text() for t in ax.get_legend().get_texts()} == {"Greenwood–Tripp", "Hertz"}
+    assert _units(ax) and "mm²" in ax.get_ylabel()
+    assert np.allclose(ax.get_lines()[0].get_ydata(), AREAS["greenwood_tripp"] * 1e6)
+
+
+def test_normalised_starts_at_one_for_all_curves():
+    sims = {k: normalise_simulated(W, 5e-10 / a) for k, a in AREAS.items()}
+    fig = F.figure_normalised(normalise_measured(CURVE), sims)
+    ax = fig.axes[0]
+    for line in ax.get_lines():
+        if len(line.get_ydata()) == W.size:
+            assert line.get_ydata()[0] == pytest.approx(1.0)
+    assert len(ax.containers) == 1
+    assert _units(ax) and "R/R₀" in ax.get_ylabel()
+
+
+def test_fit_figure_has_fits_and_residual_bars():
+    cmp = compare_models(CURVE, AREAS, height_m=5e-3, n_boot=50)
+    fig = F.figure_fit(cmp)
+    top, bottom = fig.axes[:2]
+    fitted = [ln for ln in top.get_lines() if "ΔAIC" in str(ln.get_label())]
+    assert len(fitted) == 2
+    assert {F.model_label(n) for n in AREAS} == {str(ln.get_label()).split(":")[0] for ln in fitted}
+    assert len(bottom.patches) == 2 * W.size
+    assert all("ΔAIC" in t.get_text() or "measured" in t.get_text() for t in top.get_legend().get_texts())
+    assert _units(bottom) and "mΩ" in top.get_ylabel()
+
+
+def test_database_two_panels_with_log_pressure():
+    h = np.linspace(0, 3e-6, 20)
+    c = SimpleNamespace(separation_m=h, pressure_pa=1e8 * np.exp(-h / 5e-7), area_fraction=0.1 * np.exp(-h / 4e-7))
+    fig = F.figure_database({"greenwood_tripp": c, "hertz": c})
+    a, b = fig.axes
+    assert a.get_yscale() == "log" and len(a.get_lines()) == 2 and len(b.get_lines()) == 2
+    assert _units(a) and _units(b) and "µm" in a.get_xlabel()
+
+
+def test_error_vs_time_is_log_log_and_counts_undrawable_rows():
+    rows = [
+        {"study": "gi", "method": "pbdv", "setting": "n=1", "error": 1e-3, "seconds": 1e-3},
+        {"study": "gi", "method": "pbdv", "setting": "n=2", "error": 1e-6, "seconds": 1e-2},
+        {"study": "gi", "method": "table", "setting": "x", "error": 0.0, "seconds": 1e-4},
+        SimpleNamespace(study="mesh", method="uniform", setting="64", error=2e-2, seconds=0.5),
+    ]
+    fig = F.figure_error_vs_time(rows)
+    axes = _visible_axes(fig)
+    assert len(axes) == 2
+    ax = axes[0]
+    assert ax.get_xscale() == "log" and ax.get_yscale() == "log"
+    assert "1 row" in ax.get_title()
+    assert _units(ax)
+    assert len(ax.get_lines()) == 1
+    with pytest.raises(SettingError, match="rows"):
+        F.figure_error_vs_time(rows, study="nothing")
+
+
+def test_save_writes_png_and_svg(tmp_path):
+    paths = F.save_figure(F.figure_measured(CURVE), tmp_path, "fig9")
+    assert [p.suffix for p in paths] == [".png", ".svg"]
+    assert paths[0].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "<svg" in paths[1].read_text()
+    with pytest.raises(SettingError, match="format"):
+        F.save_figure(F.figure_measured(CURVE), tmp_path, "x", formats=("bmp",))
+
+
+def test_a_model_looks_the_same_in_every_figure_and_models_differ():
+    known = list(F.MODEL_LABELS)
+    assert len({F.model_colour(n) for n in known}) == len(known)
+    assert len({(F.model_style(n)["linestyle"], F.model_style(n)["marker"]) for n in known}) == len(known)
+    area = F.figure_simulated_area({k: (W, a) for k, a in AREAS.items()}).axes[0].get_lines()
+    cmp = compare_models(CURVE, AREAS, height_m=5e-3, n_boot=0)
+    fit_lines = [ln for ln in F.figure_fit(cmp).axes[0].get_lines() if "ΔAIC" in str(ln.get_label())]
+    by_label = {str(ln.get_label()).split(":")[0]: ln.get_color() for ln in fit_lines}
+    for ln in area:
+        assert by_label[ln.get_label()] == ln.get_color()
+    assert F.model_label("jackson_green") == "Jackson–Green"
+    assert F.model_label("my_model") == "my model"

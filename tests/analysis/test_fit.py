@@ -1,0 +1,182 @@
+"""Fits of R = R_s + s·h/A: recovery of known parameters, interval coverage, information criteria, ranking."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from analysis.fit import area_at_weights, compare_models, fit_model, regressor
+from analysis.measured import MeasuredCurve
+from sims.validation import SettingError
+
+W = np.array([5.44, 7.44, 10.526, 13.616, 16.708, 19.795, 22.882, 25.966])
+H = 5e-3
+RS, S = 2e-4, 1e-7
+AREA = 1e-7 * (W / W[0]) ** 0.8
+
+
+def _data(seed, r=6, rel=0.05, area=AREA, paired=False):
+    rng = np.random.default_rng(seed)
+    truth = RS + S * H / area
+    v = truth[:, None] * (1 + rel * rng.normal(size=(W.size, r)))
+    return MeasuredCurve(W, v, paired=paired)
+
+
+def test_recovers_known_parameters_and_matches_independent_weighted_lstsq():
+    curve = _data(1, r=10)
+    f = fit_model(curve, AREA, height_m=H, n_boot=200)
+    assert abs(f.R_series_ohm - RS) < 4 * f.R_series_se
+    assert abs(f.scale - S) < 4 * f.scale_se
+    # independent solution: numpy lstsq on the sqrt-weighted design
+    y, sem = curve.mean_ohm, curve.sem_ohm
+    x = H / AREA
+    design = np.column_stack((np.ones_like(x), x)) / sem[:, None]
+    sol, *_ = np.linalg.lstsq(design, y / sem, rcond=None)
+    assert f.R_series_ohm == pytest.approx(sol[0], rel=1e-7, abs=1e-12)
+    assert f.scale == pytest.approx(sol[1], rel=1e-7)
+    # covariance for independent repeats is (XᵀWX)⁻¹
+    cov = np.linalg.inv(design.T @ design)
+    assert np.allclose(f.cov, cov, rtol=1e-8)
+    assert np.allclose(f.cov_ls, cov, rtol=1e-6)
+    # χ², AIC, BIC by their definitions
+    chi2 = float(np.sum(((y - sol[0] - sol[1] * x) / sem) ** 2))
+    assert f.chi2 == pytest.approx(chi2, rel=1e-8)
+    assert f.dof == 6
+    assert f.aic == pytest.approx(chi2 + 4)
+    assert f.bic == pytest.approx(chi2 + 2 * math.log(8))
+    assert f.rmse_ohm == pytest.approx(np.sqrt(np.mean((y - sol[0] - sol[1] * x) ** 2)))
+    # diagnostics like SciPy's
+    assert f.success and f.status > 0 and f.nfev >= 1 and f.message
+    assert f.cost == pytest.approx(chi2 / 2, rel=1e-8)
+    assert f.linear_check < 1e-8
+
+
+def test_noise_free_limit_is_exact():
+    truth = RS + S * H / AREA
+    v = truth[:, None] * (1 + 1e-9 * np.array([-1.0, 0.0, 1.0]))
+    f = fit_model(MeasuredCurve(W, v), AREA, height_m=H, n_boot=0)
+    assert f.R_series_ohm == pytest.approx(RS, rel=1e-6)
+    assert f.scale == pytest.approx(S, rel=1e-9)
+
+
+def _coverage(r, weighting, paired, n_sets=200):
+    hits = np.zeros(4)
+    for seed in range(n_sets):
+        f = fit_model(
+            _data(seed, r=r, paired=paired), AREA, height_m=H, weighting=weighting, n_boot=300, seed=10_000 + seed
+        )
+        hits += [
+            f.R_series_ci[0] <= RS <= f.R_series_ci[1],
+            f.scale_ci[0] <= S <= f.scale_ci[1],
+            f.R_series_boot_ci[0] <= RS <= f.R_series_boot_ci[1],
+            f.scale_boot_ci[0] <= S <= f.scale_boot_ci[1],
+        ]
+    return hits / n_sets
+
+
+TOL = 3 * math.sqrt(0.95 * 0.05 / 200)  # three binomial SDs for 200 data sets
+
+
+def test_t_intervals_cover_at_stated_rate_with_paired_series_and_pooled_weights():
+    cov = _coverage(r=6, weighting="pooled", paired=True)
+    assert abs(cov[0] - 0.95) < TOL and abs(cov[1] - 0.95) < TOL
+
+
+def test_t_and_bootstrap_intervals_cover_at_stated_rate_with_many_repeats():
+    cov = _coverage(r=30, weighting="repeats", paired=False)
+    assert np.all(np.abs(cov - 0.95) < TOL), cov
+
+
+def test_proportional_areas_cannot_be_told_apart():
+    # s absorbs any constant factor in A: ΔAIC = 0 exactly, and the statement says so
+    cmp = compare_models(_data(3), {"a": AREA, "b": 3.0 * AREA}, height_m=H, n_boot=200)
+    a, b = cmp.fits["a"], cmp.fits["b"]
+    assert abs(a.aic - b.aic) < 1e-8 * a.aic
+    assert b.scale == pytest.approx(3.0 * a.scale, rel=1e-9)
+    assert b.R_series_ohm == pytest.approx(a.R_series_ohm, rel=1e-7)
+    assert not cmp.discriminates
+    assert "do not discriminate" in cmp.statement
+
+
+def test_clearly_different_shapes_are_ranked_and_discriminated():
+    other = 1e-7 * (W / W[0]) ** 2.0
+    cmp = compare_models(_data(4, r=12, rel=0.01), {"wrong": other, "right": AREA}, height_m=H, n_boot=300)
+    assert cmp.ranking == ("right", "wrong")
+    assert cmp.delta_aic["wrong"] > 10
+    assert cmp.first_fraction["right"] > 0.95
+    assert cmp.discriminates
+    d = cmp.as_dict()
+    assert d["ranking"] == ["right", "wrong"]
+    for key in ("R_series_ohm", "R_series_se", "scale", "scale_se", "aic", "rmse_ohm"):
+        assert isinstance(d["models"]["right"][key], float)
+
+
+def test_holm_conversion_regressor():
+    x = regressor(np.array([math.pi * 1e-10]), H, "holm")
+    assert x[0] == pytest.approx(math.sqrt(math.pi) / (2 * 1e-5 * math.sqrt(math.pi)))
+
+
+def test_area_at_weights_exact_and_power_law_interpolation():
+    assert np.array_equal(area_at_weights(W, AREA, W[[0, 3]]), AREA[[0, 3]])
+    w = np.array([6.0, 20.0])
+    assert np.allclose(area_at_weights(W, AREA, w), 1e-7 * (w / W[0]) ** 0.8, rtol=1e-12)
+    with pytest.raises(SettingError, match="weight_kg"):
+        area_at_weights(W, AREA, np.array([30.0]))
+
+
+def test_bad_inputs_are_named():
+    curve = _data(0)
+    with pytest.raises(SettingError, match="weighting"):
+        fit_model(curve, AREA, height_m=H, weighting="magic")
+    with pytest.raises(SettingError, match="area_m2"):
+        fit_model(curve, AREA[:3], height_m=H)
+    with pytest.raises(SettingError, match="contact_area_m2"):
+        fit_model(curve, np.where(W > 20, 0.0, AREA), height_m=H)
+    with pytest.raises(SettingError, match="weights"):
+        fit_model(MeasuredCurve(W[:2], np.ones((2, 3)) + np.eye(2, 3)), AREA[:2], height_m=H)
+    single = MeasuredCurve(W, np.ones((8, 1)))
+    with pytest.raises(SettingError, match="blocks"):
+        fit_model(single, AREA, height_m=H)
+    flat = MeasuredCurve(W, np.ones((8, 3)))
+    with pytest.raises(SettingError, match="pooled"):
+        fit_model(flat, AREA, height_m=H)
+    with pytest.raises(SettingError, match="changes with weight"):
+        fit_model(_data(1), np.full(8, 1e-7), height_m=H)
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    r_s=st.floats(0.0, 1e-2),
+    s=st.floats(1e-10, 1e-4),
+    area0=st.floats(1e-12, 1e-3),
+    expo=st.floats(0.3, 1.5),
+    rel=st.floats(1e-6, 0.2),
+)
+def test_extreme_scales_give_finite_results_and_recover_the_truth(r_s, s, area0, expo, rel):
+    rng = np.random.default_rng(0)
+    area = area0 * (W / W[0]) ** expo
+    truth = r_s + s * H / area
+    v = truth[:, None] * (1 + rel * rng.normal(size=(W.size, 5)))
+    f = fit_model(MeasuredCurve(W, v), area, height_m=H, n_boot=50)
+    values = [f.R_series_ohm, f.R_series_se, f.scale, f.scale_se, f.chi2, f.aic, f.bic, f.rmse_ohm]
+    assert all(math.isfinite(x) for x in values)
+    assert f.R_series_se > 0 and f.scale_se > 0
+    assert f.linear_check < 1e-6
+    assert abs(f.scale - s) < 8 * f.scale_se
+    assert abs(f.R_series_ohm - r_s) < 8 * f.R_series_se + 1e-12 * truth.max()
+
+
+def test_single_repeats_with_block_errors():
+    truth = RS + S * H / AREA
+    rng = np.random.default_rng(2)
+    sem = 1e-3 * truth
+    v = (truth + sem * rng.normal(size=W.size))[:, None]
+    curve = MeasuredCurve(W, v, block_sem_ohm=sem[:, None], paired=True)
+    with pytest.raises(SettingError, match="n_boot"):
+        fit_model(curve, AREA, height_m=H, weighting="blocks")
+    f = fit_model(curve, AREA, height_m=H, weighting="blocks", n_boot=0)
+    assert f.ci_dof == (math.inf, math.inf)
+    assert abs(f.scale - S) < 4 * f.scale_se
+    assert math.isnan(f.R_series_boot_ci[0])

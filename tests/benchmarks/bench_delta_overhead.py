@@ -1,0 +1,117 @@
+"""Software overhead of one Delta block on the simulated bench with instrument time set to zero.
+
+Run by hand:  python tests/benchmarks/bench_delta_overhead.py [--counts 10 100 1000 10000] [--repeats 3]
+
+For each count it times, in one run (pair-wise against the baselines):
+  chunked    driver reads the buffer with TRAC:DATA:SEL? in chunks of 1000, simulator serves replies in chunks
+  single     one TRAC:DATA? for the whole buffer (simulator still serves in chunks)
+  bytewise   chunked driver reads, but replies served by pyvisa-sim's own byte-by-byte session read
+  replay     the same block replayed from a record (driver alone: no simulator, no VISA)
+and prints time per block and per reading, plus the error of the block mean against I·R (the physics check).
+A last table times plain pyvisa-sim (unmodified Device, bytearray.pop(0) per byte) serving an N-pair reply from a
+static YAML dialogue: the quadratic read the chunked path avoids.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+from instruments.delta import DeltaSettings
+from instruments.k6221 import Keithley6221
+from instruments.simulated import GPIB_ADDRESS, SimulatedBench, simulated_resource_manager
+from instruments.transport import RecordingTransport, ReplayTransport, VisaTransport
+
+R_OHM = 5e-3
+I_A = 1e-3
+
+
+def run_block(count: int, chunk_size: int | None, chunked_reads: bool = True, record: bool = False):
+    bench = SimulatedBench(resistance_ohm=R_OHM, seed=1, time_scale=0.0)
+    rm = simulated_resource_manager(bench)
+    rm.visalib.chunked_reads = chunked_reads
+    transport = VisaTransport.open(GPIB_ADDRESS, rm, timeout_ms=60_000)
+    rec = RecordingTransport(transport) if record else None
+    k = Keithley6221(rec or transport, chunk_size=chunk_size)
+    settings = DeltaSettings(high_a=I_A, count=count)
+    t0 = time.perf_counter()
+    block = k.run_delta(settings)
+    dt = time.perf_counter() - t0
+    k.close()
+    return dt, block, (rec.exchanges if rec else None)
+
+
+def replay_block(exchanges, count: int):
+    k = Keithley6221(ReplayTransport(exchanges), clock=lambda: 0.0, sleep=lambda s: None, chunk_size=1000)
+    t0 = time.perf_counter()
+    block = k.run_delta(DeltaSettings(high_a=I_A, count=count))
+    return time.perf_counter() - t0, block
+
+
+def plain_pyvisa_sim(n_pairs: int) -> float:
+    import pyvisa
+
+    reply = ",".join(["+5.000000E-06,+1.234000E+00"] * n_pairs)
+    text = (
+        'spec: "1.1"\ndevices:\n  d:\n    eom:\n      GPIB INSTR:\n        q: "\\n"\n        r: "\\n"\n'
+        f'    dialogues:\n      - q: "TRAC:DATA?"\n        r: "{reply}"\n'
+        "resources:\n  GPIB0::5::INSTR:\n    device: d\n"
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / f"plain{n_pairs}.yaml"
+        path.write_text(text)
+        rm = pyvisa.ResourceManager(f"{path}@sim")
+        res = rm.open_resource("GPIB0::5::INSTR", read_termination="\n", write_termination="\n", timeout=600_000)
+        t0 = time.perf_counter()
+        out = res.query("TRAC:DATA?")
+        dt = time.perf_counter() - t0
+        assert len(out) == len(reply)
+        rm.close()
+    return dt
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--counts", type=int, nargs="+", default=[10, 100, 1000, 10000])
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--bytewise-max", type=int, default=10000, help="skip the bytewise baseline above this count")
+    args = ap.parse_args()
+
+    print(f"Delta block overhead, simulated bench, time_scale=0, median of {args.repeats}; R = {R_OHM} Ω, I = {I_A} A")
+    print(f"{'count':>7} {'mode':>9} {'per block':>12} {'per reading':>13} {'vs chunked':>11} {'|mean/IR - 1|':>14}")
+    for count in args.counts:
+        rows = {}
+        modes = [("chunked", 1000, True), ("single", None, True)]
+        if count <= args.bytewise_max:
+            modes.append(("bytewise", 1000, False))
+        exchanges = None
+        for name, chunk, fast in modes:
+            times, block = [], None
+            for _ in range(args.repeats):
+                dt, block, ex = run_block(count, chunk, fast, record=(name == "chunked" and exchanges is None))
+                exchanges = exchanges or ex
+                times.append(dt)
+            rows[name] = (statistics.median(times), block)
+        rt = [replay_block(exchanges, count) for _ in range(args.repeats)]
+        rows["replay"] = (statistics.median(t for t, _ in rt), rt[0][1])
+        base = rows["chunked"][0]
+        for name, (t, block) in rows.items():
+            err = abs(block.mean / (I_A * R_OHM) - 1)
+            print(
+                f"{count:>7} {name:>9} {t * 1e3:>9.2f} ms {t / count * 1e6:>10.1f} µs {t / base:>10.2f}x {err:>14.2e}"
+            )
+
+    print("\nplain pyvisa-sim 0.7 (byte-by-byte, bytearray.pop(0)) serving one N-pair TRAC:DATA? reply")
+    for n in (1000, 5000, 20000):
+        t = plain_pyvisa_sim(n)
+        print(f"{n:>7} pairs {t:>8.3f} s  ({t / n * 1e6:.1f} µs per pair)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,42 @@
+"""Helpers that write small sessions through the real acquisition path (drive + FileWriter) on the simulated bench."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from daq.acquire import drive
+from daq.plan import SessionPlan, session_steps
+from daq.session_file import SessionFile
+from daq.writers import FileWriter
+
+from .conftest import make_link
+
+
+def start_record(plan: SessionPlan) -> dict:
+    return {"started": "2026-01-01T00:00:00.000+00:00", "operator": "tester", "host": "test", "plan": plan.describe()}
+
+
+def write_session(plan: SessionPlan, path: Path, *, steps=None, link=None, prompter=None, interrupts=None, run=0):
+    """Run ``plan`` (or ``steps``) on a simulated link into ``path``; return (outcome, link)."""
+    link = link or make_link(plan)
+    sf = SessionFile.create(path) if run == 0 else SessionFile.open_for_resume(path)
+    kwargs = {}
+    if prompter is not None:
+        kwargs["prompter"] = prompter
+    try:
+        sf.run = run if run else sf.run
+        outcome = drive(
+            link,
+            plan.delta,
+            steps if steps is not None else session_steps(plan),
+            [FileWriter(sf)],
+            start_record(plan),
+            plan.scene.text,
+            run=sf.run,
+            interrupts=interrupts,
+            blocks_planned=plan.blocks_planned,
+            **kwargs,
+        )
+    finally:
+        sf.close()
+    return outcome, link

@@ -1,0 +1,151 @@
+"""``contactrig acquire --sim``, ``replay`` and ``import`` through the dispatcher, and a killed ``--sim`` process."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import pytest
+
+from daq.cli import main
+from daq.session_file import load_session
+from daq.table_import import tab1_path
+
+from .conftest import ROOT, sim_scene_text
+
+# Tab. 1 of the seed paper, the "Avg" column [mΩ], typed from the paper (not shipped in tab1.csv)
+TAB1_AVG_MOHM = [8.0913, 7.5237, 5.9488, 4.7583, 3.9734, 3.4037, 2.2916, 1.8456]
+TAB1_WEIGHTS_KG = [5.44, 7.44, 10.526, 13.616, 16.708, 19.795, 22.882, 25.966]
+
+
+def test_import_tab1_reproduces_the_papers_averages(tmp_path):
+    out = tmp_path / "tab1.h5"
+    assert main(["import", "--tab1", "-o", str(out)]) == 0
+    s = load_session(out)
+    assert s.imported and s.complete and s.start["source"]["unit"] == "mohm"
+    assert len(s.summary) == 48 and set(s.summary.repeat) == set(range(1, 7))
+    avg = s.summary.groupby("weight_kg").mean_ohm.mean()
+    assert list(avg.index) == TAB1_WEIGHTS_KG
+    np.testing.assert_allclose(avg.to_numpy() * 1e3, TAB1_AVG_MOHM, atol=5.1e-5)  # the paper rounds to 1e-4 mΩ
+    assert s.summary.n.eq(1).all() and s.summary.sd_ohm.isna().all()  # one value per repeat: SD undefined
+
+
+def test_import_units_and_force(tmp_path):
+    table = tmp_path / "t.csv"
+    table.write_text("weight_kg,A,B\n1.0,1.5,2.5\n2.0,1.0,1.25\n")
+    out = tmp_path / "t.h5"
+    assert main(["import", str(table), "--unit", "uohm", "-o", str(out)]) == 0
+    s = load_session(out)
+    np.testing.assert_allclose(s.summary.mean_ohm, [1.5e-6, 2.5e-6, 1.0e-6, 1.25e-6], rtol=1e-15)
+    assert main(["import", str(table), "--unit", "ohm", "-o", str(out)]) == 2  # exists, no --force
+    assert main(["import", str(table), "--unit", "ohm", "-o", str(out), "--force"]) == 0
+    assert load_session(out).summary.mean_ohm.iloc[0] == 1.5
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("weight_kg,M1,Avg\n1,2,2\n", "looks like an average"),
+        ("weight_kg,M1,M2\n1,2,\n", "line 2, column 'M2'"),
+        ("weight_kg,M1\n1,abc\n", "expected a number"),
+        ("weight_kg,M1\n-1,2\n", "weight > 0"),
+        ("weight_kg,M1\n1,inf\n", "finite"),
+        ("weight_kg\n1\n", "repeat column"),
+        ("weight_kg,M1\n", "at least one row"),
+    ],
+)
+def test_import_rejects_bad_tables_with_one_message(tmp_path, capsys, text, message):
+    table = tmp_path / "bad.csv"
+    table.write_text(text)
+    assert main(["import", str(table), "--unit", "mohm", "-o", str(tmp_path / "o.h5")]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+    assert not (tmp_path / "o.h5").exists()
+
+
+def test_import_needs_a_unit(tmp_path, capsys):
+    assert main(["import", str(tab1_path()), "-o", str(tmp_path / "o.h5")]) == 2
+    assert "--unit is required" in capsys.readouterr().err
+
+
+def _scene(tmp_path):
+    path = tmp_path / "scene.toml"
+    path.write_text(sim_scene_text())
+    return path
+
+
+def test_simulated_session_follows_eq23_from_the_rig(tmp_path, capsys):
+    """--sim: mean R at each weight = R_s + ζ·h/A(W) (eq. 23, computed here by hand from the recorded areas)."""
+    out = tmp_path / "sim.h5"
+    code = main(["acquire", str(_scene(tmp_path)), "--sim", "--yes", "--sim-speed", "inf", "-o", str(out)])
+    assert code == 0, capsys.readouterr().err
+    s = load_session(out)
+    sim = s.start["simulation"]
+    assert s.start["sim"] and sim["model"] == "greenwood_tripp" and sim["time_scale"] == 0.0
+    area = np.array(sim["contact_area_m2"])
+    c = sim["circuit"]
+    import tomllib
+
+    table = tomllib.loads(sim_scene_text())["circuit"]
+    assert all(c[k] == table[k] for k in ("resistivity_ohm_m", "contact_height_m", "series_resistance_ohm"))
+    expected = c["series_resistance_ohm"] + c["resistivity_ohm_m"] * c["contact_height_m"] / area
+    means = s.summary.groupby("weight_kg").mean_ohm.mean()
+    assert list(means.index) == sim["weights_kg"]
+    np.testing.assert_allclose(means.to_numpy(), expected, rtol=1e-3)
+    assert np.all(np.diff(means.to_numpy()) < 0)  # falls with weight, as Tab. 1
+    assert np.all((means > 1e-4) & (means < 1e-1))  # mΩ scale, as Tab. 1
+    # replay through the dispatcher, as JSON
+    capsys.readouterr()
+    assert main(["replay", str(out), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["identical"] is True and report["blocks_replayed"] == 6
+
+
+def test_cli_argument_errors(tmp_path, capsys):
+    out = str(tmp_path / "o.h5")
+    assert main(["acquire", "--sim-speed", "10", "--yes", "-o", out]) == 2
+    assert "--sim-speed only applies to --sim" in capsys.readouterr().err
+    assert main(["acquire", "--sim", "--resume", "--force", "-o", out]) == 2
+    assert "contradict" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["acquire", "--sim", "--sim-speed", "0", "-o", out])
+    assert main(["acquire", "--sim", "--yes", "--resume", "-o", out]) == 2
+    assert "no session file" in capsys.readouterr().err
+
+
+def test_malformed_scene_is_one_error(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[session\nrepeats = 2\n")
+    assert main(["acquire", str(bad), "--sim", "--yes", "-o", str(tmp_path / "o.h5")]) == 2
+    err = capsys.readouterr().err
+    assert "malformed TOML" in err and err.count("\n") == 1
+    assert not (tmp_path / "o.h5").exists()
+
+
+def test_killed_sim_process_via_the_cli(tmp_path):
+    """`python -m daq.cli acquire --sim` killed with SIGKILL: the file opens and holds every reported block."""
+    out = tmp_path / "k.h5"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "daq.cli", "acquire", str(_scene(tmp_path)), "--sim", "--yes", "--sim-speed", "4",
+         "-o", str(out)],
+        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )  # fmt: skip
+    seen = []
+    for line in proc.stdout:
+        seen.append(line)
+        if line.startswith("block 2/"):
+            break
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=10)
+    assert any(ln.startswith("block 2/") for ln in seen), "".join(seen)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        s = load_session(out)
+    assert not s.complete and len(s.summary) >= 2
+    assert any("INCOMPLETE" in str(w.message) for w in caught)

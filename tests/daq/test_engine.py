@@ -1,0 +1,159 @@
+"""The acquisition engine on the simulated bench: operator decisions, Ctrl-C, instrument faults, source idle."""
+
+from __future__ import annotations
+
+import signal
+import warnings
+
+import pytest
+
+from daq.acquire import terminal_prompter
+from daq.engine import Interrupts
+from daq.plan import PlaceWeight
+from daq.session_file import load_session
+from instruments.errors import InstrumentTimeout
+
+from .conftest import make_link
+from .sessions import write_session
+
+
+def _load(path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return load_session(path)
+
+
+def _last_command(link):
+    return [e.message for e in link.recorder.exchanges if e.kind == "write"][-1]
+
+
+class SignalAfter:
+    """Transport wrapper that sends SIGINT to this process at chosen INIT:IMM commands (0-based count)."""
+
+    def __init__(self, inner, at):
+        self.inner = inner
+        self.at = set(at)
+        self.inits = 0
+
+    def write(self, message):
+        self.inner.write(message)
+        if message == "INIT:IMM":
+            if self.inits in self.at:
+                signal.raise_signal(signal.SIGINT)
+            self.inits += 1
+
+    def query(self, message):
+        return self.inner.query(message)
+
+    def read(self):
+        return self.inner.read()
+
+    def close(self):
+        self.inner.close()
+
+
+def test_operator_skip_and_quit(plan, tmp_path):
+    answers = iter(["s", "", "q"])
+    out, link = write_session(plan, tmp_path / "a.h5", prompter=lambda step: {"s": "skip", "": "go", "q": "quit"}[
+        next(answers)])  # fmt: skip
+    assert out.stop.status == "aborted" and "operator stopped" in out.stop.reason
+    assert out.stop.weights_skipped == (5.44,)
+    s = _load(tmp_path / "a.h5")
+    assert list(s.summary.weight_kg) == [10.526, 10.526]
+    assert _last_command(link) == "SOUR:SWE:ABOR"
+
+
+def test_terminal_prompter_reasks_and_handles_eof(capsys):
+    import io
+
+    replies = iter(["what", "s"])
+    ask = terminal_prompter(io.StringIO(), read=lambda: next(replies))
+    assert ask(PlaceWeight(0, 5.44, 2)) == "skip"
+
+    def eof():
+        raise EOFError
+
+    from daq.engine import OperatorQuit
+
+    with pytest.raises(OperatorQuit, match="--yes"):
+        terminal_prompter(io.StringIO(), read=eof)(PlaceWeight(0, 5.44, 2))
+
+
+def test_ctrl_c_once_stops_after_the_current_block(plan, tmp_path):
+    link = make_link(plan, wrapper=lambda t: SignalAfter(t, at=[2]))
+    with Interrupts() as intr:
+        out, _ = write_session(plan, tmp_path / "c.h5", link=link, interrupts=intr)
+    assert out.interrupted and out.stop.status == "aborted"
+    assert "stopped after the block at 10.526 kg, repeat 1 (block #2)" in out.stop.reason
+    s = _load(tmp_path / "c.h5")
+    assert list(s.summary.block) == [0, 1, 2] and s.complete
+    assert _last_command(link) == "SOUR:SWE:ABOR"
+
+
+class SignalTwice(SignalAfter):
+    """SIGINT at the INIT:IMM of block 1, and again at the next status poll (while the block runs)."""
+
+    def query(self, message):
+        if message == "STAT:OPER:EVEN?" and self.inits == 2 and not getattr(self, "second", False):
+            self.second = True
+            signal.raise_signal(signal.SIGINT)
+        return self.inner.query(message)
+
+
+def test_ctrl_c_twice_stops_now_and_keeps_completed_blocks(plan, tmp_path):
+    link = make_link(plan, wrapper=lambda t: SignalTwice(t, at=[1]))
+    with Interrupts() as intr:
+        out, _ = write_session(plan, tmp_path / "d.h5", link=link, interrupts=intr)
+    assert out.stop.status == "aborted" and "(block #1)" in out.stop.reason
+    s = _load(tmp_path / "d.h5")
+    assert list(s.summary.block) == [0]
+    assert set(s.exchanges.block) >= {-1, 0, 1}  # the discarded block's exchanges are kept for diagnosis
+    assert _last_command(link) == "SOUR:SWE:ABOR"
+
+
+def test_interrupt_handler_is_restored():
+    before = signal.getsignal(signal.SIGINT)
+    with Interrupts():
+        assert signal.getsignal(signal.SIGINT) is not before
+    assert signal.getsignal(signal.SIGINT) is before
+
+
+def test_instrument_timeout_mid_session(plan, tmp_path):
+    """The 6221 stops answering buffer reads at the second weight: failed, earlier blocks kept, source idle."""
+    link = make_link(plan)
+    bench = link.bench
+    place = link._place_weight
+
+    def place_and_break(w):
+        place(w)
+        if w == plan.session.weights_kg[1]:
+            bench.faults.silent = {"TRAC:DATA:SEL?"}
+
+    link._place_weight = place_and_break
+    out, _ = write_session(plan, tmp_path / "t.h5", link=link)
+    assert out.stop.status == "failed" and isinstance(out.error, InstrumentTimeout)
+    assert "10.526 kg, repeat 1 (block #2)" in out.stop.reason and "TRAC:DATA:SEL?" in out.stop.reason
+    s = _load(tmp_path / "t.h5")
+    assert s.complete and s.status == "failed" and list(s.summary.block) == [0, 1]
+    assert _last_command(link) == "SOUR:SWE:ABOR"
+
+
+def test_missing_nanovoltmeter_fails_before_any_block(plan, tmp_path):
+    from instruments.errors import NanovoltmeterMissing
+    from instruments.simulated import Faults
+
+    link = make_link(plan, faults=Faults(voltmeter_absent=True))
+    with pytest.raises(NanovoltmeterMissing, match="Trigger Link"):
+        write_session(plan, tmp_path / "n.h5", link=link)
+    assert _last_command(link) == "SOUR:SWE:ABOR"
+
+
+def test_invalid_readings_are_counted_not_averaged(plan, tmp_path):
+    from instruments.simulated import Faults
+
+    link = make_link(plan, faults=Faults(overflow_readings={2, 5}))
+    out, _ = write_session(plan, tmp_path / "o.h5", link=link)
+    s = _load(tmp_path / "o.h5")
+    assert out.stop.status == "success"
+    assert (s.summary.n_invalid == 2).all() and (s.summary.n == plan.delta.count - 2).all()
+    assert (~s.readings.valid).sum() == 2 * plan.blocks_planned

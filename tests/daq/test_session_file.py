@@ -1,0 +1,308 @@
+"""The HDF5 session file: layout, records, checksums, and one clear error per fault."""
+
+from __future__ import annotations
+
+import errno
+import os
+import resource
+import signal
+import subprocess
+import sys
+import warnings
+
+import h5py
+import numpy as np
+import pytest
+
+import daq
+from daq import session_file
+from daq.errors import (
+    ChecksumError,
+    FileLockingError,
+    IncompleteSessionWarning,
+    NewerSchemaError,
+    SessionExistsError,
+    SessionFileError,
+    SessionWriteError,
+)
+from daq.records import BlockRecord, StopRecord, now_iso
+from daq.session_file import SCHEMA_VERSION, SessionFile, load_session
+from daq.writers import FileWriter
+
+from .sessions import write_session
+
+
+@pytest.fixture
+def session_path(plan, tmp_path):
+    path = tmp_path / "s.h5"
+    outcome, _ = write_session(plan, path)
+    assert outcome.stop.status == "success", outcome.stop.reason
+    return path
+
+
+def test_roundtrip_contract(session_path, plan):
+    s = daq.load_session(session_path)
+    assert s.complete and not s.imported and s.status == "success"
+    assert list(s.summary.columns[:9]) == [
+        "block", "run", "weight_kg", "repeat", "mean_ohm", "sd_ohm", "sem_ohm", "n", "n_invalid",
+    ]  # fmt: skip
+    assert len(s.summary) == plan.blocks_planned
+    assert len(s.readings) == plan.blocks_planned * plan.delta.count
+    assert set(s.readings.columns) >= {"weight_kg", "repeat", "index", "time_s", "resistance_ohm", "valid"}
+    # summary statistics recomputed independently with pandas from the readings
+    g = s.readings[s.readings.valid].groupby("block").resistance_ohm
+    np.testing.assert_allclose(g.mean().to_numpy(), s.summary.mean_ohm.to_numpy(), rtol=1e-12)
+    np.testing.assert_allclose(g.std(ddof=1).to_numpy(), s.summary.sd_ohm.to_numpy(), rtol=1e-9)
+    np.testing.assert_allclose((g.std(ddof=1) / np.sqrt(g.count())).to_numpy(), s.summary.sem_ohm.to_numpy(), rtol=1e-9)
+    assert s.stop["blocks_in_file"] == plan.blocks_planned
+
+
+def test_simulated_readings_measure_the_bench_resistance(session_path):
+    """The V readings divided by ΔI give the resistance the simulated bench was set to (within its noise)."""
+    from .conftest import resistance_at
+
+    s = load_session(session_path)
+    for w, mean in s.summary.groupby("weight_kg").mean_ohm.mean().items():
+        assert mean == pytest.approx(resistance_at(w), rel=1e-3)
+    means = s.summary.groupby("weight_kg").mean_ohm.mean().to_numpy()
+    assert np.all(np.diff(means) < 0)  # heavier weight, lower resistance (like Tab. 1)
+
+
+def test_nexus_layout_and_units(session_path):
+    with h5py.File(session_path, "r") as h5:
+        assert h5.attrs["default"] == "entry"
+        assert h5.attrs["contactrig_schema"] == SCHEMA_VERSION
+        entry = h5["entry"]
+        assert entry.attrs["NX_class"] == "NXentry" and entry.attrs["default"] == "summary"
+        summary = entry["summary"]
+        assert summary.attrs["NX_class"] == "NXdata" and summary.attrs["signal"] == "mean_ohm"
+        assert list(summary.attrs["axes"]) == ["weight_kg"]
+        for name in ("weight_kg", "mean_ohm", "sd_ohm", "sem_ohm"):
+            assert summary[name].attrs["units"] in ("kg", "ohm")
+        assert summary["mean_ohm_errors"].id == summary["sem_ohm"].id
+        readings = entry["readings"]
+        assert readings.attrs["signal"] == "resistance_ohm"
+        assert readings["resistance_ohm"].attrs["units"] == "ohm" and readings["time_s"].attrs["units"] == "s"
+        assert readings["reading"].attrs["units"] == "V"
+        assert readings["resistance_ohm"].maxshape == (None,) and readings["resistance_ohm"].chunks
+        assert "scene_text" in entry["start"] and "T" in entry["start_time"].asstr()[()]
+        assert entry["stop"].attrs["status"] == "success"
+
+
+def test_exchanges_recorded_per_block(session_path, plan):
+    s = load_session(session_path)
+    ex = s.exchanges
+    assert set(ex.block) == {-1, *range(plan.blocks_planned)}
+    assert "*IDN?" in set(ex[ex.block == -1].message)
+    for b in range(plan.blocks_planned):
+        msgs = list(ex[ex.block == b].message)
+        assert "INIT:IMM" in msgs and msgs[-1] == "SOUR:SWE:ABOR"
+    assert ex.message.iloc[-1] == "SOUR:SWE:ABOR"  # closing leaves the source idle
+
+
+def _rows(n=3):
+    out = []
+    for b in range(n):
+        r = np.linspace(1e-3, 2e-3, 5) + b * 1e-4
+        out.append(
+            BlockRecord(
+                block=b, run=0, weight_kg=1.0 + b, repeat=1, unit="V", reading=r, time_s=np.arange(5.0),
+                resistance_ohm=r, valid=np.ones(5, bool), started=now_iso(),
+            )
+        )  # fmt: skip
+    return out
+
+
+def test_incomplete_session_says_so(tmp_path):
+    path = tmp_path / "inc.h5"
+    with SessionFile.create(path) as sf:
+        sf.write_start({"started": now_iso()}, "")
+        for rec in _rows():
+            sf.append_block(rec)
+    with pytest.warns(IncompleteSessionWarning, match="INCOMPLETE"):
+        s = load_session(path)
+    assert not s.complete and s.status == "incomplete" and s.stop is None and len(s.summary) == 3
+    assert any("INCOMPLETE" in w for w in s.warnings)
+
+
+def test_trailing_readings_of_an_unfinished_block_are_ignored(tmp_path):
+    path = tmp_path / "cut.h5"
+    with SessionFile.create(path) as sf:
+        sf.write_start({"started": now_iso()}, "")
+        for rec in _rows(2):
+            sf.append_block(rec)
+    with h5py.File(path, "a") as h5:  # what a kill between readings and summary leaves
+        for name in ("block", "index", "time_s", "reading", "resistance_ohm", "valid"):
+            h5["entry/readings"][name].resize((13,))
+    with pytest.warns(IncompleteSessionWarning, match="3 readings of an unfinished block ignored"):
+        s = load_session(path)
+    assert len(s.readings) == 10
+
+
+@pytest.mark.parametrize("target", ["entry/readings/resistance_ohm", "entry/summary/mean_ohm", "entry/readings/valid"])
+def test_corrupted_values_fail_the_checksum(session_path, target):
+    with h5py.File(session_path, "a") as h5:
+        ds = h5[target]
+        ds[1] = 0 if ds.dtype.kind == "u" else ds[1] * 1.0000001 + 1e-12
+    with pytest.raises(ChecksumError, match=r"SHA-256 mismatch in block [01] "):
+        load_session(session_path)
+
+
+def test_removed_block_fails_the_stop_record_check(session_path):
+    with h5py.File(session_path, "a") as h5:
+        for name in h5["entry/summary"]:
+            ds = h5["entry/summary"][name]
+            ds.resize((ds.shape[0] - 1,))
+    with pytest.raises(ChecksumError, match="stop record counts"):
+        load_session(session_path)
+
+
+def test_truncated_file(session_path):
+    size = session_path.stat().st_size
+    with open(session_path, "r+b") as fh:
+        fh.truncate(size // 2)
+    with pytest.raises(SessionFileError, match=r"truncated or corrupted|damaged"):
+        load_session(session_path)
+
+
+def test_garbage_and_foreign_files(tmp_path):
+    junk = tmp_path / "junk.h5"
+    junk.write_bytes(b"not an hdf5 file at all" * 10)
+    with pytest.raises(SessionFileError, match="truncated or corrupted"):
+        load_session(junk)
+    other = tmp_path / "other.h5"
+    with h5py.File(other, "w") as h5:
+        h5["x"] = 1
+    with pytest.raises(SessionFileError, match="not a contactrig session"):
+        load_session(other)
+    with pytest.raises(FileNotFoundError, match="no such session file"):
+        load_session(tmp_path / "missing.h5")
+
+
+def test_newer_schema_is_refused_with_advice(session_path):
+    with h5py.File(session_path, "a") as h5:
+        h5.attrs["contactrig_schema"] = SCHEMA_VERSION + 1
+    with pytest.raises(NewerSchemaError, match=r"schema 2.*upgrade contactrig"):
+        load_session(session_path)
+
+
+def test_older_schema_goes_through_upgrade_functions(session_path, monkeypatch):
+    with h5py.File(session_path, "a") as h5:
+        h5.attrs["contactrig_schema"] = SCHEMA_VERSION - 1
+    with pytest.raises(SessionFileError, match="no upgrade path"):
+        load_session(session_path)
+    calls = []
+
+    def upgrade(raw):
+        calls.append(SCHEMA_VERSION - 1)
+        return raw
+
+    monkeypatch.setitem(session_file.UPGRADES, SCHEMA_VERSION - 1, upgrade)
+    s = load_session(session_path)
+    assert calls == [SCHEMA_VERSION - 1] and s.schema_version == SCHEMA_VERSION - 1
+
+
+def test_existing_file_is_never_overwritten_without_force(session_path):
+    before = session_path.read_bytes()
+    with pytest.raises(SessionExistsError, match="--force"):
+        SessionFile.create(session_path)
+    assert session_path.read_bytes() == before
+    SessionFile.create(session_path, force=True).close()
+    assert session_path.read_bytes() != before
+
+
+def test_unwritable_paths(tmp_path):
+    with pytest.raises(SessionWriteError, match="does not exist"):
+        SessionFile.create(tmp_path / "no" / "such" / "dir" / "s.h5")
+    with pytest.raises(SessionWriteError, match="folder, not a file"):
+        SessionFile.create(tmp_path, force=True)
+    if os.path.isdir("/sys/kernel"):
+        with pytest.raises(SessionWriteError, match="no permission to write"):
+            SessionFile.create("/sys/kernel/contactrig-test.h5")
+
+
+def test_file_in_use_by_another_process(session_path):
+    holder = subprocess.Popen(
+        [sys.executable, "-c", f"import h5py,sys; f=h5py.File({str(session_path)!r},'a'); print('ok', flush=True); "
+         "sys.stdin.read()"],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        assert holder.stdout.readline().strip() == "ok"
+        with pytest.raises(FileLockingError, match="open in another process"):
+            load_session(session_path)
+    finally:
+        holder.stdin.close()
+        holder.wait(timeout=10)
+
+
+def test_network_share_refusing_locks(tmp_path, monkeypatch):
+    """NFS/SMB without lock support: HDF5 says 'unable to lock file … No locks available' (errno 37)."""
+
+    def refuse(path, mode):
+        raise OSError(
+            errno.ENOLCK,
+            "Unable to synchronously create file (unable to lock file, errno = 37, error message = 'No locks "
+            "available')",
+        )
+
+    monkeypatch.setattr(session_file.h5py, "File", refuse)
+    with pytest.raises(FileLockingError, match="write the session to a local disk"):
+        SessionFile.create(tmp_path / "s.h5")
+
+
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+def test_full_disk_keeps_written_blocks_and_rescues_the_failing_one(tmp_path):
+    """A file-size limit (RLIMIT_FSIZE) makes writes fail like a full disk, mid-session."""
+    path = tmp_path / "full.h5"
+    sf = SessionFile.create(path)
+    sf.write_start({"started": now_iso()}, "")
+    writer = FileWriter(sf)
+    small = _rows(2)
+    for rec in small:
+        writer.block(rec)
+    big = np.linspace(1.0, 2.0, 40_000)
+    huge = BlockRecord(
+        block=2, run=0, weight_kg=3.0, repeat=1, unit="V", reading=big, time_s=big, resistance_ohm=big,
+        valid=np.ones(big.size, bool), started=now_iso(),
+    )  # fmt: skip
+    soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
+    old = signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    limit = 25 * big.size + path.stat().st_size // 2  # the HDF5 append cannot fit, the rescue file can
+    try:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, hard))
+        with pytest.raises(SessionWriteError, match=r"refuses to let .* grow.*saved to .*rescue\.npz"):
+            writer.block(huge)
+    finally:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
+        signal.signal(signal.SIGXFSZ, old)
+        try:
+            sf.close()
+        except OSError:
+            pass
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        s = load_session(path)
+    assert len(s.summary) == 2 and not s.complete
+    rescue = np.load(_rescue_file(path))
+    np.testing.assert_array_equal(rescue["resistance_ohm"], big)
+
+
+def _rescue_file(path):
+    import tempfile
+    from pathlib import Path
+
+    return Path(tempfile.gettempdir()) / f"{path.stem}.block2.rescue.npz"
+
+
+def test_stop_record_counts(tmp_path):
+    path = tmp_path / "stop.h5"
+    with SessionFile.create(path) as sf:
+        sf.write_start({"started": now_iso()}, "")
+        for rec in _rows(2):
+            sf.append_block(rec)
+        sf.write_stop(StopRecord("aborted", "test stop", now_iso(), 5, 2, 10, (3.0,)))
+    with pytest.warns(UserWarning, match="aborted: test stop"):
+        s = load_session(path)
+    assert s.complete and s.status == "aborted"
+    assert s.stop["blocks_planned"] == 5 and s.stop["weights_skipped"] == [3.0] and s.stop["readings_in_file"] == 10

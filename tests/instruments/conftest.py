@@ -1,0 +1,93 @@
+"""Fakes for driver tests: a scripted transport (PyMeasure ``expected_protocol`` style) and a fake clock."""
+
+from __future__ import annotations
+
+import pytest
+
+READ = object()  # marks an expected bare read in a script
+
+
+class FakeClock:
+    """Monotonic clock advanced only by ``sleep``; ``on_sleep`` may inject an exception (e.g. Ctrl-C)."""
+
+    def __init__(self) -> None:
+        self.t = 0.0
+        self.sleeps: list[float] = []
+        self.on_sleep = None
+
+    def __call__(self) -> float:
+        return self.t
+
+    def sleep(self, dt: float) -> None:
+        self.sleeps.append(dt)
+        self.t += dt
+        if self.on_sleep is not None:
+            self.on_sleep(len(self.sleeps))
+
+
+class ScriptedTransport:
+    """Serves a list of ``(command, reply)`` pairs in order and fails on any other command.
+
+    A pair with reply ``None`` is a write; ``(READ, reply)`` is a bare read.
+    """
+
+    def __init__(self, pairs: list[tuple[object, str | None]]) -> None:
+        self.pairs = list(pairs)
+        self.sent: list[str] = []
+        self.closed = False
+
+    def _next(self, kind: str, message: str | None) -> str | None:
+        assert self.pairs, f"unexpected {kind} {message!r}: the script is exhausted (sent so far: {self.sent})"
+        command, reply = self.pairs.pop(0)
+        if kind == "read":
+            assert command is READ, f"expected {command!r}, the driver read"
+        else:
+            self.sent.append(message)
+            assert command == message, f"expected {command!r}, the driver sent {kind} {message!r}"
+            assert (reply is None) == (kind == "write"), (
+                f"{message!r}: expected a {'write' if reply is None else 'query'}"
+            )
+        return reply
+
+    def write(self, message: str) -> None:
+        self._next("write", message)
+
+    def query(self, message: str) -> str:
+        return self._next("query", message)
+
+    def read(self) -> str:
+        return self._next("read", None)
+
+    def close(self) -> None:
+        self.closed = True
+
+
+class ResponderTransport:
+    """Answers queries from a table (value or callable); logs every command.
+
+    The 2182A relay answers NPLC = 1 (the default settings' read-back) unless the table says otherwise.
+    """
+
+    def __init__(self, replies: dict[str, object]) -> None:
+        self.replies = {"SYST:COMM:SER:ENT?": "+1.000000E+00\r", "*OPC?": "1", **replies}
+        self.sent: list[str] = []
+        self.closed = False
+
+    def write(self, message: str) -> None:
+        self.sent.append(message)
+
+    def query(self, message: str) -> str:
+        self.sent.append(message)
+        reply = self.replies[message]
+        return reply() if callable(reply) else reply
+
+    def read(self) -> str:
+        raise AssertionError("unexpected read")
+
+    def close(self) -> None:
+        self.closed = True
+
+
+@pytest.fixture
+def clock() -> FakeClock:
+    return FakeClock()

@@ -1,0 +1,220 @@
+"""Load sweep, settings and the sweep file: contract names, validation, round trip, database integration."""
+
+from __future__ import annotations
+
+import math
+
+import h5py
+import numpy as np
+import pytest
+from scipy.integrate import quad
+from scipy.optimize import brentq
+
+from sims.rig import ModelSweep, RigSettings, SweepResult, equilibrium, load_sweep, save_sweep, sweep
+from sims.rig_settings import PAPER_WEIGHTS_KG, STANDARD_GRAVITY
+from sims.scene import load_scene, parse_scene
+from sims.validation import SettingError
+from tests.sims.test_rig_laws import ExponentialLaw, GreenwoodTrippLaw, WinklerLaw
+
+LAWS = {"exp": ExponentialLaw(), "gt": GreenwoodTrippLaw()}
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return load_scene()
+
+
+@pytest.fixture(scope="module")
+def gt_sweep(scene):
+    return sweep(scene, models=["greenwood_tripp"])
+
+
+def test_default_scene_settings_are_the_papers(scene):
+    s = RigSettings.from_scene(scene)
+    assert s.weights_kg == PAPER_WEIGHTS_KG
+    assert s.piston_mass_kg == 0.0
+    # "255 N (26 kg)": the heaviest Tab. 1 weight times g.
+    assert s.load_n(max(s.weights_kg)) == pytest.approx(255.0, abs=0.5)
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "match"),
+    [
+        ("bore_m", 0.04, "rig.bore_m"),
+        ("clearance_m", -1e-6, "rig.clearance_m"),
+        ("clearance_m", 0.01, "rig.clearance_m"),
+        ("liner_radius_m", "big", "rig.liner_radius_m"),
+        ("mesh", "adaptive", "rig.mesh"),
+        ("gap", "approx", "rig.gap"),
+        ("n_theta", 1.5, "rig.n_theta"),
+        ("weights_kg", [], "rig.weights_kg"),
+        ("weights_kg", [1.0, math.nan], r"rig.weights_kg\[1\]"),
+        ("weights_kg", [-2.0], r"rig.weights_kg\[0\]"),
+        ("damping_n_s_per_m", -1.0, "rig.damping_n_s_per_m"),
+        ("mesh_tol", 0.0, "rig.mesh_tol"),
+    ],
+)
+def test_bad_rig_settings_name_the_key(key, value, match):
+    with pytest.raises(SettingError, match=match):
+        RigSettings.from_table({key: value})
+
+
+def test_scene_with_unknown_rig_key_is_rejected_before_anything_is_built():
+    text = load_scene().text.replace("[rig]\n", "[rig]\nbore_diameter_m = 0.084\n", 1)
+    with pytest.raises(SettingError, match=r"rig\.bore_diameter_m"):
+        sweep(parse_scene(text))
+
+
+def test_sweep_with_given_laws_matches_single_equilibria():
+    s = RigSettings(n_theta=8)
+    weights = [20.0, 0.0, 5.0]
+    result = sweep(settings=s, laws=LAWS, weights_kg=weights)
+    assert isinstance(result, SweepResult) and set(result.models) == {"exp", "gt"}
+    for name, law in LAWS.items():
+        m = result.models[name]
+        assert isinstance(m, ModelSweep)
+        assert m.weight_kg.tolist() == weights  # given order kept
+        for i, w in enumerate(weights):
+            eq = equilibrium(law, s, w)
+            assert m.contact_area_m2[i] == pytest.approx(eq.contact_area_m2, rel=1e-3, abs=1e-15)
+            assert m.force_n[i] == pytest.approx(w * STANDARD_GRAVITY, rel=1e-9, abs=1e-12)
+        assert m.contact_area_m2[1] == 0.0
+        assert m.contact_area_m2[0] > m.contact_area_m2[2] > 0
+
+
+def test_models_restricts_the_given_laws_and_unknown_names_fail():
+    result = sweep(laws=LAWS, models=["gt"], weights_kg=[1.0])
+    assert list(result.models) == ["gt"]
+    with pytest.raises(ValueError, match="nope"):
+        sweep(laws=LAWS, models=["nope"], weights_kg=[1.0])
+
+
+def test_greenwood_tripp_sweep_from_the_database_against_quadrature(scene, gt_sweep):
+    from sims.database import build_database
+
+    m = gt_sweep.models["greenwood_tripp"]
+    assert list(gt_sweep.models) == ["greenwood_tripp"]
+    assert gt_sweep.provenance["database"]["models"] == ["greenwood_tripp"]  # only the asked-for model was built
+    assert m.weight_kg.tolist() == list(PAPER_WEIGHTS_KG)
+    assert np.all(np.diff(m.contact_area_m2) > 0) and np.all(np.diff(m.min_separation_m) < 0)
+    assert np.all(m.converged)
+    # Independent check of the heaviest weight: adaptive quadrature of the exact-gap integrals on the same curve.
+    curve = build_database(scene, models=["greenwood_tripp"])["greenwood_tripp"]
+    s = RigSettings.from_scene(scene)
+    R_l, c, L, R_p = s.liner_radius_m, s.clearance_m, s.skirt_length_m, s.piston_radius_m
+
+    def gap(t, h0):
+        e = c - h0
+        return R_l - e * math.cos(t) - math.sqrt(R_p**2 - (e * math.sin(t)) ** 2)
+
+    def force(h0):
+        return 2 * R_p * L * quad(lambda t: curve.pressure(gap(t, h0)) * math.cos(t), 0, 0.6, limit=200)[0]
+
+    W = s.load_n(PAPER_WEIGHTS_KG[-1])
+    h_ref = brentq(lambda h: force(h) - W, 0.0, 2e-6, xtol=1e-16)
+    a_ref = 2 * R_p * L * quad(lambda t: curve.area_fraction_at(gap(t, h_ref)), 0, 0.6, limit=200)[0]
+    assert m.min_separation_m[-1] == pytest.approx(h_ref, rel=1e-4)
+    assert m.contact_area_m2[-1] == pytest.approx(a_ref, rel=1e-3)
+
+
+def test_provenance_and_warnings(gt_sweep, scene):
+    prov = gt_sweep.provenance
+    assert prov["scene_text"] == scene.text
+    assert prov["software_version"]
+    assert prov["rig_settings"]["clearance_m"] == pytest.approx(40e-6)
+    assert prov["database"]["greenwood_tripp"]["sigma_m"] > 0
+    assert prov["line_contact_check"]["status"] == "converged"
+    # The roughness parameter check: α = πσE*/(4P′) for the heaviest weight is below the threshold in this scene.
+    sigma, e_star = prov["roughness_m"], prov["composite_modulus_pa"]
+    alpha = math.pi * sigma * e_star / (4 * RigSettings().load_n(25.966) / 0.045)
+    assert (alpha < 5) == any("roughness parameter" in w and "25.966" in w for w in gt_sweep.warnings)
+
+
+def test_save_and_load_round_trip(gt_sweep, tmp_path):
+    path = save_sweep(gt_sweep, tmp_path / "sim.h5")
+    back = load_sweep(path)
+    for name, m in gt_sweep.models.items():
+        for attr in ModelSweep.UNITS:
+            assert np.array_equal(getattr(back.models[name], attr), getattr(m, attr)), attr
+    assert back.warnings == gt_sweep.warnings
+    assert back.provenance["scene_text"] == gt_sweep.provenance["scene_text"]
+    with h5py.File(path) as f:
+        assert f["models/greenwood_tripp/contact_area_m2"].attrs["units"] == "m^2"
+        assert f.attrs["format"] == "contactrig-sweep"
+        assert f["scene_text"][()].decode() == gt_sweep.provenance["scene_text"]
+    assert not (tmp_path / "sim.h5.partial").exists()
+
+
+def test_load_sweep_rejects_other_files(tmp_path):
+    other = tmp_path / "other.h5"
+    with h5py.File(other, "w") as f:
+        f["x"] = 1
+    with pytest.raises(ValueError, match="not a contactrig sweep"):
+        load_sweep(other)
+    (tmp_path / "text.h5").write_text("hello")
+    with pytest.raises(ValueError, match="not a readable HDF5"):
+        load_sweep(tmp_path / "text.h5")
+    with pytest.raises(FileNotFoundError):
+        load_sweep(tmp_path / "missing.h5")
+
+
+def test_zero_clearance_sweep_is_finite():
+    s = RigSettings(clearance_m=0.0, n_theta=8)
+    result = sweep(settings=s, laws={"winkler": WinklerLaw(h_c=0.2e-6, h_max=0.2e-6)}, weights_kg=[0.0, 10.0, 1e3])
+    m = result.models["winkler"]
+    assert np.all(np.isfinite(m.contact_area_m2)) and np.all(np.isfinite(m.min_separation_m))
+    # With an exact fit and a law in contact at zero gap, the unloaded piston already touches all round (pre-load of
+    # the fit); the load then pushes the minimum gap down and is carried exactly.
+    assert m.contact_area_m2[0] > 0 and np.all(m.contact_area_m2 >= 0)
+    assert np.all(np.diff(m.min_separation_m) < 0)
+    assert np.allclose(m.force_n, np.array([0.0, 10.0, 1e3]) * STANDARD_GRAVITY, rtol=1e-9, atol=1e-9)
+
+
+def test_models_agree_when_elastic_and_differ_deep_in_the_plastic_regime(scene):
+    # The paper's observation: at the Tab. 1 loads the asperities stay elastic and the models agree.
+    hard = sweep(scene, models=["hertz", "pasaribu_schipper"], weights_kg=[25.966])
+    hz, ps = hard.models["hertz"].contact_area_m2, hard.models["pasaribu_schipper"].contact_area_m2
+    assert abs(ps[0] - hz[0]) / hz[0] < 0.01
+    # A soft piston alloy (H = 0.15 GPa) and a heavy load push the asperities far past yield: the plastic area
+    # (2πRδ, seed eq. 20) is twice the elastic one (πRδ, eq. 15) at equal interference, and a plastic summit carries
+    # less (H instead of the elastic pressure), so for the same load Pasaribu–Schipper's area exceeds Hertz's by more.
+    text = scene.text.replace("H_pa = 1.2e9", "H_pa = 0.15e9")
+    assert text != scene.text
+    soft = sweep(parse_scene(text), models=["hertz", "pasaribu_schipper"], weights_kg=[3000.0])
+    hz, ps = soft.models["hertz"].contact_area_m2, soft.models["pasaribu_schipper"].contact_area_m2
+    assert ps[0] > 1.5 * hz[0]
+
+
+def test_batch_solver_against_the_bessel_closed_form():
+    from sims.rig import batch_equilibrium
+    from tests.sims.test_rig_laws import exponential_area_m2, exponential_force_n
+
+    law = ExponentialLaw()
+    s = RigSettings(gap="small_clearance", n_theta=8, mesh_tol=1e-5)
+    weights = [0.0, 1.0, 13.616, 500.0]
+    batch = batch_equilibrium(law, s, weights)
+    R, L, c = s.piston_radius_m, s.skirt_length_m, s.clearance_m
+    for i, w in enumerate(weights):
+        if w == 0:
+            assert batch.contact_area_m2[i] == 0 and batch.min_separation_m[i] == c
+            continue
+        W = s.load_n(w)
+        h_ref = brentq(lambda h, W=W: exponential_force_n(law, h, R, L, c) - W, -5e-6, 30e-6, xtol=1e-22)
+        assert batch.min_separation_m[i] == pytest.approx(h_ref, rel=1e-6)
+        assert batch.contact_area_m2[i] == pytest.approx(exponential_area_m2(law, h_ref, R, L, c), rel=1e-5)
+    assert np.all(np.abs(batch.residual_n) <= 1e-9 * np.maximum(batch.load_n, 1.0))
+    assert batch.law_calls > 0 and batch.iterations > 0 and batch.mesh_levels >= 2
+
+
+def test_batch_solver_uniform_mesh_tail_law_and_overload():
+    from sims.rig import RigLoadError, batch_equilibrium
+
+    gt = GreenwoodTrippLaw()
+    uni = RigSettings(mesh="uniform", n_theta=256, n_axial=1)
+    batch = batch_equilibrium(gt, uni, [1e-6, 2.0])  # a tiny weight sits in the Greenwood–Tripp tail, h0 > h_max
+    assert batch.mesh.kind == "uniform" and batch.n_nodes == 256 and batch.mesh_levels == 1
+    assert batch.min_separation_m[0] > gt.h_max > batch.min_separation_m[1]
+    assert np.allclose(batch.contact_force_n, batch.load_n, rtol=1e-9)
+    capped = WinklerLaw(k=1e13, h_c=1e-6, h_max=1e-6, h_min=-1e-6, p_cap=1e5)
+    with pytest.raises(RigLoadError, match="extend the database"):
+        batch_equilibrium(capped, RigSettings(), [1.0, 100.0], name="capped")

@@ -1,0 +1,137 @@
+"""Rough surfaces: generators, height maps, summits, curvature (eq. 8) and McCool against summit statistics."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from sims import surface as s
+from sims.validation import SettingError
+
+PX = 1e-6
+
+
+def test_gaussian_exact_sq_zero_mean_deterministic() -> None:
+    z = s.gaussian(128, pixel_m=PX, sq_m=0.5e-6, correlation_m=8e-6, seed=4)
+    assert z.shape == (128, 128)
+    assert s.rms_roughness(z) == pytest.approx(0.5e-6, rel=1e-12)
+    assert abs(z.mean()) < 1e-20
+    np.testing.assert_array_equal(z, s.gaussian(128, pixel_m=PX, sq_m=0.5e-6, correlation_m=8e-6, seed=4))
+    assert not np.array_equal(z, s.gaussian(128, pixel_m=PX, sq_m=0.5e-6, correlation_m=8e-6, seed=5))
+    with pytest.raises(SettingError, match="n"):
+        s.gaussian(127, pixel_m=PX, sq_m=1e-6, correlation_m=8e-6)
+
+
+def test_gaussian_moments_match_the_autocorrelation_closed_form() -> None:
+    # ACF σ² exp(−r²/λ²): m2 = 2σ²/λ², m4 = 12σ²/λ⁴, α = 3
+    sig, lam = 0.5e-6, 10e-6
+    z = s.gaussian(256, pixel_m=PX, sq_m=sig, correlation_m=lam, seed=1)
+    m = s.spectral_moments(z, PX)
+    assert m.m0 == pytest.approx(sig**2, rel=1e-9)
+    assert m.m2 == pytest.approx(2 * sig**2 / lam**2, rel=0.05)
+    assert m.m4 == pytest.approx(12 * sig**2 / lam**4, rel=0.05)
+    spec = s.SurfaceSpec.from_table(
+        "surfaces.x", {"kind": "gaussian", "n": 256, "pixel_m": PX, "sq_m": sig, "correlation_m": lam}
+    )
+    e = spec.moments()
+    # deterministic amplitudes: the realisation has exactly the prescribed spectrum
+    assert e.m2 == pytest.approx(m.m2, rel=1e-9) and e.m4 == pytest.approx(m.m4, rel=1e-9)
+
+
+def test_summit_statistics_agree_with_mccool_on_a_resolved_gaussian_surface() -> None:
+    z = s.gaussian(512, pixel_m=PX, sq_m=0.5e-6, correlation_m=8e-6, seed=3)
+    direct = s.summit_statistics(z, PX)
+    mc = s.mccool(s.spectral_moments(z, PX))
+    assert direct.n_summits > 500
+    assert direct.eta == pytest.approx(mc.eta, rel=0.03)
+    assert direct.beta == pytest.approx(mc.beta, rel=0.03)
+    assert direct.sigma_s == pytest.approx(mc.sigma_s, rel=0.05)
+
+
+def test_mccool_formulas_are_dimensionally_right() -> None:
+    m = s.SpectralMoments(m0=1e-12, m2=1e-4, m4=1e6)
+    st = s.mccool(m)
+    assert st.eta == pytest.approx(1e6 / (6 * math.pi * math.sqrt(3) * 1e-4))
+    assert st.beta == pytest.approx(0.375 * math.sqrt(math.pi / 1e6))
+    assert st.alpha == pytest.approx(1e-12 * 1e6 / 1e-8)
+    assert st.sigma_s == pytest.approx(math.sqrt(1 - 0.8968 / st.alpha) * 1e-6)
+
+
+def test_summits_eight_neighbour_periodic_and_border() -> None:
+    z = np.zeros((6, 6))
+    z[2, 3] = 1.0  # a summit
+    z[0, 0] = 2.0  # on the border: a summit only if periodic
+    z[4, 1] = 0.5
+    z[4, 2] = 0.5  # a plateau of two equal points is no summit
+    m = s.summits(z)
+    assert {tuple(p) for p in np.argwhere(m)} == {(2, 3), (0, 0)}
+    assert {tuple(p) for p in np.argwhere(s.summits(z, periodic=False))} == {(2, 3)}
+
+
+def test_radius_of_curvature_eq8_on_a_circle_negative_at_peaks() -> None:
+    radius = 1e-3
+    x = (np.arange(-50, 51) * 1e-6)[:, None]
+    z = np.sqrt(radius**2 - x**2) * np.ones((1, 5))
+    rx, _ = s.radius_of_curvature(z, 1e-6)
+    inner = rx[5:-5, 2]
+    np.testing.assert_allclose(inner, -radius, rtol=1e-6)  # exact circle: |R| = radius everywhere, negative
+
+
+def test_summit_radius_of_a_paraboloid() -> None:
+    radius = 5e-4
+    yy, xx = np.mgrid[-20:21, -20:21] * 1e-6
+    z = -(xx**2 + yy**2) / (2 * radius)
+    d = s.summit_data(z, 1e-6, periodic=False)
+    assert d.height_m.size == 1
+    assert float(d.radius_m[0]) == pytest.approx(radius, rel=1e-6)
+
+
+def test_combined_sigma_eq3() -> None:
+    assert s.combined_sigma(0.3e-6, 0.4e-6) == pytest.approx(0.5e-6)
+
+
+def test_self_affine_exact_sq_and_spectral_slope() -> None:
+    hurst = 0.8
+    z = s.self_affine(256, pixel_m=PX, sq_m=1e-6, hurst=hurst, rolloff_m=64e-6, cutoff_m=4e-6, seed=2)
+    assert s.rms_roughness(z) == pytest.approx(1e-6, rel=1e-12)
+    power = np.abs(np.fft.fft2(z)) ** 2
+    q = 2 * np.pi * np.hypot(*np.meshgrid(np.fft.fftfreq(256, PX), np.fft.fftfreq(256, PX), indexing="ij"))
+    band = (q > 2 * np.pi / 40e-6) & (q < 2 * np.pi / 6e-6)
+    slope = np.polyfit(np.log(q[band]), np.log(power[band]), 1)[0]
+    assert slope == pytest.approx(-2 * (1 + hurst), abs=0.05)
+    assert power[q > 2 * np.pi / 4e-6 * 1.001].max() < 1e-20 * power.max()
+
+
+def test_load_height_map_removes_the_plane(tmp_path) -> None:
+    rng = np.random.default_rng(0)
+    rough = rng.normal(size=(12, 10))
+    rough -= rough.mean()
+    yy, xx = np.mgrid[0:12, 0:10]
+    data = rough + 0.3 * xx - 0.2 * yy + 5.0
+    f = tmp_path / "map.csv"
+    f.write_text("# heights in µm\n" + "\n".join(",".join(f"{v:.12g}" for v in row) for row in data))
+    z = s.load_height_map(f, pixel_m=2e-6, height_unit_m=1e-6)
+    a = np.column_stack([np.ones(rough.size), xx.ravel(), yy.ravel()])
+    coef, *_ = np.linalg.lstsq(a, rough.ravel(), rcond=None)
+    np.testing.assert_allclose(z, (rough - (a @ coef).reshape(rough.shape)) * 1e-6, atol=1e-15)
+    bad = tmp_path / "bad.txt"
+    bad.write_text("1 2 3\n4 5\n")
+    with pytest.raises(SettingError, match="rectangular"):
+        s.load_height_map(bad, pixel_m=1e-6)
+    with pytest.raises(SettingError, match="not found"):
+        s.load_height_map(tmp_path / "none.txt", pixel_m=1e-6)
+
+
+def test_surface_spec_validation_names_the_key() -> None:
+    good = {"kind": "gaussian", "n": 64, "pixel_m": 1e-6, "sq_m": 1e-6, "correlation_m": 8e-6}
+    assert s.SurfaceSpec.from_table("surfaces.liner", good).n == 64
+    with pytest.raises(SettingError, match=r"surfaces\.liner\.hurst"):
+        s.SurfaceSpec.from_table("surfaces.liner", {**good, "hurst": 0.5})
+    with pytest.raises(SettingError, match=r"surfaces\.liner\.sq_m"):
+        s.SurfaceSpec.from_table("surfaces.liner", {**good, "sq_m": -1.0})
+    with pytest.raises(SettingError, match=r"surfaces\.liner\.kind"):
+        s.SurfaceSpec.from_table("surfaces.liner", {**good, "kind": "fractal"})
+    with pytest.raises(SettingError, match=r"surfaces\.liner\.correlation_m"):
+        s.SurfaceSpec.from_table("surfaces.liner", {k: v for k, v in good.items() if k != "correlation_m"})
