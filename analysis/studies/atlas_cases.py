@@ -90,8 +90,111 @@ def greenwood_tripp_cases() -> list[Case]:
     ]
 
 
+_ASPERITY_MODELS = ("hertz", "lagemann", "pasaribu_schipper", "jackson_green")
+
+
+def _asperity_extreme(name: str, E_star: float, deltas: np.ndarray) -> dict[str, np.ndarray]:
+    from sims.asperity import model
+
+    m = model(name, E_star=E_star, R=10e-6, H=min(2e9, E_star / 50))  # hardness/modulus of real solids
+    return {"force": m.force(deltas), "area": m.area(deltas)}
+
+
+def _check_monotone_and_zero(v: dict[str, np.ndarray]) -> None:
+    for key, arr in v.items():
+        assert arr[0] == 0.0 and arr[1] == 0.0, f"{key} not exactly 0 at delta <= 0"
+        assert np.all(np.diff(arr[1:]) >= 0), f"{key} not non-decreasing in delta"
+
+
+def _plastic_models_differ() -> dict[str, float]:
+    """Deep in the plastic regime (δ = 1000 ω_c1) the elastic models keep growing as δ^1.5 while the
+    plastic ones follow F = H·A: their forces must differ by orders of magnitude."""
+    from sims.asperity import model
+
+    E, R, H = 49e9, 10e-6, 1.2e9
+    wc1 = 0.89 * R * (H / E) ** 2
+    d = np.array([1000 * wc1])
+    out = {name: float(model(name, E_star=E, R=R, H=H).force(d)[0]) for name in _ASPERITY_MODELS}
+    return out
+
+
+def _check_plastic_differ(v: dict[str, float]) -> None:
+    assert v["hertz"] > 5 * v["pasaribu_schipper"], v
+    assert v["hertz"] > 2 * v["jackson_green"], v
+
+
+def asperity_cases() -> list[Case]:
+    deltas = np.array([-1.0, 0.0, 1e-15, 1e-9, 1e-6, 1e-3, 1.0])
+    cases = []
+    for name in _ASPERITY_MODELS:
+        for E, label in ((1e3, "1 kPa"), (1e12, "1 TPa")):
+            cases.append(
+                Case(
+                    f"δ from −1 m to 1 m, E* = {label}",
+                    f"asperity.{name}",
+                    "interference over 15 decades",
+                    lambda name=name, E=E: _asperity_extreme(name, E, deltas),
+                    "finite",
+                    check=_check_monotone_and_zero,
+                )
+            )
+    cases.append(
+        Case(
+            "δ = 1000 ω_c1",
+            "asperity (all)",
+            "deep plastic regime: the models must differ",
+            _plastic_models_differ,
+            "finite",
+            check=_check_plastic_differ,
+        )
+    )
+    return cases
+
+
+def _database_curve(model: str):
+    from sims.database import build_database
+    from sims.scene import load_scene
+
+    scene = load_scene()
+    return build_database(scene, models=[model], n_separations=64)[model]
+
+
+def _curve_far_outside(model: str) -> dict[str, np.ndarray]:
+    curve = _database_curve(model)
+    h = np.array([curve.h_min - 1e-3, curve.h_min - 1e-6, curve.h_max + 1e-6, curve.h_max + 1.0])
+    return {"pressure": curve.pressure(h), "area": curve.area_fraction_at(h), "slope": -curve.dpressure_dh(h)}
+
+
+def _check_outside(v: dict[str, np.ndarray]) -> None:
+    assert np.all(v["area"] <= 1.0), "area fraction above 1"
+    assert v["pressure"][0] >= v["pressure"][1] >= v["pressure"][2] >= v["pressure"][3], "not monotone"
+
+
+def _curve_nan_separation() -> np.ndarray:
+    return _database_curve("greenwood_tripp").pressure(np.array([np.nan]))
+
+
+def database_cases() -> list[Case]:
+    return [
+        *[
+            Case(
+                "h from h_min − 1 mm to h_max + 1 m",
+                f"database.{m}",
+                "separations far outside the table",
+                lambda m=m: _curve_far_outside(m),
+                "finite",
+                check=_check_outside,
+            )
+            for m in ("greenwood_tripp", "hertz")
+        ],
+        Case("h = NaN", "database.greenwood_tripp", "not a separation", _curve_nan_separation, "error"),
+    ]
+
+
 def all_cases() -> list[Case]:
     """Every case, in report order."""
     cases: list[Case] = []
     cases += greenwood_tripp_cases()
+    cases += asperity_cases()
+    cases += database_cases()
     return cases

@@ -51,7 +51,7 @@ def write_report(
     """Write one log–log error-against-time figure per study and ``report.md`` into ``directory``."""
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
-    from analysis.figures import error_time_figure
+    from analysis.figures import figure_error_vs_time, save_figure
 
     parts = [
         "# contactrig: error against run time, and the stability atlas",
@@ -65,7 +65,8 @@ def write_report(
         study_rows = [r for r in rows if r.study == name]
         if not study_rows:
             continue
-        fig_path = error_time_figure([r.as_dict() for r in study_rows], out / f"{name}.png", title=name)
+        fig = figure_error_vs_time(study_rows, study=name, title=name)
+        png = save_figure(fig, out, name, formats=("png", "svg"))[0]
         parts += [
             f"## {name}",
             "",
@@ -76,7 +77,7 @@ def write_report(
                 [(r.method, r.setting, _fmt(r.error), f"{r.seconds:.4g}") for r in study_rows],
             ),
             "",
-            f"![{name}]({Path(fig_path).name})",
+            f"![{name}]({png.name})",
             "",
         ]
     if outcomes:
