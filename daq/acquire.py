@@ -8,6 +8,7 @@ unreachable instrument removes the file just created (it holds nothing); it neve
 
 from __future__ import annotations
 
+import contextlib
 import getpass
 import os
 import sys
@@ -96,10 +97,8 @@ def drive(
     try:
         identity = link.identify()
     except BaseException:
-        try:
+        with contextlib.suppress(Exception):  # the identify error is the one to report
             link.close()
-        finally:
-            pass
         raise
     start = {
         **start,
@@ -119,7 +118,8 @@ def drive(
     try:
         engine.start(start, scene_text)
     except BaseException:
-        link.close()
+        with contextlib.suppress(Exception):
+            link.close()
         raise
     return engine.run(steps)
 

@@ -302,12 +302,20 @@ def _after_block_reason(done: list[BlockRecord]) -> str:
 
 
 def format_live_line(rec: BlockRecord, index: int, total: int) -> str:
-    """``block 3/48  5.44 kg  repeat 3  R = 8.0913 mΩ ± 0.0123 mΩ (SEM, n = 100)`` — the live line."""
+    """``block 3/48  5.44 kg  repeat 3  R = 8.0913 mΩ ± 12.3 µΩ (SEM, n = 100)`` — the live line."""
     st = rec.stats
     if st.n == 0:
         value = "no valid readings"
     else:
-        sem = "" if math.isnan(st.sem_ohm) else f" ± {st.sem_ohm * 1e3:.4f} mΩ"
+        sem = "" if math.isnan(st.sem_ohm) else f" ± {_ohm(st.sem_ohm)}"
         value = f"R = {st.mean_ohm * 1e3:.4f} mΩ{sem} (SEM, n = {st.n})"
     invalid = f", {st.n_invalid} invalid" if st.n_invalid else ""
     return f"block {index}/{total}  {rec.weight_kg:g} kg  repeat {rec.repeat}  {value}{invalid}"
+
+
+def _ohm(x: float) -> str:
+    """A resistance with an SI prefix chosen so that three significant digits show (e.g. ``5.12 nΩ``)."""
+    for factor, unit in ((1.0, "Ω"), (1e-3, "mΩ"), (1e-6, "µΩ"), (1e-9, "nΩ")):
+        if abs(x) >= factor:
+            return f"{x / factor:.3g} {unit}"
+    return f"{x / 1e-12:.3g} pΩ"

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from datetime import datetime
 from typing import Any, Literal
@@ -26,6 +27,7 @@ __all__ = [
     "StopRecord",
     "block_digest",
     "block_statistics",
+    "exchanges_digest",
     "now_iso",
 ]
 
@@ -87,6 +89,16 @@ def block_digest(
     return h.hexdigest()
 
 
+def exchanges_digest(exchanges: Iterable[Any]) -> str:
+    """SHA-256 (hex) over a block's recorded instrument exchanges (kind, message, reply, time, error)."""
+    h = hashlib.sha256()
+    for e in exchanges:
+        h.update("\x1f".join((e.kind, e.message, e.reply or "", e.error or "")).encode("utf-8"))
+        h.update(np.asarray([e.t_s], dtype="<f8").tobytes())
+        h.update(b"\x1e")
+    return h.hexdigest()
+
+
 @dataclass(frozen=True)
 class BlockRecord:
     """One completed Delta block: what the instrument returned, where it was taken, and how it was obtained.
@@ -109,6 +121,7 @@ class BlockRecord:
     exchanges: tuple[Exchange, ...] = ()
     stats: BlockStatistics = field(init=False)
     sha256: str = field(init=False)
+    exchanges_sha256: str = field(init=False)
 
     def __post_init__(self) -> None:
         stats = block_statistics(self.resistance_ohm, self.valid)
@@ -124,6 +137,7 @@ class BlockRecord:
             stats,
         )
         object.__setattr__(self, "sha256", digest)
+        object.__setattr__(self, "exchanges_sha256", exchanges_digest(self.exchanges))
 
 
 @dataclass(frozen=True)

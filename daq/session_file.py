@@ -10,7 +10,8 @@ Layout (schema 1; every numeric field has a ``units`` attribute)::
                               operator, host, times, imported, sim), ``scene_text`` (the full scene)
     /entry/summary            NXdata, signal mean_ohm, axes weight_kg: one row per completed block — block, run,
                               weight_kg, repeat, mean_ohm, sd_ohm, sem_ohm (= mean_ohm_errors), n, n_invalid, count,
-                              first_reading, started (ISO-8601), sha256
+                              first_reading, started (ISO-8601), sha256 (readings), first_exchange, n_exchanges,
+                              exchanges_sha256
     /entry/readings           NXdata, signal resistance_ohm: one row per reading — block, index, time_s, reading
                               (as returned, in the Delta unit), resistance_ohm, valid
     /entry/exchanges          NXcollection: every instrument exchange — run, block (−1 outside blocks), kind,
@@ -52,7 +53,15 @@ from daq.errors import (
     SessionFileError,
     SessionWriteError,
 )
-from daq.records import BlockRecord, BlockStatistics, Exchange, StopRecord, block_digest, now_iso
+from daq.records import (
+    BlockRecord,
+    BlockStatistics,
+    Exchange,
+    StopRecord,
+    block_digest,
+    exchanges_digest,
+    now_iso,
+)
 
 __all__ = [
     "FORMAT_NAME",
@@ -87,6 +96,9 @@ _SUMMARY_FIELDS: dict[str, tuple[Any, str]] = {
     "first_reading": ("<i8", ""),
     "started": (_STR, "ISO-8601"),
     "sha256": ("S64", ""),
+    "first_exchange": ("<i8", ""),
+    "n_exchanges": ("<i4", ""),
+    "exchanges_sha256": ("S64", ""),
 }
 _READING_FIELDS: dict[str, tuple[Any, str]] = {
     "block": ("<i4", ""),
@@ -288,6 +300,7 @@ class SessionFile:
         h5.attrs["h5py_version"] = versions["h5py"]
         h5.attrs["file_time"] = now_iso()
         h5.attrs["default"] = "entry"
+        h5.attrs["NX_class"] = "NXroot"
         entry = h5.create_group("entry")
         entry.attrs["NX_class"] = "NXentry"
         entry.attrs["default"] = "summary"
@@ -307,7 +320,7 @@ class SessionFile:
         readings.attrs["signal"] = "resistance_ohm"
         readings.attrs["axes"] = ["."]
         fields = dict(_READING_FIELDS)
-        fields["reading"] = ("<f8", delta_unit)
+        fields["reading"] = ("<f8", {"OHMS": "ohm", "OHM": "ohm"}.get(delta_unit.upper(), delta_unit))
         _make_table(readings, fields, 4096)
 
         exchanges = entry.create_group("exchanges")
@@ -332,7 +345,9 @@ class SessionFile:
             writer = cls(h5, p, fsync=fsync)
             runs = h5["entry/runs"]
             writer.run = len(runs)
+            keep_exchanges = None
             if "stop" in writer._entry:
+                keep_exchanges = json.loads(writer._entry["stop/record"][()]).get("exchanges_in_file")
                 last = runs[f"run_{writer.run - 1}"]
                 rec = json.loads(last["record"][()])
                 rec["stop"] = json.loads(writer._entry["stop/record"][()])
@@ -340,7 +355,7 @@ class SessionFile:
                 del writer._entry["stop"]
                 if "end_time" in writer._entry:
                     del writer._entry["end_time"]
-            writer._drop_partial_rows(keep_blocks)
+            writer._drop_partial_rows(keep_blocks, keep_exchanges)
             writer._block_hashes = [d.decode() for d in writer._entry["summary/sha256"][:]]
             writer._sync()
         except BaseException:
@@ -348,8 +363,12 @@ class SessionFile:
             raise
         return writer
 
-    def _drop_partial_rows(self, keep_blocks: int | None = None) -> None:
-        """Cut readings a kill left beyond the last complete block (they belong to no summary row)."""
+    def _drop_partial_rows(self, keep_blocks: int | None = None, keep_exchanges: int | None = None) -> None:
+        """Cut readings and exchanges a kill left beyond the last complete block (no summary row vouches for them).
+
+        ``keep_exchanges``: the exchange count of the stop record, if there is one; else the exchanges up to the
+        end of the last complete block are kept.
+        """
         summary = self._entry["summary"]
         n_blocks = min(summary[name].shape[0] for name in _SUMMARY_FIELDS)
         if keep_blocks is not None:
@@ -362,6 +381,16 @@ class SessionFile:
             ds = self._entry["readings"][name]
             if ds.shape[0] > n_readings:
                 ds.resize((n_readings,))
+        group = self._entry["exchanges"]
+        n_ex = min(group[name].shape[0] for name in _EXCHANGE_FIELDS)
+        if keep_exchanges is None:
+            keep_exchanges = (
+                int(summary["first_exchange"][n_blocks - 1] + summary["n_exchanges"][n_blocks - 1]) if n_blocks else 0
+            )
+        n_ok = _readable_rows(group, _EXCHANGE_FIELDS, min(n_ex, keep_exchanges))
+        for name in _EXCHANGE_FIELDS:
+            if group[name].shape[0] > n_ok:
+                group[name].resize((n_ok,))
 
     # -- records ------------------------------------------------------------------------------------------------------
     def write_start(self, start: dict[str, Any], scene_text: str) -> None:
@@ -396,6 +425,10 @@ class SessionFile:
         return int(self._summary["block"][0].get_space().shape[0])
 
     @property
+    def n_exchanges(self) -> int:
+        return int(self._exchanges["run"][0].get_space().shape[0])
+
+    @property
     def n_readings(self) -> int:
         return int(self._readings["block"][0].get_space().shape[0])
 
@@ -403,6 +436,7 @@ class SessionFile:
         """Append one completed block: readings and exchanges, flush, then its summary row, flush and fsync."""
         n = int(rec.reading.size)
         first = self.n_readings
+        first_exchange = self.n_exchanges
         try:
             _append(
                 self._readings,
@@ -437,6 +471,9 @@ class SessionFile:
                     "first_reading": [first],
                     "started": [rec.started],
                     "sha256": [rec.sha256.encode()],
+                    "first_exchange": [first_exchange],
+                    "n_exchanges": [len(rec.exchanges)],
+                    "exchanges_sha256": [rec.exchanges_sha256.encode()],
                 },
             )
             self._sync()
@@ -478,6 +515,7 @@ class SessionFile:
             "blocks_in_file": self.n_blocks,
             "readings_in_file": self.n_readings,
             "readings_done": stop.readings_done,
+            "exchanges_in_file": self.n_exchanges,
             "weights_skipped": list(stop.weights_skipped),
             "run": self.run,
             "sha256_blocks": _chain_digest(self._block_hashes),
@@ -583,26 +621,60 @@ def _schema_of(h5: h5py.File, path: Path) -> int:
     return schema
 
 
-def _read_table(group: h5py.Group, fields: Iterable[str], n: int | None = None) -> dict[str, np.ndarray]:
-    out = {}
-    for name in fields:
-        ds = group[name]
-        if ds.dtype.kind == "O":
-            out[name] = ds.asstr()[:n] if n is not None else ds.asstr()[:]
+def _read_column(ds: h5py.Dataset, n: int) -> np.ndarray:
+    return ds.asstr()[:n] if ds.dtype.kind == "O" else ds[:n]
+
+
+def _read_table(group: h5py.Group, fields: Iterable[str], n: int) -> dict[str, np.ndarray]:
+    return {name: _read_column(group[name], n) for name in fields}
+
+
+def _readable_rows(group: h5py.Group, fields: Iterable[str], n: int) -> int:
+    """The longest prefix (≤ n rows) of every column that can be read.
+
+    A writer that died in the middle of a flush (full disk, power loss) can leave the index of its last rows
+    pointing past the end of the file; the rows before them are intact.
+    """
+    names = list(fields)
+
+    def ok(k: int) -> bool:
+        try:
+            for name in names:
+                _read_column(group[name], k)
+        except (OSError, ValueError, RuntimeError):
+            return False
+        return True
+
+    if ok(n):
+        return n
+    lo, hi = 0, n  # ok(lo) holds (0 rows always read), ok(hi) does not
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if ok(mid):
+            lo = mid
         else:
-            out[name] = ds[:n] if n is not None else ds[:]
-    return out
+            hi = mid
+    return lo
 
 
 def _read_raw(h5: h5py.File, path: Path) -> dict[str, Any]:
     entry = h5["entry"]
+    stop = None
+    stop_note = ""
+    if "stop" in entry and "record" in entry["stop"]:
+        try:
+            stop = json.loads(entry["stop/record"][()])
+        except (json.JSONDecodeError, OSError, UnicodeDecodeError) as exc:  # the writer died writing it
+            stop_note = f"the stop record is unreadable ({_first_line(str(exc))}), so the session counts as incomplete"
     summary_group = entry["summary"]
     n_blocks = min(summary_group[name].shape[0] for name in _SUMMARY_FIELDS)
     summary = _read_table(summary_group, _SUMMARY_FIELDS, n_blocks)
     n_readings = int(summary["first_reading"][-1] + summary["count"][-1]) if n_blocks else 0
     readings_group = entry["readings"]
-    available = min(readings_group[name].shape[0] for name in _READING_FIELDS)
-    has_stop = "stop" in entry and "record" in entry["stop"]
+    on_file = available = min(readings_group[name].shape[0] for name in _READING_FIELDS)
+    has_stop = stop is not None
+    if not has_stop:
+        available = _readable_rows(readings_group, _READING_FIELDS, min(on_file, n_readings))
     dropped = 0
     if available < n_readings:
         if has_stop:
@@ -618,17 +690,17 @@ def _read_raw(h5: h5py.File, path: Path) -> dict[str, Any]:
         n_readings = int(summary["first_reading"][-1] + summary["count"][-1]) if n_blocks else 0
     readings = _read_table(readings_group, _READING_FIELDS, n_readings)
     exchanges_group = entry["exchanges"]
-    n_ex = min(exchanges_group[name].shape[0] for name in _EXCHANGE_FIELDS)
+    n_ex_on_file = min(exchanges_group[name].shape[0] for name in _EXCHANGE_FIELDS)
+    if stop is not None and "exchanges_in_file" in stop:
+        n_ex = min(n_ex_on_file, int(stop["exchanges_in_file"]))
+    else:
+        # incomplete: rows after the last complete block's exchanges were never vouched for (a kill or a
+        # failed write leaves them half-written or zero-filled)
+        n_ex = int(summary["first_exchange"][-1] + summary["n_exchanges"][-1]) if n_blocks else 0
+        n_ex = _readable_rows(exchanges_group, _EXCHANGE_FIELDS, min(n_ex, n_ex_on_file))
     exchanges = _read_table(exchanges_group, _EXCHANGE_FIELDS, n_ex)
     start = json.loads(entry["start/record"][()]) if "record" in entry["start"] else None
     scene_text = entry["start/scene_text"].asstr()[()] if "scene_text" in entry["start"] else ""
-    stop = None
-    stop_note = ""
-    if "stop" in entry and "record" in entry["stop"]:
-        try:
-            stop = json.loads(entry["stop/record"][()])
-        except (json.JSONDecodeError, OSError, UnicodeDecodeError) as exc:  # the writer died writing it
-            stop_note = f"the stop record is unreadable ({_first_line(str(exc))}), so the session counts as incomplete"
     runs = []
     for k in range(len(entry["runs"])):
         g = entry["runs"].get(f"run_{k}")
@@ -642,9 +714,10 @@ def _read_raw(h5: h5py.File, path: Path) -> dict[str, Any]:
         "scene_text": scene_text,
         "stop": stop,
         "runs": runs,
-        "trailing_readings": available - n_readings,
+        "trailing_readings": max(on_file - n_readings, 0),
         "dropped_blocks": dropped,
         "stop_note": stop_note,
+        "unreadable_exchanges": n_ex_on_file - n_ex,
         "reading_unit": readings_group["reading"].attrs.get("units", ""),
     }
 
@@ -684,6 +757,15 @@ def _verify(raw: dict[str, Any], path: Path) -> None:
                 position=i,
             )
         hashes.append(stored)
+        e0 = int(s["first_exchange"][i])
+        e1 = e0 + int(s["n_exchanges"][i])
+        ex = raw["exchanges"]
+        if e1 > len(ex["kind"]) or exchanges_digest(_exchange_list(ex, e0, e1)) != _text(s["exchanges_sha256"][i]):
+            raise ChecksumError(
+                f"{path}: the recorded instrument exchanges of block {int(s['block'][i])} are damaged (SHA-256): "
+                "the block cannot be replayed",
+                position=i,
+            )
     stop = raw["stop"]
     if stop is not None:
         if stop.get("blocks_in_file") != len(hashes):
@@ -694,11 +776,28 @@ def _verify(raw: dict[str, Any], path: Path) -> None:
             raise ChecksumError(f"{path}: the SHA-256 over all blocks does not match the stop record")
 
 
+def _text(value: Any) -> str:
+    return value.decode() if isinstance(value, bytes) else str(value)
+
+
+def _exchange_list(ex: dict[str, np.ndarray], a: int, b: int) -> list[Exchange]:
+    """Rows a … b−1 of the exchange columns as :class:`Exchange` (reply None for writes and failed exchanges)."""
+    out = []
+    for kind, message, reply, t_s, error in zip(
+        ex["kind"][a:b], ex["message"][a:b], ex["reply"][a:b], ex["t_s"][a:b], ex["error"][a:b], strict=True
+    ):
+        err = str(error) or None
+        out.append(Exchange(str(kind), str(message), None if kind == "write" or err else str(reply), float(t_s), err))
+    return out
+
+
 def _drop_last_block(raw: dict[str, Any]) -> dict[str, Any]:
     s = {k: v[:-1] for k, v in raw["summary"].items()}
     n_readings = int(s["first_reading"][-1] + s["count"][-1]) if len(s["block"]) else 0
     r = {k: v[:n_readings] for k, v in raw["readings"].items()}
-    return {**raw, "summary": s, "readings": r}
+    n_ex = int(s["first_exchange"][-1] + s["n_exchanges"][-1]) if len(s["block"]) else 0
+    e = {k: v[:n_ex] for k, v in raw["exchanges"].items()}
+    return {**raw, "summary": s, "readings": r, "exchanges": e}
 
 
 def load_session(path: str | Path, *, verify: bool = True) -> Session:
@@ -733,6 +832,11 @@ def load_session(path: str | Path, *, verify: bool = True) -> Session:
             # an incomplete session whose writer died while writing its last block: that block is not complete
             raw = _drop_last_block(raw)
             notes.append(f"{p}: the last block was cut short when the writer died and is left out ({exc})")
+    if raw["unreadable_exchanges"]:
+        notes.append(
+            f"{p}: {raw['unreadable_exchanges']} instrument exchanges after the last complete block (an unfinished "
+            "block or run) are left out"
+        )
     if raw["stop_note"]:
         notes.append(f"{p}: {raw['stop_note']}")
     if raw["dropped_blocks"]:
@@ -741,8 +845,8 @@ def load_session(path: str | Path, *, verify: bool = True) -> Session:
         raise SessionFileError(f"{p} has no start record: the acquisition died before it began; no data to read")
     if raw["stop"] is None:
         notes.append(
-            f"{p} is an INCOMPLETE session: it has no stop record (the acquisition was killed, lost power or is "
-            f"still running); {len(raw['summary']['block'])} complete blocks were read"
+            f"{p} is an INCOMPLETE session: it has no stop record (the acquisition was killed, lost power or its "
+            f"disk, or is still running); {len(raw['summary']['block'])} complete blocks were read"
             + (
                 f", {raw['trailing_readings']} readings of an unfinished block ignored"
                 if raw["trailing_readings"]
@@ -785,7 +889,9 @@ def _frames(raw: dict[str, Any]) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFra
             "n": s["n"].astype(np.int64),
             "n_invalid": s["n_invalid"].astype(np.int64),
             "started": s["started"],
-            "sha256": [d.decode() if isinstance(d, bytes) else str(d) for d in s["sha256"]],
+            "sha256": [_text(d) for d in s["sha256"]],
+            "first_exchange": s["first_exchange"].astype(np.int64),
+            "n_exchanges": s["n_exchanges"].astype(np.int64),
         }
     )
     counts = s["count"].astype(np.int64)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import errno
+import shutil
 import sys
 import tempfile
 from collections.abc import Iterator, Sequence
@@ -115,7 +116,8 @@ class LiveDisplay:
         if not quiet and _isatty(self.stream):
             from tqdm import tqdm
 
-            self._bar = tqdm(total=total, initial=done, unit="block", file=self.stream, dynamic_ncols=True)
+            width = shutil.get_terminal_size((100, 24)).columns  # a pty reporting 0 columns would hide the bar
+            self._bar = tqdm(total=total, initial=done, unit="block", file=self.stream, ncols=width)
 
     def message(self, text: str) -> None:
         if self.quiet:
@@ -158,7 +160,8 @@ class LiveDisplay:
 
     def stop(self, stop: StopRecord) -> None:
         self.close()
-        self.message(f"session {stop.status}: {stop.reason}")
+        hint = "" if stop.status == "success" else f" — {stop.blocks_done} block(s) on file; --resume continues"
+        self.message(f"session {stop.status}: {stop.reason}{hint}")
 
 
 def _isatty(stream: TextIO) -> bool:

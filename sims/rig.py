@@ -22,6 +22,7 @@ Contract (used by ``daq`` and ``analysis``)::
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar
@@ -172,7 +173,7 @@ def roughness_and_modulus(scene: Scene, database: Any = None) -> tuple[float | N
 
 
 def sweep(
-    scene: Scene | None = None,
+    scene: Scene | str | os.PathLike[str] | None = None,
     models: Sequence[str] | None = None,
     weights_kg: Sequence[float] | None = None,
     *,
@@ -187,22 +188,25 @@ def sweep(
     All weights of a model are solved together on a shared mesh (:func:`sims.rig_batch.batch_equilibrium`); the
     per-model solver diagnostics are in ``provenance["solver"]``.
 
-    ``scene`` (None → the packaged default) gives ``[rig]`` (unless ``settings`` is given) and the database
-    settings. ``models`` restricts the models (None → the scene's ``[database].models``); only those databases are
-    built. ``weights_kg`` overrides ``[rig].weights_kg``. ``laws`` (name → contact law) or a prebuilt ``database``
-    replace the database build. ``roughness_m``/``composite_modulus_pa`` (default: from the scene) drive the
-    roughness-parameter check. Raises :class:`RigLoadError` when a law cannot carry a load.
+    ``scene`` (a :class:`~sims.scene.Scene`, a path, or None → the packaged default) gives ``[rig]`` (unless
+    ``settings`` is given) and the database settings. ``models`` restricts the models (None → the scene's
+    ``[database].models``); only those databases are built. ``weights_kg`` overrides ``[rig].weights_kg``. ``laws``
+    (name → contact law) or a prebuilt ``database`` replace the database build (and its automatic extension when a
+    load leaves the tabulated range). ``roughness_m``/``composite_modulus_pa`` (default: from the database or the
+    scene) drive the roughness-parameter check. Raises :class:`RigLoadError` when a law cannot carry a load.
     """
+    from sims.scene import Scene as SceneType
     from sims.scene import load_scene
 
-    if scene is None:
-        scene = load_scene(None)
+    if scene is None or not isinstance(scene, SceneType):
+        scene = load_scene(scene)  # None → the packaged default; a path → that file
     settings = settings if settings is not None else RigSettings.from_scene(scene)
     weights = check_weights(weights_kg, "weights_kg") if weights_kg is not None else settings.weights_kg
     if models is not None:
         if isinstance(models, str) or not all(isinstance(m, str) for m in models) or len(models) == 0:
             raise RigLoadError(f"models = {models!r} is not allowed: expected a non-empty list of model names")
         models = list(dict.fromkeys(models))
+    built_here = False
     provenance: dict[str, Any] = {
         "software_version": _software_version(),
         "scene_name": scene.name,
@@ -224,6 +228,7 @@ def sweep(
             from sims.database import build_database
 
             database = build_database(scene, models=models)
+            built_here = True
         names = list(models) if models is not None else _database_names(database, scene)
         law_map = {n: database[n] for n in names}
         provenance["database"] = dict(getattr(database, "provenance", {}) or {})
@@ -248,9 +253,16 @@ def sweep(
                 )
         provenance["line_contact_check"] = _line_contact_check(settings, max(weights), composite_modulus_pa, warnings)
 
+    batches = {name: batch_equilibrium(law, settings, weights, name=name) for name, law in law_map.items()}
+    if built_here:
+        _extend_database(scene, law_map, batches, settings, weights, provenance, warnings)
+    if roughness_m is not None and composite_modulus_pa is not None:
+        provenance["bulk_deflection"] = {
+            name: _bulk_deflection(law_map[name], settings, batches[name], roughness_m, composite_modulus_pa)
+            for name in batches
+        }
     result_models: dict[str, ModelSweep] = {}
-    for name, law in law_map.items():
-        batch = batch_equilibrium(law, settings, weights, name=name)
+    for name, batch in batches.items():
         warnings.extend(w for w in batch.warnings if w not in warnings)
         result_models[name] = ModelSweep.from_batch(name, batch)
         provenance.setdefault("solver", {})[name] = {
@@ -262,6 +274,81 @@ def sweep(
             "max_abs_residual_n": float(np.max(np.abs(batch.residual_n))),
         }
     return SweepResult(models=result_models, warnings=warnings, provenance=provenance)
+
+
+def _extend_database(
+    scene: Scene,
+    law_map: dict[str, ContactLaw],
+    batches: dict[str, BatchEquilibrium],
+    settings: RigSettings,
+    weights: tuple[float, ...],
+    provenance: dict[str, Any],
+    warnings: list[str],
+) -> None:
+    """Rebuild the curves whose minimum gap fell below their range, deeper (``[database].h_min_sigma``), and re-solve.
+
+    The database allows ``h_min_sigma`` down to −3; a load that needs more stays extrapolated (its warning stays).
+    ``law_map`` and ``batches`` are updated in place; the extension is recorded in ``provenance``.
+    """
+    import copy
+
+    from sims.database import DatabaseSettings, build_database
+    from sims.scene import Scene as SceneType
+
+    low = {n: float(b.min_separation_m.min()) for n, b in batches.items() if not np.all(b.in_range)}
+    sigma = provenance.get("database", {}).get("greenwood_tripp", {}).get("sigma_m")
+    if not low or not sigma:
+        return
+    current = DatabaseSettings.from_scene(scene).h_min_sigma
+    needed = max(-3.0, math.floor(min(low.values()) / sigma - 0.25))
+    if needed >= current:
+        return
+    data = copy.deepcopy(scene.data)
+    data.setdefault("database", {})["h_min_sigma"] = float(needed)
+    extended = build_database(SceneType(text=scene.text, data=data, source=scene.source), models=list(low))
+    for name in low:
+        law_map[name] = extended[name]
+        batches[name] = batch_equilibrium(extended[name], settings, weights, name=name)
+    provenance["database_extension"] = {
+        "models": list(low),
+        "h_min_sigma": {"scene": current, "used": float(needed)},
+        "reason": "a minimum gap fell below the database's separation range",
+    }
+    warnings.append(
+        f"database extended for {', '.join(low)}: separations down to {needed:g}·σ (scene: {current:g}·σ) because "
+        "a load pushed the minimum gap below the tabulated range"
+    )
+
+
+def _bulk_deflection(
+    law: ContactLaw, settings: RigSettings, batch: BatchEquilibrium, roughness_m: float, composite_modulus_pa: float
+) -> dict[str, Any]:
+    """Elastic bulk deflection under the rigid-body pressure of the heaviest weight, against σ (the model's premise).
+
+    The nominal pressure along the circumference at the skirt's middle, ``p(h(θ))``, is applied to an elastic
+    half-plane (:func:`sims.line_contact.influence_matrix`, Johnson eq. 2.25b); the spread of the surface
+    displacement over the loaded arc (``p > 1 %`` of the peak) is what the rigid-body model neglects. It should be
+    small against σ; it grows as ``1/α``.
+    """
+    from sims.line_contact import influence_matrix
+    from sims.rig_geometry import gap_m
+
+    i = int(np.argmax(batch.load_n))
+    width = float(batch.contact_width_m[i])
+    if batch.load_n[i] <= 0 or width <= 0:
+        return {"status": "no load"}
+    r_l = settings.liner_radius_m
+    half = min(0.5 * width, 0.5 * math.pi * r_l)
+    x = np.linspace(-half, half, 201)
+    p = np.asarray(law.pressure(gap_m(x / r_l, float(batch.min_separation_m[i]), r_l, settings.clearance_m)))
+    u = influence_matrix(x, float(x[1] - x[0]), composite_modulus_pa) @ p
+    loaded = p > 0.01 * p.max()
+    spread = float(u[loaded].max() - u[loaded].min())
+    return {
+        "weight_kg": float(batch.weight_kg[i]),
+        "deflection_spread_m": spread,
+        "relative_to_sigma": spread / roughness_m,
+    }
 
 
 def _line_contact_check(
@@ -295,7 +382,7 @@ def _line_contact_check(
         "weight_kg": weight_kg,
         "johnson_half_width_m": b_johnson,
         "johnson_peak_pressure_pa": p0,
-        "solver_half_width_m": sol.half_width_m,
+        "solver_half_width_m": float(sol.half_width_m),
         "solver_peak_pressure_pa": sol.peak_pressure_pa,
         "solver_strip_m": sol.dx_m,
         "status": sol.status,

@@ -27,7 +27,7 @@ from sims.rig_geometry import (
 )
 from sims.rig_law import ContactLaw
 from sims.rig_mesh import SkirtMesh, uniform_mesh, variable_mesh
-from sims.rig_settings import RigSettings, check_weights
+from sims.rig_settings import STANDARD_GRAVITY, RigSettings, check_weights
 from sims.rig_statics import RigLoadError
 
 __all__ = ["BatchEquilibrium", "batch_equilibrium"]
@@ -143,7 +143,7 @@ def _solve(batch: _Batch, load: np.ndarray, guess: np.ndarray | None, name: str)
             lo = x
         else:
             hi = x
-    xtol = 1e-10 * span
+    xtol = 1e-13 * span
     x = 0.5 * (lo + hi) if guess is None else np.clip(guess, lo, hi)
     for iteration in range(1, 201):
         f, df = batch.force_and_slope(x)
@@ -172,7 +172,7 @@ def batch_equilibrium(
     """Static equilibria of all ``weights_kg`` on ``law`` (see the module docstring)."""
     s = settings
     weights = np.asarray(check_weights(weights_kg, "weights_kg"), dtype=float)
-    load = (weights + s.piston_mass_kg) * 9.80665
+    load = (weights + s.piston_mass_kg) * STANDARD_GRAVITY
     h_edge = float(law.h_max)
     no_load = (load == 0.0) & (s.clearance_m >= h_edge)
     active = ~no_load

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import brentq
 
-from sims.rig_geometry import contact_edge_angle_rad, contact_half_angle_rad, contact_half_length_m
+from sims.rig_geometry import contact_edge_angle_rad, contact_half_length_m
 from sims.rig_law import ContactLaw
 from sims.rig_loads import SkirtLoads
 from sims.rig_mesh import SkirtMesh, uniform_mesh, variable_mesh
@@ -280,7 +280,11 @@ def _result(
     pressure = loads.pressure_pa(h0)
     fraction = loads.area_fraction(h0)
     area = float(np.sum(fraction * mesh.area_m2))
-    width = 2.0 * s.piston_radius_m * contact_half_angle_rad(float(law.h_max), h0, s.clearance_m)
+    width = (
+        2.0
+        * s.piston_radius_m
+        * contact_edge_angle_rad(float(law.h_max), h0, s.liner_radius_m, s.clearance_m, s.exact_gap)
+    )
     peak = float(np.asarray(law.pressure(np.array([h0])), dtype=float)[0])
     in_range = h0 >= float(law.h_min)
     warnings: tuple[str, ...] = ()

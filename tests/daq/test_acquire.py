@@ -217,6 +217,10 @@ def test_disk_full_mid_session_keeps_every_written_block(tmp_path):
     with pytest.warns(IncompleteSessionWarning):
         s = load_session(path)
     assert not s.complete and list(s.summary.weight_kg) == [5.44, 5.44]
+    # with space again, the session resumes to completion and replays identically
+    done = acquire(None, path, resume=True, yes=True, resource_manager=_rm(2), quiet=True)
+    assert done.status == "success" and done.blocks_done == 6
+    assert replay_session(path).identical
 
 
 def test_progress_bar_on_a_terminal():

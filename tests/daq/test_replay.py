@@ -25,28 +25,61 @@ def test_replay_reproduces_a_session_exactly(plan, tmp_path):
     assert report.as_dict()["identical"] is True
 
 
-def test_replay_detects_a_changed_reply(plan, tmp_path):
-    """Change one recorded buffer reply (not the readings): the replayed readings differ from the recorded ones."""
+def _edit_exchange(path, match, edit):
+    """Edit the first recorded exchange whose message satisfies ``match``; re-sign its block's exchange digest
+    (a recording whose replies and readings disagree, as a buggy writer would leave), return the block."""
+    from daq.records import exchanges_digest
+    from daq.session_file import _exchange_list, _read_table
+
+    with h5py.File(path, "a") as h5:
+        ex = h5["entry/exchanges"]
+        msgs = ex["message"].asstr()[:]
+        i = next(k for k, m in enumerate(msgs) if match(m))
+        edit(ex, i)
+        block = int(ex["block"][i])
+        s = h5["entry/summary"]
+        row = list(s["block"][:]).index(block)
+        cols = _read_table(ex, ("kind", "message", "reply", "t_s", "error"), ex["kind"].shape[0])
+        a = int(s["first_exchange"][row])
+        s["exchanges_sha256"][row] = exchanges_digest(_exchange_list(cols, a, a + int(s["n_exchanges"][row]))).encode()
+    return block
+
+
+def _scale_first_reading(ex, i):
+    first, rest = ex["reply"].asstr()[i].split(",", 1)
+    ex["reply"][i] = f"{float(first) * 1.5:.6E},{rest}"
+
+
+def test_a_damaged_recording_is_refused_on_load(plan, tmp_path):
+    from daq.errors import ChecksumError
+
     path = tmp_path / "r.h5"
     write_session(plan, path)
     with h5py.File(path, "a") as h5:
         msgs = h5["entry/exchanges/message"].asstr()[:]
         i = next(k for k, m in enumerate(msgs) if m.startswith("TRAC:DATA:SEL?"))
-        reply = h5["entry/exchanges/reply"].asstr()[i]
-        first, rest = reply.split(",", 1)
-        h5["entry/exchanges/reply"][i] = f"{float(first) * 1.5:.6E},{rest}"
+        _scale_first_reading(h5["entry/exchanges"], i)
+    with pytest.raises(ChecksumError, match="exchanges of block 0 are damaged"):
+        replay_session(path)
+
+
+def test_replay_detects_replies_that_do_not_give_the_recorded_readings(plan, tmp_path):
+    path = tmp_path / "r.h5"
+    write_session(plan, path)
+    block = _edit_exchange(path, lambda m: m.startswith("TRAC:DATA:SEL?"), _scale_first_reading)
     report = replay_session(path)
     assert not report.identical
-    assert any("mean_ohm recorded" in d for d in report.differences)
+    assert any(d.startswith(f"block {block} ") and "mean_ohm recorded" in d for d in report.differences)
 
 
 def test_replay_detects_a_diverging_driver(plan, tmp_path):
     path = tmp_path / "r.h5"
     write_session(plan, path)
-    with h5py.File(path, "a") as h5:
-        msgs = h5["entry/exchanges/message"].asstr()[:]
-        i = next(k for k, m in enumerate(msgs) if m == "INIT:IMM")
-        h5["entry/exchanges/message"][i] = "INIT:IMM;*WAI"
+
+    def edit(ex, i):
+        ex["message"][i] = "INIT:IMM;*WAI"
+
+    _edit_exchange(path, lambda m: m == "INIT:IMM", edit)
     report = replay_session(path)
     assert not report.identical and any("diverged" in d for d in report.differences)
 

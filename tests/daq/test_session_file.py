@@ -13,6 +13,8 @@ import warnings
 import h5py
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import daq
 from daq import session_file
@@ -306,3 +308,48 @@ def test_stop_record_counts(tmp_path):
         s = load_session(path)
     assert s.complete and s.status == "aborted"
     assert s.stop["blocks_planned"] == 5 and s.stop["weights_skipped"] == [3.0] and s.stop["readings_in_file"] == 10
+
+
+@settings(max_examples=15, deadline=None)
+@given(
+    blocks=st.lists(
+        st.tuples(
+            st.floats(1e-3, 1e3),
+            st.lists(
+                st.one_of(st.floats(-1e3, 1e3, allow_subnormal=True), st.just(float("nan"))), min_size=1, max_size=40
+            ),
+        ),
+        min_size=1,
+        max_size=5,
+    )
+)
+def test_roundtrip_is_bit_exact_for_any_readings(tmp_path_factory, blocks):
+    """Whatever the readings (tiny, huge, negative, invalid), the file gives back exactly what was written and
+    statistics that agree with numpy over the valid ones."""
+    path = tmp_path_factory.mktemp("h") / "x.h5"
+    recs = []
+    with SessionFile.create(path) as sf:
+        sf.write_start({"started": now_iso()}, "")
+        for b, (w, values) in enumerate(blocks):
+            r = np.asarray(values, dtype=float)
+            rec = BlockRecord(
+                block=b, run=0, weight_kg=w, repeat=1, unit="V", reading=r, time_s=np.arange(r.size) * 0.02,
+                resistance_ohm=r, valid=np.isfinite(r), started=now_iso(),
+            )  # fmt: skip
+            sf.append_block(rec)
+            recs.append(rec)
+        sf.write_stop(StopRecord("success", "ok", now_iso(), len(recs), len(recs), sum(r.reading.size for r in recs)))
+    s = load_session(path)
+    for rec, (_, row) in zip(recs, s.summary.iterrows(), strict=True):
+        got = s.readings[s.readings.block == rec.block]
+        np.testing.assert_array_equal(got.resistance_ohm.to_numpy(), rec.resistance_ohm)
+        good = rec.resistance_ohm[np.isfinite(rec.resistance_ohm)]
+        assert row.n == good.size and row.n_invalid == rec.reading.size - good.size
+        if good.size:
+            assert row.mean_ohm == pytest.approx(np.mean(good), rel=1e-12, abs=1e-300)
+        else:
+            assert np.isnan(row.mean_ohm)
+        if good.size > 1:
+            assert row.sd_ohm == pytest.approx(np.std(good, ddof=1), rel=1e-9, abs=1e-300)
+        else:
+            assert np.isnan(row.sd_ohm) and np.isnan(row.sem_ohm)
