@@ -191,10 +191,144 @@ def database_cases() -> list[Case]:
     ]
 
 
+def _scene_with(changes: dict[str, object]):
+    """The default scene with ``changes`` ({"surfaces.liner.sq_m": 1e-8, …}) applied, re-serialised as TOML."""
+    import json
+    import tomllib
+
+    from sims.scene import default_scene_text, parse_scene
+
+    data = tomllib.loads(default_scene_text())
+    for dotted, value in changes.items():
+        *path, key = dotted.split(".")
+        table = data
+        for part in path:
+            table = table[part]
+        table[key] = value
+
+    def dump(table: dict, prefix: str) -> list[str]:
+        scalars = [f"{k} = {json.dumps(v)}" for k, v in table.items() if not isinstance(v, dict)]
+        lines = ([f"[{prefix}]"] if prefix and scalars else []) + scalars
+        for k, v in table.items():
+            if isinstance(v, dict):
+                lines += dump(v, f"{prefix}.{k}" if prefix else k)
+        return lines
+
+    return parse_scene("\n".join(dump(data, "")) + "\n", "<atlas>")
+
+
+def _sweep_numbers(scene=None, models=("greenwood_tripp",), weights=(5.44,), **kw) -> dict[str, np.ndarray]:
+    from sims.rig import sweep
+
+    result = sweep(scene, models=list(models), weights_kg=list(weights), **kw)
+    for w in result.warnings:
+        import warnings
+
+        warnings.warn(w, RuntimeWarning, stacklevel=2)
+    out: dict[str, np.ndarray] = {}
+    for name, m in result.models.items():
+        out[f"{name}.area"] = m.contact_area_m2
+        out[f"{name}.force"] = m.force_n
+        out[f"{name}.peak"] = m.peak_pressure_pa
+        out[f"{name}.width"] = m.contact_width_m
+    return out
+
+
+def _check_zero_load(v: dict[str, np.ndarray]) -> None:
+    for key, arr in v.items():
+        if key.endswith((".area", ".force", ".peak", ".width")):
+            assert np.all(arr == 0.0), f"{key} = {arr} at zero weight"
+
+
+def _check_models_differ(v: dict[str, np.ndarray]) -> None:
+    ratio = float(v["hertz.area"][0] / v["pasaribu_schipper.area"][0])
+    assert abs(ratio - 1.0) > 0.05, (
+        f"elastic and elastic-plastic areas agree to {abs(ratio - 1):.2%} deep in plasticity"
+    )
+
+
+def _zero_clearance() -> dict[str, np.ndarray]:
+    import dataclasses
+
+    from sims.rig_settings import RigSettings
+    from sims.scene import load_scene
+
+    settings = dataclasses.replace(RigSettings.from_scene(load_scene()), clearance_m=0.0)
+    return _sweep_numbers(None, settings=settings)
+
+
+def rig_cases() -> list[Case]:
+    soft = {"materials.piston.H_pa": 0.3e9, "materials.piston.E_pa": 70e9}
+    return [
+        Case(
+            "weight 0 kg",
+            "rig.sweep",
+            "no load: area exactly 0",
+            lambda: _sweep_numbers(weights=(0.0,)),
+            "finite",
+            check=_check_zero_load,
+        ),
+        Case("zero clearance", "rig.sweep", "piston fits the liner exactly", _zero_clearance, "finite"),
+        Case(
+            "Tab. 1 weights",
+            "rig.sweep",
+            "the paper's loads on the default scene",
+            lambda: _sweep_numbers(weights=(5.44, 25.966)),
+            "finite/warning",
+        ),
+        Case(
+            "2000 kg",
+            "rig.sweep",
+            "far beyond the rig: bulk deformation no longer small",
+            lambda: _sweep_numbers(weights=(2000.0,)),
+            "warning",
+        ),
+        Case(
+            "σ = 10 nm (very smooth)",
+            "rig.sweep",
+            "roughness ≪ bulk deflection",
+            lambda: _sweep_numbers(_scene_with({"surfaces.liner.sq_m": 1e-8, "surfaces.piston.sq_m": 1e-8})),
+            "warning",
+        ),
+        Case(
+            "σ = 5 µm (very rough)",
+            "rig.sweep",
+            "roughness ≫ clearance-scale deflection",
+            lambda: _sweep_numbers(_scene_with({"surfaces.liner.sq_m": 5e-6, "surfaces.piston.sq_m": 5e-6})),
+            "finite",
+        ),
+        Case(
+            "E = 1 TPa (very stiff)",
+            "rig.sweep",
+            "diamond-like bodies",
+            lambda: _sweep_numbers(
+                _scene_with(
+                    {
+                        "materials.liner.E_pa": 1e12,
+                        "materials.piston.E_pa": 1e12,
+                        "materials.liner.H_pa": 50e9,
+                        "materials.piston.H_pa": 50e9,
+                    }
+                )
+            ),
+            "finite",
+        ),
+        Case(
+            "soft alloy, 25.966 kg",
+            "rig.sweep (hertz vs pasaribu_schipper)",
+            "asperities deep in the plastic regime: the models must differ",
+            lambda: _sweep_numbers(_scene_with(soft), models=("hertz", "pasaribu_schipper"), weights=(25.966,)),
+            "finite/warning",
+            check=_check_models_differ,
+        ),
+    ]
+
+
 def all_cases() -> list[Case]:
     """Every case, in report order."""
     cases: list[Case] = []
     cases += greenwood_tripp_cases()
     cases += asperity_cases()
     cases += database_cases()
+    cases += rig_cases()
     return cases
