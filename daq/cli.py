@@ -62,6 +62,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("contactrig: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # output piped into a reader that stopped early (| head): not an error of ours
+        sys.stderr.close()
+        return 141
     except (ValueError, OSError, RuntimeError, TimeoutError) as exc:
         if args.debug:
             raise
