@@ -7,18 +7,18 @@ found by Brent's method to a relative 1e-14 — written here from the geometry, 
 gap or load modules. Error: relative error of the real contact area. Uniform meshes: n_theta cells on [0, π] and
 one axial cell (the skirt is straight, so more axial cells change nothing; the scene default of 8 would cost 8×
 the nodes); variable meshes: the rig's own adaptive scheme (``mesh = "variable"``) at decreasing ``mesh_tol``.
-Seconds: the rig's equilibrium solve (database build excluded).
+Seconds: the rig's equilibrium solve, best of three (database build excluded).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-import time
 import warnings
+from functools import partial
 from typing import Any
 
-from analysis.studies.rows import Row
+from analysis.studies.rows import Row, Stopwatch
 
 REFERENCE = "adaptive quadrature of the exact-gap force and area integrals (no mesh), h0 by Brent to 1e-14"
 
@@ -70,6 +70,7 @@ def run(quick: bool) -> list[Row]:
     models = ("greenwood_tripp", "hertz")
     weights = (5.44,) if quick else (5.44, 25.966)
     db = build_database(scene, models=list(models))
+    stopwatch = Stopwatch(repeat=3)
     rows: list[Row] = []
     for name in models:
         curve = db[name]
@@ -83,9 +84,7 @@ def run(quick: bool) -> list[Row]:
                 for tol in ((1e-2, 1e-3, 1e-5) if quick else (1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6))
             ]
             for kind, settings, label in variants:
-                t0 = time.perf_counter()
-                eq = equilibrium(curve, settings, w, name=name)
-                seconds = time.perf_counter() - t0
+                eq, seconds = stopwatch(partial(equilibrium, curve, settings, w, name=name))
                 rows.append(
                     Row(
                         study="mesh",

@@ -65,7 +65,7 @@ def write_report(
         study_rows = [r for r in rows if r.study == name]
         if not study_rows:
             continue
-        fig = figure_error_vs_time(study_rows, study=name, title=name)
+        fig = figure_error_vs_time(study_rows, study=name)
         png = save_figure(fig, out, name, formats=("png", "svg"))[0]
         parts += [
             f"## {name}",
