@@ -6,9 +6,11 @@ R_loop = R_T + R_series + R_piston + R_liner + R_added, so the paper's "120 mA" 
 
 The paper's design example (section 2.2) prints only the outputs, I = 1.2·10⁻¹ A and U_c = 1.34·10⁻⁸ V, so it
 pins R_T = U_c / I ≈ 1.12·10⁻⁷ Ω (and U_R ≈ I · 100 Ω = 12 V), i.e. the product ζ·h/A, not ζ, h and A one by one.
-:func:`paper_design_example` uses ζ = 1·10⁻⁷ Ω·m and h = 5 mm (the default scene's values) with A = 4.47·10⁻³ m²,
-the size of the nominal piston-skirt area — the paper evidently designed with the apparent area, which is why the
-measured resistances (mΩ, Tab. 1) came out some 10⁴ times larger than "predicted".
+:func:`paper_design_example` (``contactrig circuit --paper``) uses ζ = 1·10⁻⁷ Ω·m and h = 5 mm with
+A = 4.47·10⁻³ m², the size of the nominal piston-skirt area — the paper evidently designed with the apparent area,
+which is why the measured resistances (mΩ, Tab. 1) came out some 10⁴ times larger than "predicted". The default
+scene's ζ = 4.3·10⁻⁷ Ω·m and R_s = 0 are instead fitted to Tab. 1 with the simulated greenwood_tripp area (the
+scene's comment), so that a simulated session has Tab. 1's magnitude.
 
 The Keithley 6221 is a current source limited to ±105 mA; the paper's 120 mA cannot be sourced by it (its "1 A"
 limit is not the 6221's). With the 6221 one sets the current directly: :meth:`CircuitSettings.design` accepts
@@ -58,16 +60,16 @@ class CircuitSettings:
 
     Used by the simulated bench: ``resistivity_ohm_m`` ζ [Ω·m] > 0, ``contact_height_m`` h_R [m] > 0 and
     ``series_resistance_ohm`` R_s [Ω] ≥ 0 (leads, other contacts and bodies between the voltage taps, seen in series
-    with R_T by the Delta measurement): R_measured = R_s + ζ h_R / A.
+    with R_T by the Delta measurement): R_measured = R_s + ζ h_R / A. Defaults: the packaged default scene's.
     Used by the design calculator only: ``contact_area_m2`` A_R [m²] > 0 (design contact area),
     ``source_voltage_v`` U_R [V] > 0, ``added_resistance_ohm`` R_P [Ω] ≥ 0 (the paper's 100 Ω resistor),
     ``piston_resistance_ohm`` and ``liner_resistance_ohm`` [Ω] ≥ 0 (bodies; the paper estimates them by eq. 23 with
     the wall height in place of h_R).
     """
 
-    resistivity_ohm_m: float = 1.0e-7
+    resistivity_ohm_m: float = 4.3e-7
     contact_height_m: float = 5.0e-3
-    series_resistance_ohm: float = 2.0e-4
+    series_resistance_ohm: float = 0.0
     contact_area_m2: float = 4.47e-3
     source_voltage_v: float = 12.0
     added_resistance_ohm: float = 100.0

@@ -20,10 +20,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "circuit",
         help="measuring-circuit design calculator (seed eq. 23-25): R_T, current, voltage across the contact",
         description="Seed eq. 23-25: R_T = ζh/A, I = U/(R_T + R_s + R_piston + R_liner + R_added), U_c = R_T·I. "
-        "Defaults come from the scene's [circuit] table (the packaged default reproduces the paper's design "
-        "example, about 120 mA and 13.4 nV); options override single values.",
+        "Defaults come from the scene's [circuit] table, or with --paper from the inputs that reproduce the "
+        "paper's design example (about 120 mA and 13.4 nV); options override single values.",
     )
-    c.add_argument("--scene", help="scene TOML (default: the packaged default scene)")
+    src = c.add_mutually_exclusive_group()
+    src.add_argument("--scene", help="scene TOML (default: the packaged default scene)")
+    src.add_argument("--paper", action="store_true", help="start from the paper's design example (13.4 nV)")
     c.add_argument("--resistivity", type=float, metavar="OHM_M", help="ζ, resistivity [Ω·m]")
     c.add_argument("--height", type=float, metavar="M", help="h_R, electric contact height [m]")
     c.add_argument("--area", type=float, metavar="M2", help="A_R, contact area [m²]")
@@ -47,8 +49,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="area → resistance: bulk = seed eq. 23 ζh/A (default), holm = one Holm spot ζ√π/(2√A)",
     )  # fmt: skip
     common.add_argument(
-        "--weighting", choices=("repeats", "pooled", "blocks"), default="repeats",
-        help="σ per weight: SEM of the repeats (default), pooled SD, or within-block SEM (single repeats)",
+        "--weighting", choices=("relative", "repeats", "pooled", "blocks"), default="relative",
+        help="σ per weight: pooled relative SD × R̄/√n (default), each weight's own SEM (needs many repeats), "
+        "pooled SD, or within-block SEM (single repeats)",
+    )  # fmt: skip
+    common.add_argument(
+        "--interval", choices=("studentized", "percentile"), default="studentized",
+        help="bootstrap interval: studentized bootstrap-t (default; holds 95%% with 6 series) or percentile",
     )  # fmt: skip
     common.add_argument("--bootstrap", type=int, default=2000, metavar="N", help="bootstrap resamples (0: none)")
     common.add_argument("--seed", type=int, default=0, help="bootstrap random seed")
@@ -80,10 +87,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _circuit(args: argparse.Namespace) -> int:
-    from analysis.circuit import CircuitSettings
+    from analysis.circuit import CircuitSettings, paper_design_example
     from sims.scene import load_scene
 
-    settings = CircuitSettings.from_scene(load_scene(args.scene)).replace(
+    base = paper_design_example() if args.paper else CircuitSettings.from_scene(load_scene(args.scene))
+    settings = base.replace(
         resistivity_ohm_m=args.resistivity,
         contact_height_m=args.height,
         contact_area_m2=args.area,
@@ -118,7 +126,13 @@ def _circuit(args: argparse.Namespace) -> int:
 
 
 def _analysis(args: argparse.Namespace) -> Any:
-    kw = {"conversion": args.conversion, "weighting": args.weighting, "n_boot": args.bootstrap, "seed": args.seed}
+    kw = {
+        "conversion": args.conversion,
+        "weighting": args.weighting,
+        "n_boot": args.bootstrap,
+        "seed": args.seed,
+        "boot_interval": args.interval,
+    }
     if args.session == _TAB1:
         from analysis.pipeline import analyse_tab1
 
@@ -163,8 +177,8 @@ def _fit(args: argparse.Namespace) -> int:
         )
     best = cmp.fits[cmp.ranking[0]]
     print(f"{model_label(best.model)}: R_s {lvl}% t-interval [{best.R_series_ci[0] * 1e3:.3g}, "
-          f"{best.R_series_ci[1] * 1e3:.3g}] mΩ, bootstrap [{best.R_series_boot_ci[0] * 1e3:.3g}, "
-          f"{best.R_series_boot_ci[1] * 1e3:.3g}] mΩ")  # fmt: skip
+          f"{best.R_series_ci[1] * 1e3:.3g}] mΩ, {best.boot_interval} bootstrap [{best.R_series_boot_ci[0] * 1e3:.3g}, "
+          f"{best.R_series_boot_ci[1] * 1e3:.3g}] mΩ; goodness of fit against {best.gof_reference}")  # fmt: skip
     print(cmp.statement)
     for w in a.measured_info.get("warnings", []):
         print(f"note: {w}", file=sys.stderr)
@@ -172,8 +186,9 @@ def _fit(args: argparse.Namespace) -> int:
 
 
 def _figures(args: argparse.Namespace) -> int:
-    from analysis.report import write_figures
+    from analysis.report import output_directory, write_figures
 
+    output_directory(args.output)
     a = _analysis(args)
     written = write_figures(a, args.output, formats=("png", args.format))
     for name, paths in written.items():
@@ -185,8 +200,9 @@ def _figures(args: argparse.Namespace) -> int:
 
 
 def _report(args: argparse.Namespace) -> int:
-    from analysis.report import write_report
+    from analysis.report import output_directory, write_report
 
+    output_directory(args.output)
     a = _analysis(args)
     path = write_report([a], args.output)
     if not a.measured_info.get("complete", True):

@@ -108,6 +108,8 @@ def _figure(ncols: int = 1, nrows: int = 1, size: tuple[float, float] = (6.0, 4.
 def save_figure(fig: Any, directory: str | Path, stem: str, formats: Sequence[str] = ("png", "svg")) -> list[Path]:
     """Write ``fig`` as ``directory/stem.<fmt>`` for each of ``formats`` (png, svg, pdf); returns the paths."""
     out = Path(directory)
+    if out.exists() and not out.is_dir():
+        raise SettingError("output", str(out), "expected a directory; a file of that name exists")
     out.mkdir(parents=True, exist_ok=True)
     paths = []
     for fmt in formats:
@@ -187,21 +189,26 @@ def figure_simulated_area(models: Mapping[str, tuple[np.ndarray, np.ndarray]], t
 
 
 # ---- seed Fig. 12: normalised measured vs simulated ------------------------------------------------------------
-def figure_normalised(measured: Any, simulated: Mapping[str, Any], title: str = "", level: float = 0.95) -> Any:
-    """Seed Fig. 12: R/R₀ of the measurement (± ``level`` interval from the repeats) and of each model.
+def figure_normalised(
+    measured: Any, simulated: Mapping[str, Any], title: str = "", level: float = 0.95, dof: float = math.inf
+) -> Any:
+    """Seed Fig. 12: R/R₀ (dimensionless) of the measurement and of each model against weight [kg].
 
-    ``measured`` and the values of ``simulated`` are :class:`~analysis.normalisation.NormalisedCurve`.
+    ``measured`` and the values of ``simulated`` are :class:`~analysis.normalisation.NormalisedCurve`; the
+    measured error bars are ± ``level`` Student-t intervals with ``dof`` degrees of freedom (repeats − 1; inf:
+    normal quantile).
     """
-    from scipy.special import ndtri
+    from scipy.special import ndtri, stdtrit
 
-    z = float(ndtri(0.5 + level / 2))
+    q = 0.5 + level / 2
+    z = float(ndtri(q)) if not math.isfinite(dof) else float(stdtrit(dof, q))
     fig, axes = _figure()
     ax = axes[0, 0]
     for name, nc in simulated.items():
         ax.plot(nc.weight_kg, nc.ratio, mfc="none", **model_style(name))
     ax.errorbar(
         measured.weight_kg, measured.ratio, yerr=z * measured.se, fmt="s", color=MEASURED_COLOUR, capsize=3,
-        label=f"measured (± {level:.0%})",
+        label=f"measured ± {level:.0%} CI" + (f" (t, {dof:g} dof)" if math.isfinite(dof) else ""),
     )  # fmt: skip
     ax.set(
         xlabel="weight W [kg]",
@@ -214,7 +221,8 @@ def figure_normalised(measured: Any, simulated: Mapping[str, Any], title: str = 
 
 # ---- fits ---------------------------------------------------------------------------------------------------
 def figure_fit(comparison: Any, title: str = "") -> Any:
-    """Measured mean ± SEM with each model's fit R = R_s + s·x(A) (top) and normalised residuals (bottom)."""
+    """Fits R = R_s + s·x(A) (seed eq. 23 plus R_s): measured mean ± σ (the fit's weighting) and each model's fitted
+    R [mΩ] against weight [kg] (top); residuals (measured − fitted)/σ, dimensionless, per model (bottom)."""
     fig, axes = _figure(1, 2, size=(6.0, 5.6), sharex=True, height_ratios=[2.2, 1.0])
     top, bottom = axes[0, 0], axes[1, 0]
     first = next(iter(comparison.fits.values()))

@@ -71,10 +71,11 @@ def analyse(
     *,
     title: str = "",
     conversion: str = "bulk",
-    weighting: str = "repeats",
+    weighting: str = "relative",
     n_boot: int = 2000,
     seed: int | None = 0,
     ci_level: float = 0.95,
+    boot_interval: str = "studentized",
     measured_info: dict[str, Any] | None = None,
     sim_info: dict[str, Any] | None = None,
     database: Any = None,
@@ -86,7 +87,7 @@ def analyse(
         areas[name] = area_at_weights(np.asarray(m.weight_kg), np.asarray(m.contact_area_m2), curve.weight_kg)
     comparison = compare_models(
         curve, areas, height_m=circuit.contact_height_m, conversion=conversion, weighting=weighting,
-        ci_level=ci_level, n_boot=n_boot, seed=seed,
+        ci_level=ci_level, n_boot=n_boot, seed=seed, boot_interval=boot_interval,
     )  # fmt: skip
     sim_norm = {
         n: normalise_simulated(curve.weight_kg, regressor(a, circuit.contact_height_m, conversion))
@@ -155,13 +156,16 @@ def analyse_session(
 ) -> Analysis:
     """Load a session file (``daq.load_session``) and the simulation (``sim_path`` or simulated now), analyse.
 
-    ``kw`` goes to :func:`analyse` (conversion, weighting, n_boot, seed, ci_level, title).
+    ``kw`` goes to :func:`analyse` (conversion, weighting, n_boot, seed, ci_level, boot_interval, title).
     """
     from daq import load_session
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         session = load_session(session_path)
+    if len(session.summary) == 0:
+        state = "a complete session" if session.complete else "an incomplete session: no stop record"
+        raise ValueError(f"{session_path}: no measurement block on disk ({state}); nothing to analyse")
     curve = MeasuredCurve.from_summary(session.summary, source=str(session_path))
     scene = _scene_for(session)
     sweep_result, database, sim_info = _load_sim(sim_path, scene, curve.weight_kg, models)

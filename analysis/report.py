@@ -27,7 +27,18 @@ from analysis.figures import (
     save_figure,
 )
 
-__all__ = ["render_markdown", "write_figures", "write_report"]
+__all__ = ["output_directory", "render_markdown", "write_figures", "write_report"]
+
+
+def output_directory(directory: str | Path) -> Path:
+    """Create ``directory`` (and parents) for output; a file of that name is an error naming it."""
+    from sims.validation import SettingError
+
+    out = Path(directory)
+    if out.exists() and not out.is_dir():
+        raise SettingError("output", str(out), "expected a directory; a file of that name exists")
+    out.mkdir(parents=True, exist_ok=True)
+    return out
 
 
 def _software_version() -> str:
@@ -65,9 +76,11 @@ def write_figures(
     )  # fmt: skip
     area = {n: (analysis.curve.weight_kg, a) for n, a in analysis.areas_m2.items()}
     out["fig11_area"] = save_figure(figure_simulated_area(area), directory, f"{pre}fig11_area", formats)
+    n_min = int(np.min(analysis.curve.n))
     fig12 = figure_normalised(
-        analysis.measured_norm, analysis.simulated_norm, title=f"{title}: normalised (seed Fig. 12)"
-    )
+        analysis.measured_norm, analysis.simulated_norm, title=f"{title}: normalised (seed Fig. 12)",
+        dof=n_min - 1 if n_min >= 2 else math.inf,
+    )  # fmt: skip
     ax = fig12.axes[0]
     best = analysis.comparison.ranking[0]
     ax.plot(
@@ -186,9 +199,10 @@ def _fit_section(a: Any) -> str:
     text = _table(headers, rows)
     text += (
         f"\n\nModel: R = R_s + s·x(A(W)), x = {_x_name(a.conversion)}, h = {a.circuit.contact_height_m:g} m; "
-        f"weights 1/σ² with σ from the repeats ({first.weighting}); {first.n_boot} bootstrap resamples "
-        f"({first.bootstrap}); t-intervals with {first.ci_dof[0]:.3g} degrees of freedom. k = 2 for every model, so "
-        "ΔAIC = ΔBIC = Δχ².\n\n"
+        f"weights 1/σ² with σ {_WEIGHTING_TEXT.get(first.weighting, first.weighting)}; {first.n_boot} bootstrap "
+        f"resamples of the repeats ({_BOOTSTRAP_TEXT.get(first.bootstrap, first.bootstrap)}), "
+        f"{first.boot_interval} intervals; t-intervals with {first.ci_dof[0]:.3g} degrees of freedom; p: "
+        f"goodness of fit against {first.gof_reference}. k = 2 for every model, so ΔAIC = ΔBIC = Δχ².\n\n"
         f"**{cmp.statement}**\n"
     )
     notes = [f"- {model_label(n)}: {note}" for n in cmp.ranking for note in cmp.fits[n].notes]
@@ -206,6 +220,15 @@ def _fit_section(a: Any) -> str:
     return text
 
 
+_WEIGHTING_TEXT = {
+    "relative": "= pooled relative SD × mean R / √n (scatter ∝ R)",
+    "pooled": "= pooled SD / √n",
+    "repeats": "= each weight's own SEM",
+    "blocks": "from the within-block standard errors",
+}
+_BOOTSTRAP_TEXT = {"series": "whole series", "within": "within each weight"}
+
+
 def _simulated_truth(a: Any) -> str:
     """For a session on the simulated bench: the true R_s and ζ it was built with, against the fit."""
     start = a.measured_info.get("start") or {}
@@ -215,8 +238,11 @@ def _simulated_truth(a: Any) -> str:
         ((start.get("plan") or {}).get("session") or {}).get("sim_model")
     )
     c = a.circuit
+    repeat_sd = float((start.get("simulation") or {}).get("repeat_sd") or 0.0)
+    reseat = f" × a mean-one log-normal re-seating factor per block (σ = {repeat_sd:g})" if repeat_sd > 0 else ""
     lines = [
         "Simulated bench: the resistance was generated as R = R_s + ζh/A(W)"
+        + reseat
         + (f" with model **{model}**" if model else "")
         + f", R_s = {c.series_resistance_ohm * 1e3:g} mΩ and ζ = {c.resistivity_ohm_m:g} Ω·m (scene [circuit])."
     ]
@@ -316,8 +342,7 @@ def write_report(
     formats: Sequence[str] = ("png", "svg"),
 ) -> Path:
     """Draw the figures of every analysis into ``directory/figures`` and write ``directory/report.md``."""
-    out = Path(directory)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_directory(directory)
     figs = []
     for a in analyses:
         figs.append(write_figures(a, out / "figures", prefix=_slug(a.title), formats=formats))

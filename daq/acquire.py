@@ -9,7 +9,7 @@ unreachable instrument removes the file just created (it holds nothing); it neve
 from __future__ import annotations
 
 import contextlib
-import getpass
+import errno
 import os
 import sys
 import warnings
@@ -18,12 +18,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
-from daq.engine import AcquisitionEngine, Interrupts, Prompter, RunOutcome, Writer, answer_yes
-from daq.errors import SessionExistsError, SessionStateError, SessionWriteError
+from daq.engine import AcquisitionEngine, Interrupts, OperatorQuit, Prompter, RunOutcome, Writer, answer_yes
+from daq.errors import MissingFileError, SessionExistsError, SessionStateError, SessionWriteError
 from daq.link import InstrumentLink, open_visa_link
 from daq.plan import Measure, PlaceWeight, SessionPlan, session_steps
 from daq.records import now_iso
-from daq.session_file import SCHEMA_VERSION, SessionFile, host_name, load_session, software_versions
+from daq.session_file import SCHEMA_VERSION, SessionFile, host_name, load_session, login_name, software_versions
 from daq.writers import FileWriter, LiveDisplay
 from sims.scene import Scene, load_scene, parse_scene
 
@@ -61,8 +61,6 @@ def terminal_prompter(stream: TextIO | None = None, read: Any = input) -> Prompt
             try:
                 answer = read().strip().lower()
             except EOFError:
-                from daq.engine import OperatorQuit
-
                 raise OperatorQuit("no operator input (stdin closed): run unattended with --yes") from None
             if answer in ("", "g", "go", "y", "yes"):
                 return "go"
@@ -126,7 +124,7 @@ def drive(
 
 def _resume_state(path: Path, scene: Scene | None, sim: bool) -> tuple[Scene, set[int], int, dict[str, Any]]:
     if not path.exists():
-        raise FileNotFoundError(2, f"--resume: no session file {path} to continue")
+        raise MissingFileError(errno.ENOENT, f"--resume: no session file {path} to continue")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         session = load_session(path)
@@ -181,7 +179,9 @@ def acquire(
             scene = load_scene(None)
         done, readings_before, first_start = set(), 0, None
         if path.exists() and not force:
-            raise SessionExistsError(17, f"{path} exists; use --force to overwrite it or --resume to continue it")
+            raise SessionExistsError(
+                errno.EEXIST, f"{path} exists; use --force to overwrite it or --resume to continue it"
+            )
     plan = SessionPlan.from_scene(scene)
     if sim and not (sim_speed > 0):
         raise ValueError(f"--sim-speed = {sim_speed!r} is not allowed: expected a number > 0 (1 = real pace, inf)")
@@ -190,7 +190,7 @@ def acquire(
     created = False
     if resume:
         if not os.access(path, os.W_OK):
-            raise SessionWriteError(13, f"no permission to write {path}")
+            raise SessionWriteError(errno.EACCES, f"no permission to write {path}")
     else:
         sf = SessionFile.create(path, delta_unit=plan.delta.unit, force=force, fsync=fsync)
         sf.close()
@@ -204,8 +204,7 @@ def acquire(
 
             link, sim_info = open_sim_link(plan, sim_speed=sim_speed, link_wrapper=link_wrapper)
         else:
-            transport_rm = resource_manager
-            link = open_visa_link(plan.instrument.address, plan.instrument.timeout_ms, transport_rm)
+            link = open_visa_link(plan.instrument.address, plan.instrument.timeout_ms, resource_manager)
             if link_wrapper is not None:
                 link = InstrumentLink(link_wrapper(link.recorder.inner), address=plan.instrument.address)
     except BaseException:
@@ -213,20 +212,84 @@ def acquire(
             path.unlink(missing_ok=True)
         raise
 
-    # 3. the session
+    # 3. the session. From here on the link is closed (source idle, idempotent) in `finally`, whatever fails —
+    # also what fails before `drive` takes the link over (reopening the file, the display, a Ctrl-C).
+    sf: SessionFile | None = None
+    display: LiveDisplay | None = None
+    outcome: RunOutcome | None = None
     try:
         sf = SessionFile.open_for_resume(path, fsync=fsync, keep_blocks=len(done) if resume else None)
-    except BaseException:
-        link.close()
-        raise
-    run = sf.run
-    operator = plan.session.operator or _login()
-    start = {
+        start = _start_record(plan, scene, sim=sim, sim_info=sim_info, run=sf.run, first_start=first_start)
+        display = LiveDisplay(plan.blocks_planned, done=len(done), stream=stream, quiet=quiet)
+        for note in sim_info.get("rig_warnings", []):
+            display.message(f"rig simulation: {note}")
+        writers: list[Writer] = [FileWriter(sf), display]
+        base_prompt = prompter or (answer_yes if yes else terminal_prompter(stream))
+        shown = display
+
+        def ask(step: PlaceWeight) -> Any:
+            with shown.paused():
+                return base_prompt(step)
+
+        with Interrupts(notify=display.message) as interrupts:
+            outcome = drive(
+                link,
+                plan.delta,
+                session_steps(plan, frozenset(done)),
+                writers,
+                start,
+                scene.text,
+                run=sf.run,
+                prompter=ask,
+                interrupts=interrupts,
+                blocks_planned=plan.blocks_planned,
+                blocks_before=len(done),
+                readings_before=readings_before,
+            )
+    finally:
+        try:
+            link.close()  # a no-op when drive has closed it already
+        except Exception:
+            if outcome is not None and outcome.error is None:
+                raise
+        if display is not None:
+            display.close()
+        if sf is not None:
+            try:
+                sf.close()
+            except OSError:
+                if outcome is not None and outcome.error is None:
+                    raise  # otherwise the error that ended the session is the one to report
+        if outcome is None and created and (sf is None or sf.n_blocks_at_close == 0):
+            path.unlink(missing_ok=True)  # failed before the first block (e.g. identify): nothing recorded
+    if outcome.error is not None:
+        raise outcome.error
+    return AcquisitionResult(
+        path=path,
+        status=outcome.stop.status,
+        reason=outcome.stop.reason,
+        blocks_done=outcome.stop.blocks_done,
+        blocks_planned=plan.blocks_planned,
+        run=sf.run,
+    )
+
+
+def _start_record(
+    plan: SessionPlan,
+    scene: Scene,
+    *,
+    sim: bool,
+    sim_info: dict[str, Any],
+    run: int,
+    first_start: dict[str, Any] | None,
+) -> dict[str, Any]:
+    """The start record of run ``run`` (the instruments' identities are added by :func:`drive`)."""
+    return {
         "format": "contactrig-session",
         "schema_version": SCHEMA_VERSION,
         "software": software_versions(),
         "started": now_iso(),
-        "operator": operator,
+        "operator": plan.session.operator or login_name(),
         "operator_source": "scene" if plan.session.operator else "login",
         "host": host_name(),
         "command": " ".join(sys.argv),
@@ -240,59 +303,5 @@ def acquire(
         "plan": plan.describe(),
         "instrument": {"address": plan.instrument.address, "timeout_ms": plan.instrument.timeout_ms},
         "run": run,
-        "resumed_from": (first_start or {}).get("started") if resume else None,
+        "resumed_from": (first_start or {}).get("started") if first_start is not None else None,
     }
-    display = LiveDisplay(plan.blocks_planned, done=len(done), stream=stream, quiet=quiet)
-    for note in sim_info.get("rig_warnings", []):
-        display.message(f"rig simulation: {note}")
-    writers: list[Writer] = [FileWriter(sf), display]
-    steps = session_steps(plan, frozenset(done))
-    base_prompt = prompter or (answer_yes if yes else terminal_prompter(stream))
-
-    def ask(step: PlaceWeight) -> Any:
-        with display.paused():
-            return base_prompt(step)
-
-    outcome: RunOutcome | None = None
-    try:
-        with Interrupts(notify=display.message) as interrupts:
-            outcome = drive(
-                link,
-                plan.delta,
-                steps,
-                writers,
-                start,
-                scene.text,
-                run=run,
-                prompter=ask,
-                interrupts=interrupts,
-                blocks_planned=plan.blocks_planned,
-                blocks_before=len(done),
-                readings_before=readings_before,
-            )
-    finally:
-        display.close()
-        try:
-            sf.close()
-        except OSError:
-            if outcome is not None and outcome.error is None:
-                raise  # otherwise the error that ended the session is the one to report
-        if outcome is None and created and sf.n_blocks_at_close == 0:
-            path.unlink(missing_ok=True)  # failed before the first block (e.g. identify): nothing recorded
-    if outcome.error is not None:
-        raise outcome.error
-    return AcquisitionResult(
-        path=path,
-        status=outcome.stop.status,
-        reason=outcome.stop.reason,
-        blocks_done=outcome.stop.blocks_done,
-        blocks_planned=plan.blocks_planned,
-        run=run,
-    )
-
-
-def _login() -> str:
-    try:
-        return getpass.getuser()
-    except Exception:  # no login name in some containers
-        return "unknown"

@@ -14,6 +14,7 @@ import argparse
 import importlib
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
 
 _COMMAND_MODULES = (
     "instruments.commands",
@@ -25,15 +26,22 @@ _COMMAND_MODULES = (
 )
 
 
+class _OneLineErrors(argparse.ArgumentParser):
+    """argparse, but a usage error is one line (``contactrig acquire: error: …``) and exit 2, like every other error."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The full argument parser (every package's subcommands)."""
-    parser = argparse.ArgumentParser(
+    parser = _OneLineErrors(
         prog="contactrig",
         description="Piston/liner contact area by electrical contact resistance: bench, simulation, analysis.",
     )
     parser.add_argument("--debug", action="store_true", help="show tracebacks instead of one-line errors")
     parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_OneLineErrors)
     for name in _COMMAND_MODULES:
         module = importlib.import_module(name)
         module.register(sub)

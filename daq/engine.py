@@ -195,6 +195,7 @@ class AcquisitionEngine:
                     continue
                 current = step
                 started = now_iso()
+                self.link.prepare_block(step.block)
                 intr.enter("instrument")
                 block = self.link.run_block(self.settings)
                 intr.enter("writing")

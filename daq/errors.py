@@ -9,6 +9,7 @@ __all__ = [
     "ChecksumError",
     "FileLockingError",
     "IncompleteSessionWarning",
+    "MissingFileError",
     "NewerSchemaError",
     "SessionExistsError",
     "SessionFileError",
@@ -36,15 +37,27 @@ class NewerSchemaError(SessionFileError):
     """The file was written with a newer session schema than this contactrig understands."""
 
 
-class SessionExistsError(FileExistsError):
+class _OneLine(OSError):
+    """An OSError built as ``Error(errno, message)`` that reads as its message alone (no ``[Errno N]`` prefix):
+    the message already says what failed and what to do; ``errno`` stays available to code."""
+
+    def __str__(self) -> str:
+        return str(self.strerror) if self.strerror else super().__str__()
+
+
+class MissingFileError(_OneLine, FileNotFoundError):
+    """A file the user named does not exist (a session to read or resume, a table to import)."""
+
+
+class SessionExistsError(_OneLine, FileExistsError):
     """The output file exists; it is never overwritten without ``--force`` (or continued without ``--resume``)."""
 
 
-class SessionWriteError(OSError):
+class SessionWriteError(_OneLine):
     """Writing the session file failed (unwritable path, full disk, lost network drive)."""
 
 
-class FileLockingError(OSError):
+class FileLockingError(_OneLine):
     """HDF5 could not lock the file: in use by another process, or on a file system without locking (NFS/SMB)."""
 
 

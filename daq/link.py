@@ -26,8 +26,9 @@ class UnreachableInstrument(RuntimeError):
 class InstrumentLink:
     """A :class:`~instruments.k6221.Keithley6221` whose every exchange is recorded.
 
-    ``place_weight`` is called when the operator has placed a weight (the simulated bench uses it to change its
-    resistance; on real hardware it does nothing). ``clock``/``sleep`` go to the driver (replay injects them).
+    ``place_weight(weight_kg)`` is called when the operator has placed a weight, ``prepare_block(block)`` just
+    before block number ``block`` starts (the simulated bench uses them to set its resistance; on real hardware
+    and in replay they do nothing). ``clock``/``sleep`` go to the driver (replay injects them).
     """
 
     def __init__(
@@ -36,6 +37,7 @@ class InstrumentLink:
         *,
         address: str = "",
         place_weight: Callable[[float], None] | None = None,
+        prepare_block: Callable[[int], None] | None = None,
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
         driver_options: dict[str, Any] | None = None,
@@ -44,6 +46,7 @@ class InstrumentLink:
         self.recorder = RecordingTransport(transport, clock=clock)
         self.driver = Keithley6221(self.recorder, clock=clock, sleep=sleep, **(driver_options or {}))
         self._place_weight = place_weight
+        self._prepare_block = prepare_block
         self._taken = 0
 
     def identify(self) -> Identity:
@@ -68,6 +71,10 @@ class InstrumentLink:
     def place_weight(self, weight_kg: float) -> None:
         if self._place_weight is not None:
             self._place_weight(weight_kg)
+
+    def prepare_block(self, block: int) -> None:
+        if self._prepare_block is not None:
+            self._prepare_block(block)
 
     def run_block(self, settings: DeltaSettings) -> DeltaBlock:
         """One Delta block; the driver leaves the source idle whatever happens."""

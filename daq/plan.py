@@ -20,7 +20,11 @@ Scene keys (SI units; every key validated, unknown keys are errors naming the ke
     ``sample``      free-text sample description
     ``rig``         free-text rig description
     ``sim_model``   contact model whose simulated contact area drives ``--sim`` (one of ``[database].models``)
-    ``sim_seed``    seed of the simulated bench's noise (whole number ≥ 0; default 1)
+    ``sim_seed``    seed of the simulated bench's noise and re-seating factors (whole number ≥ 0; default 1)
+    ``sim_repeat_sd``  ``--sim``: repeat-to-repeat scatter of the contact term, the SD of ln f of the mean-one
+                    log-normal factor f applied to ζh/A(W) for each block (0 … 1; default 0.15, from the
+                    scatter of Tab. 1's independent repeats M1–M3; 0 = instrument noise only). See
+                    :mod:`daq.simulated`.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from instruments.delta import DeltaSettings
 from sims.scene import Scene
 from sims.validation import SettingError, check_choice, check_int, check_keys, check_range
 
@@ -45,7 +50,9 @@ __all__ = [
 ]
 
 INSTRUMENT_KEYS = ("address", "timeout_ms")
-SESSION_KEYS = ("repeats", "weights_kg", "operator", "sample", "rig", "sim_model", "sim_seed")
+SESSION_KEYS = ("repeats", "weights_kg", "operator", "sample", "rig", "sim_model", "sim_seed", "sim_repeat_sd")
+#: Default ``[session].sim_repeat_sd``: Tab. 1's repeats M1–M3 scatter by 15–16 % at each weight (daq.simulated).
+DEFAULT_SIM_REPEAT_SD = 0.15
 MAX_WEIGHT_KG = 1000.0
 
 
@@ -80,7 +87,8 @@ class InstrumentSettings:
 
 @dataclass(frozen=True)
 class SessionSettings:
-    """The ``[session]`` table: repeats per weight, weights (kg) in order, who and what, simulated-bench options."""
+    """The ``[session]`` table: repeats per weight, weights (kg) in order, who and what, simulated-bench options
+    (``sim_model``, ``sim_seed``, ``sim_repeat_sd``: see the module docstring)."""
 
     weights_kg: tuple[float, ...]
     repeats: int = 6
@@ -89,6 +97,7 @@ class SessionSettings:
     rig: str = ""
     sim_model: str = "greenwood_tripp"
     sim_seed: int = 1
+    sim_repeat_sd: float = DEFAULT_SIM_REPEAT_SD
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "repeats", check_int("session.repeats", self.repeats, 1, 1000))
@@ -105,6 +114,7 @@ class SessionSettings:
             _check_str(f"session.{name}", getattr(self, name))
         _check_str("session.sim_model", self.sim_model, nonempty=True)
         object.__setattr__(self, "sim_seed", check_int("session.sim_seed", self.sim_seed, 0, 2**63 - 1))
+        object.__setattr__(self, "sim_repeat_sd", check_range("session.sim_repeat_sd", self.sim_repeat_sd, 0.0, 1.0))
 
 
 @dataclass(frozen=True)
@@ -112,7 +122,7 @@ class SessionPlan:
     """Everything a session needs, validated: instrument, Delta settings, session settings and the scene itself."""
 
     instrument: InstrumentSettings
-    delta: Any  # instruments.delta.DeltaSettings
+    delta: DeltaSettings
     session: SessionSettings
     scene: Scene
 
@@ -146,16 +156,14 @@ class SessionPlan:
         """The plan as plain JSON-able data, for the start record."""
         return {
             "instrument": dataclasses.asdict(self.instrument),
-            "delta": _settings_dict(self.delta),
+            "delta": dataclasses.asdict(self.delta),
             "session": {**dataclasses.asdict(self.session), "weights_kg": list(self.session.weights_kg)},
             "blocks_planned": self.blocks_planned,
         }
 
 
-def delta_settings_from_table(table: Mapping[str, Any]) -> Any:
+def delta_settings_from_table(table: Mapping[str, Any]) -> DeltaSettings:
     """``instruments.delta.DeltaSettings`` from the ``[delta]`` table; unknown keys are errors naming the key."""
-    from instruments.delta import DeltaSettings
-
     allowed = [f.name for f in dataclasses.fields(DeltaSettings) if f.init]
     check_keys("delta", table, allowed)
     try:
@@ -164,12 +172,6 @@ def delta_settings_from_table(table: Mapping[str, Any]) -> Any:
         if not exc.field.startswith("delta."):
             raise SettingError(f"delta.{exc.field}", exc.value, exc.allowed) from None
         raise
-
-
-def _settings_dict(settings: Any) -> dict[str, Any]:
-    if dataclasses.is_dataclass(settings):
-        return {f.name: getattr(settings, f.name) for f in dataclasses.fields(settings)}
-    return dict(settings)
 
 
 # ---- steps -----------------------------------------------------------------------------------------------------

@@ -151,4 +151,3 @@ class StopRecord:
     blocks_done: int
     readings_done: int
     weights_skipped: tuple[float, ...] = ()
-    extra: dict[str, Any] = field(default_factory=dict)

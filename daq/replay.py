@@ -24,7 +24,7 @@ from daq.acquire import drive
 from daq.errors import SessionStateError
 from daq.link import InstrumentLink
 from daq.plan import Measure, PlaceWeight
-from daq.session_file import Session, load_session
+from daq.session_file import Session, exchange_list, load_session
 from daq.writers import MemoryWriter
 from instruments.errors import ReplayMismatch
 from instruments.transport import Exchange, ReplayTransport
@@ -97,35 +97,25 @@ class _PacedTransport:
 
 
 def _exchanges(session: Session, run: int, blocks: set[int]) -> list[Exchange]:
+    """The recorded exchanges of ``run`` outside blocks (set-up, close) and of the completed ``blocks``."""
     ex = session.exchanges
-    sel = (ex["run"].to_numpy() == run) & (
-        (ex["block"].to_numpy() == -1) | np.isin(ex["block"].to_numpy(), sorted(blocks))
-    )
-    out = []
-    for kind, message, reply, t_s, error in zip(
-        ex["kind"].to_numpy()[sel],
-        ex["message"].to_numpy()[sel],
-        ex["reply"].to_numpy()[sel],
-        ex["t_s"].to_numpy()[sel],
-        ex["error"].to_numpy()[sel],
-        strict=True,
-    ):
-        err = error or None
-        out.append(Exchange(str(kind), str(message), None if kind == "write" or err else str(reply), float(t_s), err))
-    return out
+    block = ex["block"].to_numpy()
+    sel = (ex["run"].to_numpy() == run) & ((block == -1) | np.isin(block, sorted(blocks)))
+    return exchange_list({name: ex[name].to_numpy()[sel] for name in ("kind", "message", "reply", "t_s", "error")})
 
 
 def _steps(rows: Any) -> Iterator[PlaceWeight | Measure]:
-    last = None
+    """The recorded blocks of one run as plan steps: a PlaceWeight whenever the weight changes, then its blocks."""
     weights = rows["weight_kg"].to_numpy()
+    wi = -1
     for i, (block, weight, repeat) in enumerate(
         zip(rows["block"].to_numpy(), weights, rows["repeat"].to_numpy(), strict=True)
     ):
-        if weight != last:
+        if i == 0 or weight != weights[i - 1]:
+            wi += 1
             left = int(np.count_nonzero(weights[i:] == weight))
-            yield PlaceWeight(weight_index=i, weight_kg=float(weight), repeats_left=left)
-            last = weight
-        yield Measure(block=int(block), weight_index=i, weight_kg=float(weight), repeat=int(repeat))
+            yield PlaceWeight(weight_index=wi, weight_kg=float(weight), repeats_left=left)
+        yield Measure(block=int(block), weight_index=wi, weight_kg=float(weight), repeat=int(repeat))
 
 
 def _same(a: float, b: float) -> bool:

@@ -35,7 +35,7 @@ import re
 import socket
 import sys
 import warnings
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -48,6 +48,7 @@ from daq.errors import (
     ChecksumError,
     FileLockingError,
     IncompleteSessionWarning,
+    MissingFileError,
     NewerSchemaError,
     SessionExistsError,
     SessionFileError,
@@ -69,6 +70,7 @@ __all__ = [
     "UPGRADES",
     "Session",
     "SessionFile",
+    "exchange_list",
     "load_session",
     "software_versions",
 ]
@@ -144,6 +146,16 @@ def host_name() -> str:
     return socket.gethostname()
 
 
+def login_name() -> str:
+    """The operator's login name, recorded when the scene (or ``--operator``) names nobody; "unknown" if none."""
+    import getpass
+
+    try:
+        return getpass.getuser()
+    except Exception:  # no login name in some containers
+        return "unknown"
+
+
 # ---- opening files, with one clear message per failure ---------------------------------------------------------
 
 
@@ -183,7 +195,7 @@ def _explain_open_error(path: Path, exc: BaseException, writing: bool) -> Except
             return SessionWriteError(errno.ENOENT, f"the folder {path.parent} does not exist")
         if writing:
             return SessionWriteError(errno.ENOENT, f"cannot create {path} there (no such file or directory)")
-        return FileNotFoundError(errno.ENOENT, f"no such session file: {path}")
+        return MissingFileError(errno.ENOENT, f"no such session file: {path}")
     if code == errno.EROFS:
         return SessionWriteError(errno.EROFS, f"{path} is on a read-only file system")
     if not writing:
@@ -276,9 +288,7 @@ class SessionFile:
         """Create a new session file at ``path`` (refuses an existing file unless ``force``)."""
         p = Path(path)
         if p.exists() and not force:
-            raise SessionExistsError(
-                errno.EEXIST, f"{p} exists; use --force to overwrite it or --resume to continue it"
-            )
+            raise SessionExistsError(errno.EEXIST, f"{p} exists; use --force to overwrite it")
         if p.is_dir():
             raise SessionWriteError(errno.EISDIR, f"{p} is a folder, not a file name")
         h5 = _open_h5(p, "w")
@@ -415,12 +425,6 @@ class SessionFile:
         self._sync()
 
     @property
-    def blocks_done(self) -> list[tuple[float, int]]:
-        """(weight_kg, repeat) of every block on file, in order."""
-        s = self._entry["summary"]
-        return list(zip(s["weight_kg"][:].tolist(), s["repeat"][:].tolist(), strict=True))
-
-    @property
     def n_blocks(self) -> int:
         return int(self._summary["block"][0].get_space().shape[0])
 
@@ -519,7 +523,6 @@ class SessionFile:
             "weights_skipped": list(stop.weights_skipped),
             "run": self.run,
             "sha256_blocks": _chain_digest(self._block_hashes),
-            **stop.extra,
         }
         try:
             g = self._entry.require_group("stop")
@@ -760,7 +763,7 @@ def _verify(raw: dict[str, Any], path: Path) -> None:
         e0 = int(s["first_exchange"][i])
         e1 = e0 + int(s["n_exchanges"][i])
         ex = raw["exchanges"]
-        if e1 > len(ex["kind"]) or exchanges_digest(_exchange_list(ex, e0, e1)) != _text(s["exchanges_sha256"][i]):
+        if e1 > len(ex["kind"]) or exchanges_digest(exchange_list(ex, e0, e1)) != _text(s["exchanges_sha256"][i]):
             raise ChecksumError(
                 f"{path}: the recorded instrument exchanges of block {int(s['block'][i])} are damaged (SHA-256): "
                 "the block cannot be replayed",
@@ -780,8 +783,9 @@ def _text(value: Any) -> str:
     return value.decode() if isinstance(value, bytes) else str(value)
 
 
-def _exchange_list(ex: dict[str, np.ndarray], a: int, b: int) -> list[Exchange]:
-    """Rows a … b−1 of the exchange columns as :class:`Exchange` (reply None for writes and failed exchanges)."""
+def exchange_list(ex: Mapping[str, Any], a: int = 0, b: int | None = None) -> list[Exchange]:
+    """Rows a … b−1 (default: all) of the exchange columns (kind, message, reply, t_s, error: arrays, or the
+    columns of ``Session.exchanges``) as :class:`Exchange` (reply None for writes and failed exchanges)."""
     out = []
     for kind, message, reply, t_s, error in zip(
         ex["kind"][a:b], ex["message"][a:b], ex["reply"][a:b], ex["t_s"][a:b], ex["error"][a:b], strict=True

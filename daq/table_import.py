@@ -10,6 +10,7 @@ an empty or non-numeric cell is an error naming its row and column.
 from __future__ import annotations
 
 import csv
+import errno
 import hashlib
 import io
 import math
@@ -18,8 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
+from daq.errors import MissingFileError
 from daq.records import BlockRecord, StopRecord, now_iso
-from daq.session_file import SCHEMA_VERSION, SessionFile, host_name, software_versions
+from daq.session_file import SCHEMA_VERSION, SessionFile, host_name, login_name, software_versions
 from sims.validation import SettingError, check_choice
 
 __all__ = ["UNITS_OHM", "ResistanceTable", "import_table", "read_table", "tab1_path"]
@@ -55,7 +57,7 @@ def read_table(path: str | Path, unit: str) -> ResistanceTable:
     try:
         text = p.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
-        raise FileNotFoundError(2, f"no such table: {p}") from None
+        raise MissingFileError(errno.ENOENT, f"no such table: {p}") from None
     except UnicodeDecodeError as exc:
         raise SettingError(str(p), "<file>", f"expected UTF-8 CSV text ({exc.reason})") from None
     rows = [r for r in csv.reader(io.StringIO(text)) if any(cell.strip() for cell in r)]
@@ -109,7 +111,8 @@ def import_table(path: str | Path, output: str | Path, *, unit: str, force: bool
         "schema_version": SCHEMA_VERSION,
         "software": software_versions(),
         "started": started,
-        "operator": operator,
+        "operator": operator or login_name(),
+        "operator_source": "--operator" if operator else "login",
         "host": host_name(),
         "imported": True,
         "sim": False,

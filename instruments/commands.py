@@ -55,10 +55,15 @@ def _open(args: argparse.Namespace) -> Any:
     from sims.validation import SettingError, check_int
 
     check_int("--timeout-ms", args.timeout_ms, 1, 3_600_000)
+    check_int("--seed", args.seed, 0, 2**63 - 1)
     from instruments.k6221 import Keithley6221
 
     address = args.address
     rm = None
+    if address is not None and "::" not in address:
+        raise SettingError(
+            "ADDRESS", address, "expected a VISA resource such as GPIB0::12::INSTR or TCPIP0::<ip>::1394::SOCKET"
+        )
     if args.sim:
         from instruments.simulated import SimulatedBench, simulated_resource_manager
 

@@ -13,7 +13,7 @@ This module imports only numpy and :mod:`sims.validation`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -140,6 +140,7 @@ class DeltaBlock:
 
     readings: in ``unit`` (V or Ω); invalid readings (+9.9E37) are NaN and counted in ``n_invalid``.
     timestamps_s: 6221 buffer timestamps in s, the first is 0.
+    started_at_s: the driver's clock (s) when it sent ``INIT:IMM``.
     Statistics (``mean``, ``sd``, ``sem``, ``n``) use valid readings only; ``sd`` is the sample SD (ddof = 1),
     ``sem = sd/√n``; they are NaN when there are too few valid readings (n = 0 for the mean, n < 2 for SD/SEM).
     """
@@ -150,7 +151,6 @@ class DeltaBlock:
     n_invalid: int
     unit: str
     started_at_s: float = 0.0
-    info: dict = field(default_factory=dict, compare=False)
 
     def __post_init__(self) -> None:
         r = np.array(self.readings, dtype=float)

@@ -11,6 +11,7 @@ __all__ = [
     "CommunicationError",
     "InstrumentError",
     "InstrumentTimeout",
+    "InvalidReadingsWarning",
     "NanovoltmeterMissing",
     "ReplayMismatch",
     "ReplyError",
@@ -20,6 +21,11 @@ __all__ = [
 
 class CommunicationError(RuntimeError):
     """The VISA layer failed: the address cannot be opened, or a transfer failed for a reason other than a timeout."""
+
+
+class InvalidReadingsWarning(RuntimeWarning):
+    """Some Delta readings came back invalid (+9.9E37: 2182A overflow or no reading). They are NaN in the block,
+    counted in ``n_invalid`` and never averaged; with none valid the block's mean is NaN (no value)."""
 
 
 class InstrumentError(RuntimeError):

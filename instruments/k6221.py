@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -21,11 +22,13 @@ from instruments.delta import DeltaBlock, DeltaSettings, parse_buffer
 from instruments.errors import (
     InstrumentError,
     InstrumentTimeout,
+    InvalidReadingsWarning,
     NanovoltmeterMissing,
     ReplyError,
     SweepAborted,
 )
 from instruments.transport import Transport, VisaTransport
+from sims.validation import check_int, check_range
 
 __all__ = ["Identity", "Keithley6221"]
 
@@ -88,12 +91,10 @@ class Keithley6221:
         self.transport = transport
         self.clock = clock
         self.sleep = sleep
-        self.poll_interval_s = float(poll_interval_s)
-        self.arm_timeout_s = float(arm_timeout_s)
-        self.relay_timeout_s = float(relay_timeout_s)
-        if chunk_size is not None and not 1 <= int(chunk_size) <= 65536:
-            raise ValueError(f"chunk_size = {chunk_size!r} is not allowed: expected 1 … 65536 or None")
-        self.chunk_size = None if chunk_size is None else int(chunk_size)
+        self.poll_interval_s = check_range("poll_interval_s", poll_interval_s, 0.0, 60.0, lo_open=True, unit="s")
+        self.arm_timeout_s = check_range("arm_timeout_s", arm_timeout_s, 0.0, 3600.0, lo_open=True, unit="s")
+        self.relay_timeout_s = check_range("relay_timeout_s", relay_timeout_s, 0.0, 3600.0, lo_open=True, unit="s")
+        self.chunk_size = None if chunk_size is None else check_int("chunk_size", chunk_size, 1, 65536)
         self._closed = False
 
     # ------------------------------------------------------------------ opening and closing
@@ -107,7 +108,12 @@ class Keithley6221:
     ) -> Keithley6221:
         """Open the 6221 at VISA ``address`` (GPIB, ``TCPIP0::<ip>::1394::SOCKET`` or serial) with LF
         terminations and a ``timeout_ms`` VISA timeout. Use as a context manager."""
-        return cls(VisaTransport.open(address, resource_manager, timeout_ms), **kwargs)
+        transport = VisaTransport.open(address, resource_manager, timeout_ms)
+        try:
+            return cls(transport, **kwargs)
+        except BaseException:  # invalid driver options: nothing was sent, but the connection must not leak
+            transport.close()
+            raise
 
     def __enter__(self) -> Keithley6221:
         return self
@@ -361,6 +367,18 @@ class Keithley6221:
         finally:
             self._abort_quietly()
         n_invalid = int(np.count_nonzero(np.isnan(readings)))
+        if n_invalid:
+            warnings.warn(
+                f"{n_invalid} of {readings.size} Delta readings invalid (+9.9E37: 2182A overflow or no reading); "
+                "they are counted and not averaged"
+                + (
+                    "; no valid reading in this block — check the 2182A range and the sample leads"
+                    if n_invalid == readings.size
+                    else ""
+                ),
+                InvalidReadingsWarning,
+                stacklevel=2,
+            )
         return DeltaBlock(
             settings=settings,
             readings=readings,

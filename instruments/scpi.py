@@ -86,7 +86,6 @@ _ALIASES = {
     "SYST:ERR:NEXT": "SYST:ERR",
     "SOUR:CURR:LEV": "SOUR:CURR",
     "SOUR:CURR:LEV:IMM:AMPL": "SOUR:CURR",
-    "TRAC:DATA:SEL": "TRAC:DATA:SEL",
 }
 _HEADER = re.compile(r"\s*(:?[*A-Za-z][A-Za-z0-9_:*]*\??)\s*(.*)\Z", re.S)
 

@@ -35,6 +35,7 @@ from pyvisa_sim.highlevel import SimVisaLibrary
 
 from instruments.delta import delta_readings
 from instruments.scpi import Command, parse_message, split_params, unquote
+from sims.validation import check_choice, check_range
 
 __all__ = [
     "GPIB_ADDRESS",
@@ -179,17 +180,14 @@ class SimulatedBench:
         clock: Callable[[], float] = time.monotonic,
         faults: Faults | None = None,
     ) -> None:
-        if not (time_scale >= 0 and math.isfinite(time_scale)):
-            raise ValueError(f"time_scale = {time_scale!r} is not allowed: expected a finite value >= 0")
-        self.model: ConversionModel = model if model is not None else ContactVoltageModel(resistance_ohm)
-        if model is not None:
-            self.model.resistance_ohm = resistance_ohm
+        self.model: ConversionModel = model if model is not None else ContactVoltageModel()
+        self.resistance_ohm = resistance_ohm  # validated by the setter
         self.rng = np.random.default_rng(seed)
-        self.time_scale = float(time_scale)
-        self.lead_resistance_ohm = float(lead_resistance_ohm)
-        self.line_frequency_hz = float(line_frequency_hz)
-        self.arm_time_s = float(arm_time_s)
-        self.conversion_overhead_s = float(conversion_overhead_s)
+        self.time_scale = check_range("time_scale", time_scale, 0.0)
+        self.lead_resistance_ohm = check_range("lead_resistance_ohm", lead_resistance_ohm, 0.0, unit="Ω")
+        self.line_frequency_hz = float(check_choice("line_frequency_hz", line_frequency_hz, (50, 60)))
+        self.arm_time_s = check_range("arm_time_s", arm_time_s, 0.0, unit="s")
+        self.conversion_overhead_s = check_range("conversion_overhead_s", conversion_overhead_s, 0.0, unit="s")
         self.clock = clock
         self.faults = faults if faults is not None else Faults()
         #: Instrument time elapsed in simulated sweeps (s): the drift term keeps running from block to block.
@@ -202,17 +200,11 @@ class SimulatedBench:
 
     @resistance_ohm.setter
     def resistance_ohm(self, value: float) -> None:
-        value = float(value)
-        if not (value >= 0 and math.isfinite(value)):
-            raise ValueError(f"resistance_ohm = {value!r} is not allowed: expected a finite value >= 0")
-        self.model.resistance_ohm = value
+        self.model.resistance_ohm = check_range("resistance_ohm", value, 0.0, unit="Ω")
 
     def queue_error(self, code: int, message: str) -> None:
         """Put an error into the 6221's error queue (delivered with the next command it receives)."""
         self._injected_errors.append((int(code), str(message)))
-
-    def real_seconds(self, instrument_s: float) -> float:
-        return instrument_s * self.time_scale
 
 
 # ---------------------------------------------------------------------------------------------------- devices
@@ -302,7 +294,9 @@ class _Sweep:
 class SimulatedK6221(_ScpiDevice):
     """The simulated 6221 at one VISA address (a pyvisa-sim Device with SCPI parsing and Delta physics)."""
 
-    def __init__(self, name: str, definition: dict[str, Any], voltmeter_def: dict[str, Any], bench: SimulatedBench):
+    def __init__(
+        self, name: str, definition: dict[str, Any], voltmeter_def: dict[str, Any], bench: SimulatedBench
+    ) -> None:
         super().__init__(name, definition)
         self.bench = bench
         self.voltmeter = Simulated2182A("k2182a", voltmeter_def)

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from instruments.errors import CommunicationError, InstrumentTimeout, ReplayMismatch
+from sims.validation import check_int
 
 __all__ = [
     "Exchange",
@@ -68,7 +69,7 @@ class VisaTransport:
         self.resource = resource
         resource.read_termination = "\n"
         resource.write_termination = "\n"
-        resource.timeout = int(timeout_ms)
+        resource.timeout = check_int("timeout_ms", timeout_ms, 1, 3_600_000)
         self._last = ""
 
     @classmethod
@@ -76,8 +77,14 @@ class VisaTransport:
         """Open ``address`` on ``resource_manager`` (default: pyvisa's default VISA library)."""
         import pyvisa
 
+        check_int("timeout_ms", timeout_ms, 1, 3_600_000)
         if resource_manager is None:
-            resource_manager = pyvisa.ResourceManager()
+            try:
+                resource_manager = pyvisa.ResourceManager()
+            except (ValueError, OSError) as exc:  # no VISA library installed (pyvisa raises ValueError)
+                raise CommunicationError(
+                    f"no VISA library is installed to open {address!r}: install NI-VISA, or `pip install pyvisa-py`"
+                ) from exc
         try:
             resource = resource_manager.open_resource(
                 address, read_termination="\n", write_termination="\n", timeout=int(timeout_ms)

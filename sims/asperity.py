@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sims.materials import HARDNESS_TO_YIELD
 from sims.validation import SettingError, check_choice, check_range
 
 __all__ = [
@@ -93,6 +94,10 @@ class Hertz:
     R: NDArray[np.float64] | float
     name: str = "hertz"
 
+    def __post_init__(self) -> None:
+        _check_E(self.E_star)
+        _check_R(self.R)
+
     def force(self, delta: ArrayLike) -> NDArray[np.float64]:
         """W = √(δ³ E′² R′ / 1.0397³) (seed eq. 5), N."""
         d = np.maximum(_delta(delta), 0.0)
@@ -126,6 +131,10 @@ class Lagemann:
     E_star: float
     R: NDArray[np.float64] | float
     name: str = "lagemann"
+
+    def __post_init__(self) -> None:
+        _check_E(self.E_star)
+        _check_R(self.R)
 
     def force(self, delta: ArrayLike) -> NDArray[np.float64]:
         """W = √(16 δ³ E*² R / 9) (seed eq. 11), N."""
@@ -166,6 +175,10 @@ class PasaribuSchipper:
     R: NDArray[np.float64] | float
     H: float
     name: str = "pasaribu_schipper"
+
+    def __post_init__(self) -> None:
+        _check_R(self.R)
+        _check_H(self.H, _check_E(self.E_star))
 
     @property
     def omega_c1(self) -> NDArray[np.float64]:
@@ -213,6 +226,10 @@ class JacksonGreen:
     name: str = "jackson_green"
 
     def __post_init__(self) -> None:
+        _check_E(self.E_star)
+        _check_R(self.R)
+        check_range("yield_strength", self.yield_strength, 0.0, 1e12, lo_open=True, unit="Pa")
+        check_range("nu", self.nu, 0.0, 0.5, hi_open=True)
         e_y = self.yield_strength / self.E_star
         if not 1e-7 <= e_y <= 0.1:
             raise SettingError("yield_strength", self.yield_strength, "expected S_y/E* in [1e-7, 0.1] (J&G's range)")
@@ -256,7 +273,7 @@ class JacksonGreen:
         elastic = _hertz_force(self.E_star, R, d)
         xp = np.maximum(x, 1.9)
         ln_a_over_r = 0.5 * np.log(xp * wc / R) + 0.5 * self.B * np.log(xp / 1.9)
-        hg_sy = 2.84 * (1.0 - np.exp(-0.82 * np.exp(-0.7 * ln_a_over_r)))
+        hg_sy = HARDNESS_TO_YIELD * (1.0 - np.exp(-0.82 * np.exp(-0.7 * ln_a_over_r)))
         pc = self.critical_force
         plastic = pc * (
             np.exp(-0.25 * xp ** (5.0 / 12.0)) * xp**1.5
@@ -288,6 +305,10 @@ def model(
     H = _check_H(H, E_star)
     if name == "pasaribu_schipper":
         return PasaribuSchipper(E_star, R_val, H)
-    sy = H / 2.84 if yield_strength is None else check_range("yield_strength", yield_strength, 1e3, 1e12, unit="Pa")
+    sy = (
+        H / HARDNESS_TO_YIELD
+        if yield_strength is None
+        else check_range("yield_strength", yield_strength, 0.0, 1e12, lo_open=True, unit="Pa")
+    )
     nu = check_range("nu", nu, 0.0, 0.5, hi_open=True)
     return JacksonGreen(E_star, R_val, sy, nu)

@@ -8,6 +8,8 @@ Fig. 2. Nothing heavy is imported at module level.
 from __future__ import annotations
 
 import argparse
+import sys
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -41,15 +43,21 @@ def run_database(args: argparse.Namespace) -> int:
     models = None
     if args.models is not None:
         models = [m.strip() for m in args.models.split(",") if m.strip()]
-    db = build_database(scene, models=models, n_separations=args.n_separations)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # the same text is in provenance["warnings"], printed below
+        db = build_database(scene, models=models, n_separations=args.n_separations)
     out = save_database(db, args.output)
     prov = db.provenance
+    for w in prov.get("warnings", []):
+        print(f"warning: {w}", file=sys.stderr)
     gt = prov.get("greenwood_tripp", {})
     print(
         f"contact database of scene {prov.get('scene_name', '')!r}: {', '.join(db)}; "
         f"sigma = {gt.get('sigma_m', float('nan')):.3g} m, eta = {gt.get('eta_per_m2', float('nan')):.3g} 1/m², "
         f"beta = {gt.get('beta_m', float('nan')):.3g} m, "
-        f"plasticity index {prov.get('plasticity_index', float('nan')):.2f}"
+        f"plasticity index {prov.get('plasticity_index', float('nan')):.2f}; GT summit heights "
+        f"{gt.get('heights', '?')!r}: mean {gt.get('offset_m', float('nan')):.3g} m, SD "
+        f"{gt.get('sigma_summits_m', float('nan')):.3g} m"
     )
     for name, curve in db.items():
         print(

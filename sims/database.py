@@ -3,9 +3,15 @@
 For the scene's surface pair and materials, each requested model gives a :class:`ContactCurve` on a uniform grid
 of separations h (distance between the mean planes of the two surfaces, m):
 
-* ``"greenwood_tripp"`` — seed eq. 1–3 from statistics only: σ = √(Sq1² + Sq2²) (eq. 3); η and β are the geometric
-  means of the two surfaces' McCool values from their spectral moments (exact when the surfaces are alike, GT's own
-  assumption). No surface is generated for it. Grid: h from ``h_min_sigma``·σ to ``h_max_sigma``·σ.
+* ``"greenwood_tripp"`` — seed eq. 1–3 from statistics only (McCool's values from each surface's spectral moments;
+  no surface is generated for it). GT's asperity-pair integral needs η = √(η1 η2), β^(3/2) = √(β1 β2 (β1 + β2)/2)
+  for the pressure and β = √(β1 β2) for the area (both exact for unlike surfaces), and the distribution of the
+  summed summit heights. ``gt_heights = "summits"`` (default) takes that from the summits: mean z̄_s1 + z̄_s2
+  above the mean planes of the surface heights (McCool: z̄_s = 4 Sq/√(πα) ≈ 1.3 Sq at α = 3) and SD
+  σ_s = √(σ_s1² + σ_s2²), i.e. p = GT(h − z̄; σ_s) — the same origin of h as the asperity models.
+  ``gt_heights = "seed"`` is seed eq. 1–3 as printed: summit heights centred on the mean planes with
+  σ = √(Sq1² + Sq2²), p = GT(h; σ) — 6–120× less pressure at equal h on the default surfaces (MODELS.md).
+  Grid: h from ``h_min_sigma``·σ to ``h_max_sigma``·σ, σ = √(Sq1² + Sq2²).
 * the asperity models (:mod:`sims.asperity`) — deterministic summation over the summits of the composite surface
   z = z_liner + z_piston against a flat (the standard reduction of two rough surfaces to one: the gap at a point is
   h − z_liner − z_piston). A summit of height z_i and mean-curvature radius R_i (seed eq. 8) has interference
@@ -20,7 +26,10 @@ first contact (asperity models) p follows the single-summit law (h_top − h)^(3
 warns).
 
 Scene table ``[database]``: ``models`` (list), ``n_separations`` (16…100000), ``h_min_sigma`` (deepest separation
-/ σ, −3…3), ``h_max_sigma`` (GT's largest separation / σ, 1…10).
+/ σ, −3…3), ``h_max_sigma`` (GT's largest separation / σ, 1…10), ``gt_heights`` ("summits" | "seed").
+
+Warnings: Jackson & Green's fit used beyond ω/ω_c = 110 (its fitted range) is a ``RuntimeWarning`` at build time,
+also listed in ``provenance["warnings"]``.
 
 HDF5 layout (:func:`save_database`): one group per model with datasets ``separation_m`` (units "m"),
 ``pressure_pa`` ("Pa") and ``area_fraction`` ("1"); group attributes hold the model's parameters; the root
@@ -33,8 +42,9 @@ from __future__ import annotations
 import json
 import math
 import time
+import warnings
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -42,24 +52,28 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sims.materials import ContactMaterials, materials_from_scene
-from sims.validation import SettingError, check_int, check_keys, check_range
+from sims.validation import SettingError, check_choice, check_int, check_keys, check_range
 
 __all__ = [
     "DATABASE_KEYS",
+    "GT_HEIGHTS",
     "KNOWN_MODELS",
     "ContactCurve",
     "ContactDatabase",
     "DatabaseSettings",
     "MissingModelError",
     "build_database",
+    "greenwood_tripp_parameters",
     "load_database",
     "save_database",
 ]
 
 KNOWN_MODELS = ("greenwood_tripp", "hertz", "lagemann", "pasaribu_schipper", "jackson_green")
-DATABASE_KEYS = ("models", "n_separations", "h_min_sigma", "h_max_sigma")
+DATABASE_KEYS = ("models", "n_separations", "h_min_sigma", "h_max_sigma", "gt_heights")
+GT_HEIGHTS = ("summits", "seed")
 ASPERITY_MODELS = KNOWN_MODELS[1:]
 
+_JG_FIT_LIMIT = 110.0  # Jackson & Green (2005) fitted ω/ω_c up to about this
 _ONSET_EXPONENT_P = 1.5  # a single Hertzian summit: F ∝ δ^(3/2)
 _ONSET_EXPONENT_A = 1.0  # ... and A ∝ δ
 
@@ -247,7 +261,11 @@ class ContactCurve:
         return y.reshape(hh.shape), dy.reshape(hh.shape)
 
     def pressure(self, h: ArrayLike) -> NDArray[np.float64]:
-        """Nominal contact pressure at separation ``h`` (m), Pa."""
+        """Nominal contact pressure at separation ``h`` (m), Pa: finite and >= 0 for every real ``h``.
+
+        Below ``h_min`` the value is the tangent extrapolation (``in_range`` False); no Python warning is raised
+        per call because solvers evaluate there while bracketing — callers check ``in_range`` on their results.
+        """
         return self._eval(self._p, h)[0]
 
     def dpressure_dh(self, h: ArrayLike) -> NDArray[np.float64]:
@@ -255,12 +273,17 @@ class ContactCurve:
         return self._eval(self._p, h)[1]
 
     def area_fraction_at(self, h: ArrayLike) -> NDArray[np.float64]:
-        """Real / nominal contact area at ``h`` (m), in [0, 1] (1 is a bound reached only far below ``h_min``)."""
+        """Real / nominal contact area at ``h`` (m), in [0, 1].
+
+        The bound 1 (real area cannot exceed the nominal one) can only act below ``h_min``, on the extrapolated
+        tangent, where :meth:`in_range` is False — the caller's signal (the rig warns and extends the database).
+        """
         return np.minimum(self._eval(self._a, h)[0], 1.0)
 
     def darea_fraction_dh(self, h: ArrayLike) -> NDArray[np.float64]:
-        """Slope of the area fraction, 1/m (<= 0)."""
-        return self._eval(self._a, h)[1]
+        """Slope of :meth:`area_fraction_at`, 1/m (<= 0; 0 where the bound 1 acts)."""
+        y, dy = self._eval(self._a, h)
+        return np.where(y < 1.0, dy, 0.0)
 
 
 @dataclass(frozen=True)
@@ -294,8 +317,9 @@ class DatabaseSettings:
 
     models: tuple[str, ...] = KNOWN_MODELS
     n_separations: int = 256
-    h_min_sigma: float = -1.5
+    h_min_sigma: float = -0.25
     h_max_sigma: float = 6.0
+    gt_heights: str = "summits"
 
     def __post_init__(self) -> None:
         models = _check_models("database.models", self.models)
@@ -305,6 +329,7 @@ class DatabaseSettings:
         check_range("database.h_max_sigma", self.h_max_sigma, 1.0, 10.0)
         if self.h_max_sigma <= self.h_min_sigma:
             raise SettingError("database.h_max_sigma", self.h_max_sigma, f"expected > h_min_sigma = {self.h_min_sigma}")
+        check_choice("database.gt_heights", self.gt_heights, GT_HEIGHTS)
 
     @classmethod
     def from_scene(cls, scene: Any) -> DatabaseSettings:
@@ -341,14 +366,57 @@ def _software_version() -> str:
         return "0+unknown"
 
 
-def _gt_curve(sigma: float, eta: float, beta: float, E_star: float, settings: DatabaseSettings) -> ContactCurve:
+def greenwood_tripp_parameters(
+    liner: Any, piston: Any, sq_liner_m: float, sq_piston_m: float, heights: str = "summits"
+) -> dict[str, Any]:
+    """Greenwood–Tripp parameters of a surface pair from each surface's summit statistics (``SummitStatistics``,
+    e.g. :func:`sims.surface.mccool`) and RMS roughness Sq (m).
+
+    Returns ``sigma_m`` (√(Sq1² + Sq2²), seed eq. 3: the grid unit), ``eta_per_m2`` = √(η1 η2), ``beta_m`` =
+    √(β1 β2) (area), ``beta_pressure_m`` = (β1 β2 (β1 + β2)/2)^(1/3) (pressure; both exact in GT's asperity-pair
+    integral for unlike surfaces and equal for alike ones), and the distribution of the summed summit heights that
+    F_n integrates over: ``sigma_summits_m`` (its SD) and ``offset_m`` (its mean above the mean planes of the
+    surface heights). ``heights="summits"``: √(σ_s1² + σ_s2²) and z̄_s1 + z̄_s2; ``"seed"`` (eq. 1–3 as printed):
+    σ and 0.
+    """
+    from sims.surface import combined_sigma
+
+    check_choice("gt_heights", heights, GT_HEIGHTS)
+    b1, b2 = liner.beta, piston.beta
+    out: dict[str, Any] = {
+        "heights": heights,
+        "sigma_m": combined_sigma(sq_liner_m, sq_piston_m),
+        "eta_per_m2": math.sqrt(liner.eta * piston.eta),
+        "beta_m": math.sqrt(b1 * b2),
+        "beta_pressure_m": (b1 * b2 * (b1 + b2) / 2.0) ** (1.0 / 3.0),
+    }
+    if heights == "summits":
+        offset = liner.mean_height + piston.mean_height
+        if not math.isfinite(offset):
+            raise SettingError("gt_heights", heights, "needs the mean summit height of both surfaces")
+        out["sigma_summits_m"] = math.hypot(liner.sigma_s, piston.sigma_s)
+        out["offset_m"] = offset
+    else:
+        out["sigma_summits_m"] = out["sigma_m"]
+        out["offset_m"] = 0.0
+    return out
+
+
+def _gt_curve(g: dict[str, Any], E_star: float, settings: DatabaseSettings) -> ContactCurve:
     from sims import greenwood_tripp as gt
 
+    sigma = g["sigma_m"]
     h = np.linspace(settings.h_min_sigma * sigma, settings.h_max_sigma * sigma, settings.n_separations)
-    p = gt.pressure(h, sigma=sigma, eta=eta, beta=beta, E_star=E_star)
-    a = gt.area_fraction(h, sigma=sigma, eta=eta, beta=beta)
-    params = {"sigma_m": sigma, "eta_per_m2": eta, "beta_m": beta, "E_star_pa": E_star}
-    return ContactCurve("greenwood_tripp", h, p, a, params)
+    hs = h - g["offset_m"]
+    s, eta = g["sigma_summits_m"], g["eta_per_m2"]
+    p = gt.pressure(hs, sigma=s, eta=eta, beta=g["beta_pressure_m"], E_star=E_star)
+    try:
+        a = gt.area_fraction(hs, sigma=s, eta=eta, beta=g["beta_m"])
+    except SettingError as exc:
+        raise SettingError(
+            "database.h_min_sigma", settings.h_min_sigma, f"Greenwood–Tripp: {exc.allowed}; raise h_min_sigma"
+        ) from None
+    return ContactCurve("greenwood_tripp", h, p, a, {**g, "E_star_pa": E_star})
 
 
 def asperity_sums(
@@ -374,8 +442,6 @@ def asperity_sums(
 
 
 def _with_radius(asp_model: Any, R: Any) -> Any:
-    from dataclasses import replace
-
     return replace(asp_model, R=R)
 
 
@@ -389,24 +455,14 @@ def build_database(
     naming the scene key on bad settings.
     """
     from sims import asperity
-    from sims.surface import combined_sigma, mccool, statistics_of, summit_data, surfaces_from_scene
+    from sims.surface import mccool, statistics_of, summit_data, surfaces_from_scene
 
     t_start = time.perf_counter()
     settings = DatabaseSettings.from_scene(scene)
     if models is not None:
-        settings = DatabaseSettings(
-            models=_check_models("models", list(models)),
-            n_separations=settings.n_separations,
-            h_min_sigma=settings.h_min_sigma,
-            h_max_sigma=settings.h_max_sigma,
-        )
+        settings = replace(settings, models=_check_models("models", list(models)))
     if n_separations is not None:
-        settings = DatabaseSettings(
-            settings.models,
-            check_int("n_separations", n_separations, 16, 100_000),
-            settings.h_min_sigma,
-            settings.h_max_sigma,
-        )
+        settings = replace(settings, n_separations=check_int("n_separations", n_separations, 16, 100_000))
     mats: ContactMaterials = materials_from_scene(scene)
     liner, piston = surfaces_from_scene(scene)
     E_star = mats.E_star
@@ -422,6 +478,7 @@ def build_database(
             "n_separations": settings.n_separations,
             "h_min_sigma": settings.h_min_sigma,
             "h_max_sigma": settings.h_max_sigma,
+            "gt_heights": settings.gt_heights,
         },
         "materials": mats.as_dict(),
         "surfaces": {"liner": liner.as_dict(), "piston": piston.as_dict()},
@@ -441,14 +498,14 @@ def build_database(
         stats[body] = st
         prov["surfaces"][body]["mccool"] = st.as_dict()
         prov["surfaces"][body]["sq_m"] = sq[body]
-    sigma = combined_sigma(sq["liner"], sq["piston"])
-    eta = math.sqrt(stats["liner"].eta * stats["piston"].eta)
-    beta = math.sqrt(stats["liner"].beta * stats["piston"].beta)
-    prov["greenwood_tripp"] = {"sigma_m": sigma, "eta_per_m2": eta, "beta_m": beta}
-    prov["plasticity_index"] = (E_star / mats.H) * math.sqrt(sigma / beta)
+    g = greenwood_tripp_parameters(stats["liner"], stats["piston"], sq["liner"], sq["piston"], settings.gt_heights)
+    sigma = g["sigma_m"]
+    prov["greenwood_tripp"] = g
+    # Greenwood & Williamson's plasticity index (E*/H) √(σ/β), σ = √(Sq1² + Sq2²), β = √(β1 β2)
+    prov["plasticity_index"] = (E_star / mats.H) * math.sqrt(sigma / g["beta_m"])
 
     if "greenwood_tripp" in settings.models:
-        curves["greenwood_tripp"] = _gt_curve(sigma, eta, beta, E_star, settings)
+        curves["greenwood_tripp"] = _gt_curve(g, E_star, settings)
 
     if want_asperity:
         z1, z2 = heights["liner"], heights["piston"]
@@ -494,6 +551,16 @@ def build_database(
             params = {"E_star_pa": E_star, "H_pa": mats.H, "n_summits": int(zs.size), "area_m2": data.area_m2}
             if name == "jackson_green":
                 params.update(yield_pa=soft.yield_strength_pa, nu=soft.nu)
+                # J&G fitted their FEM results up to ω/ω_c ≈ 110; deeper, the fit is an extrapolation
+                reach = float(np.max((zs - h[0]) / m.omega_c))
+                params["max_interference_over_omega_c"] = reach
+                if reach > _JG_FIT_LIMIT:
+                    msg = (
+                        f"jackson_green: summits reach ω/ω_c = {reach:.3g} at the deepest separation, beyond the "
+                        f"range of Jackson & Green's fit (≤ {_JG_FIT_LIMIT:g}): extrapolated there"
+                    )
+                    prov.setdefault("warnings", []).append(msg)
+                    warnings.warn(msg, RuntimeWarning, stacklevel=2)
             try:
                 curves[name] = ContactCurve(name, h, p, af, params)
             except SettingError as exc:

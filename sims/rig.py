@@ -33,7 +33,7 @@ from sims.rig_batch import BatchEquilibrium, batch_equilibrium
 from sims.rig_file import load_sweep, save_sweep
 from sims.rig_law import ContactLaw, check_law
 from sims.rig_settings import STANDARD_GRAVITY, RigSettings, check_weights
-from sims.rig_statics import ALPHA_WARN, Equilibrium, RigLoadError, equilibrium, roughness_parameter
+from sims.rig_statics import ALPHA_WARN, Equilibrium, RigLoadError, equilibrium, preload_note, roughness_parameter
 
 if TYPE_CHECKING:
     from sims.scene import Scene
@@ -88,6 +88,7 @@ class ModelSweep:
 
     @classmethod
     def from_batch(cls, name: str, batch: BatchEquilibrium) -> ModelSweep:
+        """The sweep of model ``name`` from its batch equilibria (arrays copied where shared)."""
         n = batch.weight_kg.size
         return cls(
             name=name,
@@ -99,23 +100,6 @@ class ModelSweep:
             contact_width_m=batch.contact_width_m,
             n_nodes=np.full(n, batch.n_nodes, dtype=int),
             converged=np.asarray(batch.converged, dtype=bool),
-        )
-
-    @classmethod
-    def from_equilibria(cls, name: str, results: Sequence[Equilibrium]) -> ModelSweep:
-        def col(attr: str, dtype: Any = float) -> np.ndarray:
-            return np.array([getattr(r, attr) for r in results], dtype=dtype)
-
-        return cls(
-            name=name,
-            weight_kg=col("weight_kg"),
-            contact_area_m2=col("contact_area_m2"),
-            min_separation_m=col("min_separation_m"),
-            force_n=col("contact_force_n"),
-            peak_pressure_pa=col("peak_pressure_pa"),
-            contact_width_m=col("contact_width_m"),
-            n_nodes=col("n_nodes", int),
-            converged=col("converged", bool),
         )
 
 
@@ -186,7 +170,8 @@ def sweep(
     """Contact area against weight for every model: static equilibrium per (model, weight).
 
     All weights of a model are solved together on a shared mesh (:func:`sims.rig_batch.batch_equilibrium`); the
-    per-model solver diagnostics are in ``provenance["solver"]``.
+    per-model solver diagnostics are in ``provenance["solver"]``; ``provenance["notes"]`` says when the clearance
+    lies inside a law's contact range (a pre-loaded fit: zero clearance, or roughness comparable with it).
 
     ``scene`` (a :class:`~sims.scene.Scene`, a path, or None → the packaged default) gives ``[rig]`` (unless
     ``settings`` is given) and the database settings. ``models`` restricts the models (None → the scene's
@@ -261,6 +246,9 @@ def sweep(
             name: _bulk_deflection(law_map[name], settings, batches[name], roughness_m, composite_modulus_pa)
             for name in batches
         }
+    notes = [note for name, law in law_map.items() if (note := preload_note(name, law, settings))]
+    if notes:
+        provenance["notes"] = notes
     result_models: dict[str, ModelSweep] = {}
     for name, batch in batches.items():
         warnings.extend(w for w in batch.warnings if w not in warnings)

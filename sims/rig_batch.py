@@ -8,7 +8,9 @@ a Newton step that leaves the bracket is replaced by bisection, so it cannot fai
 
 The variable mesh is shared: its fine zone ends where the gap of the heaviest weight reaches the law's ``h_max``
 (the widest contact), and it is refined (cells doubled) until every weight's real area changes by less than
-``mesh_tol``. A uniform-mesh scene uses its fixed ``n_theta × n_axial`` mesh.
+``mesh_tol``; the skirt beyond the zone gets cells only when :func:`sims.rig_loads.tail_bound` cannot show it
+negligible for every weight (as in :mod:`sims.rig_statics`). A uniform-mesh scene uses its fixed
+``n_theta × n_axial`` mesh.
 """
 
 from __future__ import annotations
@@ -26,9 +28,10 @@ from sims.rig_geometry import (
     gap_m,
 )
 from sims.rig_law import ContactLaw
+from sims.rig_loads import tail_matters
 from sims.rig_mesh import SkirtMesh, uniform_mesh, variable_mesh
 from sims.rig_settings import STANDARD_GRAVITY, RigSettings, check_weights
-from sims.rig_statics import RigLoadError
+from sims.rig_statics import bracket_error, search_limits
 
 __all__ = ["BatchEquilibrium", "batch_equilibrium"]
 
@@ -60,6 +63,7 @@ class BatchEquilibrium:
 
     @property
     def n_nodes(self) -> int:
+        """Nodes of the (shared) mesh."""
         return self.mesh.n_nodes
 
 
@@ -76,17 +80,20 @@ class _Batch:
         self.calls = 0
 
     def gap(self, h0: np.ndarray) -> np.ndarray:
+        """Gap [m], shape ``(weights, n_theta, n_y)``, for minimum gaps ``h0`` [m]."""
         s = self.s
         g = gap_m(self.theta[None, :], h0[:, None], s.liner_radius_m, s.clearance_m, s.exact_gap)
         return g[:, :, None] + self.profile
 
     def force(self, h0: np.ndarray) -> np.ndarray:
+        """Vertical contact force F(h0) = Σ p ΔA cos θ [N] per weight (seed eq. 22, P_c A_c)."""
         self.calls += 1
         h = self.gap(h0)
         p = np.asarray(self.law.pressure(h.ravel()), dtype=float).reshape(h.shape)
         return np.einsum("wty,ty->w", p, self.cos_area)
 
     def force_and_slope(self, h0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """F(h0) [N] and dF/dh0 [N/m] per weight, from the law's analytic slope."""
         self.calls += 2
         s = self.s
         h = self.gap(h0)
@@ -97,6 +104,7 @@ class _Batch:
         return np.einsum("wty,ty->w", p, self.cos_area), np.einsum("wty,ty->w", dp * dh, self.cos_area)
 
     def area_m2(self, h0: np.ndarray) -> np.ndarray:
+        """Real contact area Σ a ΔA [m²] per weight."""
         self.calls += 1
         h = self.gap(h0)
         a = np.asarray(self.law.area_fraction_at(h.ravel()), dtype=float).reshape(h.shape)
@@ -106,9 +114,7 @@ class _Batch:
 def _solve(batch: _Batch, load: np.ndarray, guess: np.ndarray | None, name: str) -> tuple[np.ndarray, int]:
     """Minimum gaps with ``F(h0) = load`` (all > 0); returns the roots and the iteration count."""
     law, s = batch.law, batch.s
-    span = float(law.h_max) - float(law.h_min)
-    lo_limit = max(s.clearance_m - 0.5 * s.piston_radius_m, float(law.h_min) - 1000.0 * span)
-    hi_limit = max(float(law.h_max), s.clearance_m) + 10.0 * span
+    lo_limit, hi_limit, span = search_limits(law, s)
     if guess is None:
         lo = np.full(load.shape, float(law.h_min))
         hi = np.full(load.shape, float(law.h_max))
@@ -128,13 +134,8 @@ def _solve(batch: _Batch, load: np.ndarray, guess: np.ndarray | None, name: str)
             at_limit = bad & (x <= lo_limit if side == "lo" else x >= hi_limit)
             if at_limit.any():
                 w = float(load[np.argmax(at_limit)])
-                if side == "lo":
-                    raise RigLoadError(
-                        f"{name}: the load {w:.6g} N exceeds what the contact law carries down to a minimum gap of "
-                        f"{lo_limit:.4g} m (its range starts at h_min = {law.h_min:.4g} m): extend the database's "
-                        "separation range"
-                    )
-                raise RigLoadError(f"{name}: no contact-free separation found up to {hi_limit:.4g} m for {w:.6g} N")
+                side_name = "below" if side == "lo" else "above"
+                raise bracket_error(name, law, w, side_name, lo_limit if side == "lo" else hi_limit)
             width = np.where(bad, 4.0 * width, width)
             x = np.where(
                 bad, np.clip(x - width, lo_limit, None) if side == "lo" else np.clip(x + width, None, hi_limit), x
@@ -153,7 +154,8 @@ def _solve(batch: _Batch, load: np.ndarray, guess: np.ndarray | None, name: str)
         done = (g == 0) | (hi - lo <= xtol)
         with np.errstate(divide="ignore", invalid="ignore"):
             newton = x - g / df
-        ok = np.isfinite(newton) & (newton > lo) & (newton < hi)
+        # ">=": a Newton step below rounding leaves x on the bracket end it set; that is convergence, not failure
+        ok = np.isfinite(newton) & (newton >= lo) & (newton <= hi)
         x_new = np.where(ok, newton, 0.5 * (lo + hi))
         converged = done | (np.abs(x_new - x) <= xtol)
         x = np.where(done, x, x_new)
@@ -188,6 +190,9 @@ def batch_equilibrium(
     area = np.empty(0)
     warnings: list[str] = []
     converged = True
+    tail = True  # cells beyond the contact zone: dropped once a solution shows (tail_bound) they do not matter
+    keep_tail = False  # set when levels without tail failed their check three times: no going back and forth
+    refits = 0
     h_wide = float(law.h_min)
     while True:
         if s.mesh == "uniform":
@@ -195,7 +200,9 @@ def batch_equilibrium(
         else:
             zone = contact_edge_angle_rad(h_edge, h_wide, s.liner_radius_m, s.clearance_m, s.exact_gap)
             y_zone = contact_half_length_m(h_edge, h_wide, s.skirt_length_m, s.crown_m) if crowned else None
-            mesh = variable_mesh(s.piston_radius_m, s.skirt_length_m, zone, n_theta, y_zone, n_axial)
+            if levels and not keep_tail:
+                tail = tail_matters(law, s, zone, h, loads_active, area)
+            mesh = variable_mesh(s.piston_radius_m, s.skirt_length_m, zone, n_theta, y_zone, n_axial, tail=tail)
             if previous_area is not None and mesh.n_nodes > s.max_nodes:
                 converged = False
                 warnings.append(
@@ -216,6 +223,13 @@ def batch_equilibrium(
         result = (h, area, batch)
         if s.mesh == "uniform" or not loads_active.size:
             break
+        if not tail and tail_matters(law, s, float(mesh.theta_edges_rad[-1]), h, loads_active, area):
+            # The solution moved the contact edge past the zone's: refit the zone, same level (mesh the tail if
+            # that keeps happening).
+            refits += 1
+            tail = keep_tail = refits > 2
+            guess, h_wide = h, float(h.min())
+            continue
         if previous_area is not None:
             with np.errstate(divide="ignore", invalid="ignore"):
                 rel = np.where(area > 0, np.abs(area - previous_area) / area, 0.0)
@@ -235,7 +249,9 @@ def batch_equilibrium(
     h_all = np.full(n, s.clearance_m)
     area_all = np.zeros(n)
     force_all = np.zeros(n)
-    h_all[active], area_all[active], force_all[active] = h, area, force
+    # A rigid piston pressed down feels an upward force >= 0; a negative F can only be cancellation round-off of a
+    # pre-loaded fit at zero load (equal pressure all round). residual_n keeps the raw F − W.
+    h_all[active], area_all[active], force_all[active] = h, area, np.maximum(force, 0.0)
     peak = np.zeros(n)
     if h.size:
         peak[active] = np.asarray(law.pressure(h), dtype=float)
@@ -250,6 +266,8 @@ def batch_equilibrium(
             for i in range(n)
         ]
     )
+    raw_force = np.zeros(n)
+    raw_force[active] = force
     in_range = h_all >= float(law.h_min)
     for i in np.flatnonzero(~in_range):
         warnings.append(
@@ -264,7 +282,7 @@ def batch_equilibrium(
         contact_area_m2=area_all,
         contact_width_m=width,
         peak_pressure_pa=peak,
-        residual_n=force_all - load,
+        residual_n=raw_force - load,
         converged=np.full(n, converged),
         in_range=in_range,
         mesh=result_mesh,

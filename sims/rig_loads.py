@@ -8,20 +8,32 @@ law over its nominal area ``ΔA_i``. The pressure acts along the liner normal, s
 - real contact area ``A_r(h0) = Σ a(h_i) ΔA_i`` [m²],
 - slope ``dF/dh0 = Σ p′(h_i) (∂h_i/∂h0) ΔA_i cos θ_i`` [N/m], from the law's analytic slope; ``∂h/∂h0 cos θ > 0``
   everywhere, so ``F`` is strictly decreasing wherever any node is in contact.
+
+:func:`tail_bound` bounds what a mesh that stops at ``θ_z`` leaves out: the gap grows with θ (and with |y| on a
+crowned skirt) and the law is non-increasing in h, so beyond ``θ_z`` both ``p`` and ``a`` are at most their value at
+the zone's edge, ``h_z = h(θ_z, y = 0)``. Hence ``|F_tail| ≤ 2 R_p L p(h_z) (θ_top − θ_z)`` and
+``A_tail ≤ 2 R_p L a(h_z) (θ_top − θ_z)``, with ``θ_top`` where the gap reaches the law's ``h_max`` when the law is
+exactly zero there (contact onset of an asperity model), else π.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from sims.rig_geometry import axial_profile_m, dgap_dh0, gap_m
+from sims.rig_geometry import axial_profile_m, contact_edge_angle_rad, dgap_dh0, gap_m
 from sims.rig_law import ContactLaw
 from sims.rig_mesh import SkirtMesh
 from sims.rig_settings import RigSettings
 
-__all__ = ["SkirtLoads"]
+__all__ = ["TAIL_SHARE", "SkirtLoads", "tail_bound", "tail_matters"]
+
+#: A variable mesh leaves out the skirt beyond its contact zone only when that part's force and area are provably
+#: below this share of ``mesh_tol`` (relative to the load and the area).
+TAIL_SHARE = 0.1
 
 
 @dataclass(frozen=True)
@@ -85,3 +97,41 @@ class SkirtLoads:
     def area_m2(self, h0_m: float) -> float:
         """Real contact area A_r(h0) [m²]."""
         return float(np.sum(self.area_fraction(h0_m) * self._area))
+
+
+def tail_bound(
+    law: ContactLaw, settings: RigSettings, theta_zone_rad: float, h0_m: ArrayLike
+) -> tuple[np.ndarray, np.ndarray]:
+    """Upper bounds on the force [N] and the real area [m²] beyond ``θ_zone`` for minimum gaps ``h0_m`` [m].
+
+    See the module docstring; vectorised over ``h0_m``. Zero when the law is exactly zero at the zone's edge and
+    beyond it (an asperity law whose contact onset lies inside the zone).
+    """
+    s = settings
+    h0 = np.atleast_1d(np.asarray(h0_m, dtype=float))
+    h_max = float(law.h_max)
+    onset = float(law.pressure(np.array([h_max]))[0]) == 0.0 and float(law.area_fraction_at(np.array([h_max]))[0]) == 0
+    h_zone = gap_m(theta_zone_rad, h0, s.liner_radius_m, s.clearance_m, s.exact_gap)
+    if onset:
+        top = np.array([contact_edge_angle_rad(h_max, h, s.liner_radius_m, s.clearance_m, s.exact_gap) for h in h0])
+    else:
+        top = np.full(h0.shape, math.pi)
+    arc = 2.0 * s.piston_radius_m * s.skirt_length_m * np.clip(top - theta_zone_rad, 0.0, None)
+    p = np.asarray(law.pressure(h_zone), dtype=float)
+    a = np.asarray(law.area_fraction_at(h_zone), dtype=float)
+    return p * arc, a * arc
+
+
+def tail_matters(
+    law: ContactLaw,
+    settings: RigSettings,
+    theta_zone_rad: float,
+    h0_m: ArrayLike,
+    load_n: ArrayLike,
+    area_m2: ArrayLike,
+) -> bool:
+    """True unless, for every minimum gap ``h0_m`` [m], the skirt beyond ``θ_zone`` provably carries less than
+    ``TAIL_SHARE·mesh_tol`` of its load ``load_n`` [N] and of its real area ``area_m2`` [m²] (:func:`tail_bound`)."""
+    force_out, area_out = tail_bound(law, settings, theta_zone_rad, h0_m)
+    limit = TAIL_SHARE * settings.mesh_tol
+    return bool(np.any(force_out > limit * np.asarray(load_n)) or np.any(area_out > limit * np.asarray(area_m2)))

@@ -8,7 +8,17 @@ summing ``area_m2`` gives the whole skirt, ``2π R_p L``.
 - :func:`uniform_mesh`: equal cells over the half circumference and the half length (the baseline).
 - :func:`variable_mesh`: equal fine cells over the expected contact zone ``θ ≤ θ_z`` (and ``y ≤ y_z`` for a crowned
   skirt), then cells growing geometrically to ``θ = π`` (``y = L/2``): dense where the contact is, coarse where it is
-  not (seed Fig. 4). With a straight skirt the gap does not vary along y and one axial cell is exact.
+  not (seed Fig. 4). With a straight skirt the gap does not vary along y and one axial cell is exact. With
+  ``tail=False`` the mesh stops at ``θ_z``: the caller has shown (:func:`sims.rig_loads.tail_bound`) that the skirt
+  beyond carries nothing that matters — for an asperity model nothing at all, since its law is exactly zero above
+  the highest summit. ``area_m2`` then sums to the zone's nominal area, not the whole skirt's.
+
+Why equal (midpoint) cells in the zone and not Gauss–Legendre nodes: the Greenwood–Tripp integrand ``a(h(θ))`` is
+smooth and falls to ~1e-9 of its peak at the zone's edge, so the midpoint rule is the trapezoidal rule of an
+effectively periodic function and converges exponentially — faster per node than Gauss–Legendre, which crowds its
+nodes at the edge where nothing happens (Trefethen & Weideman, SIAM Review 56, 2014). The asperity curves are sums
+over discrete summits, tabulated: only piecewise smooth, and no rule beats second order on them.
+``tests/benchmarks/bench_rig_mesh.py`` measures both rules.
 """
 
 from __future__ import annotations
@@ -26,7 +36,11 @@ GROWTH = 4.0
 
 @dataclass(frozen=True)
 class SkirtMesh:
-    """Cell-centred mesh of a quarter of the skirt (θ ∈ [0, π], y ∈ [0, L/2]), each node counted four times."""
+    """Cell-centred mesh of a quarter of the skirt (θ ∈ [0, π], y ∈ [0, L/2]), each node counted four times.
+
+    ``theta_edges_rad`` [rad] and ``y_edges_m`` [m] are the cell edges, ``radius_m`` the skirt radius R_p [m],
+    ``kind`` ``"uniform"`` or ``"variable"``. A variable mesh without tail ends at its contact zone's edge.
+    """
 
     theta_edges_rad: np.ndarray = field(repr=False)
     y_edges_m: np.ndarray = field(repr=False)
@@ -45,6 +59,7 @@ class SkirtMesh:
 
     @property
     def shape(self) -> tuple[int, int]:
+        """``(n_theta, n_y)``: cells in angle and along the axis."""
         return (self.theta_edges_rad.size - 1, self.y_edges_m.size - 1)
 
     @property
@@ -95,16 +110,21 @@ def variable_mesh(
     n_theta: int,
     y_zone_m: float | None = None,
     n_axial: int = 1,
+    *,
+    tail: bool = True,
 ) -> SkirtMesh:
     """``n_theta`` equal cells on [0, θ_zone] then growing cells to π; likewise in y when ``y_zone_m`` is given.
 
-    ``y_zone_m=None`` (straight skirt: the gap does not vary along y) gives one axial cell.
+    ``y_zone_m=None`` (straight skirt: the gap does not vary along y) gives one axial cell. ``tail=False`` leaves out
+    the cells beyond θ_zone (see the module docstring); angles in rad, lengths in m.
     """
     theta_zone = min(max(theta_zone_rad, 0.0), math.pi)
     if theta_zone <= 0.0:
         theta_zone = math.pi / n_theta  # no expected contact: still resolve the bottom of the skirt
     fine = np.linspace(0.0, theta_zone, n_theta + 1)
-    theta_edges = np.concatenate([fine, graded_edges(theta_zone, math.pi, theta_zone / n_theta)[1:]])
+    theta_edges = (
+        fine if not tail else np.concatenate([fine, graded_edges(theta_zone, math.pi, theta_zone / n_theta)[1:]])
+    )
     half = 0.5 * skirt_length_m
     if y_zone_m is None:
         y_edges = np.array([0.0, half])

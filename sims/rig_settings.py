@@ -12,7 +12,8 @@ Every key (SI units, the unit in the name):
 ``gap``                     ``"exact"`` offset circle in a circle, or ``"small_clearance"`` h0 + e(1 − cos θ)
 ``mesh``                    ``"variable"`` (refined at the contact, converged to ``mesh_tol``) or ``"uniform"``
 ``n_theta``                 uniform: cells on θ ∈ [0, π]; variable: first-level cells across the contact zone
-``n_axial``                 uniform: cells on y ∈ [0, L/2]; variable: first-level cells across a crowned contact
+``n_axial``                 uniform: cells on y ∈ [0, L/2] (1 is exact on a straight skirt, whose gap does not vary
+                            along y); variable: first-level cells across a crowned contact (unused when straight)
 ``mesh_tol``                variable mesh: refine (double the cells) until the real area changes less than this
 ``max_nodes``               variable mesh: node budget; reaching it leaves a warning in the result
 ``weights_kg``              added weights of the load sweep [kg], each in [0, 1e6]
@@ -90,6 +91,7 @@ class RigSettings:
 
     @property
     def exact_gap(self) -> bool:
+        """True for the exact offset-circle gap, False for the small-clearance form."""
         return self.gap == "exact"
 
     def load_n(self, weight_kg: float) -> float:

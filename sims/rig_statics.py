@@ -6,8 +6,11 @@ Solves ``F(h0) = W`` (seed section 2.1 at rest, eq. 22 with v = 0) for the minim
 Brent's method (:func:`scipy.optimize.brentq`), which cannot fail to converge on a bracket.
 
 With ``mesh = "variable"`` the mesh is fitted to the contact zone of the previous solution and the number of cells
-doubled until the real area changes by less than ``mesh_tol`` (midpoint cells are second order, so the remaining
-error is about a third of the last change) or the node budget ``max_nodes`` is reached (then a warning).
+doubled until the real area changes by less than ``mesh_tol`` (midpoint cells: exponentially convergent on the
+smooth Greenwood–Tripp integrand, second order at worst, so the remaining error is at most about a third of the
+last change) or the node budget ``max_nodes`` is reached (then a warning). The skirt beyond the contact zone gets
+cells only when :func:`sims.rig_loads.tail_bound` cannot show that it carries less than ``TAIL_SHARE·mesh_tol`` of
+the load and of the area (an asperity law is exactly zero there; Greenwood–Tripp's tail beyond 6σ is ~1e-8).
 
 Zero load with the clearance larger than the law's contact range (``c ≥ h_max``): no contact; the piston is
 reported centred (``h0 = c``, the limit of the loaded solutions as the load goes to zero), with zero area and
@@ -30,11 +33,20 @@ from scipy.optimize import brentq
 
 from sims.rig_geometry import contact_edge_angle_rad, contact_half_length_m
 from sims.rig_law import ContactLaw
-from sims.rig_loads import SkirtLoads
+from sims.rig_loads import TAIL_SHARE, SkirtLoads, tail_matters
 from sims.rig_mesh import SkirtMesh, uniform_mesh, variable_mesh
 from sims.rig_settings import RigSettings
 
-__all__ = ["ALPHA_WARN", "Equilibrium", "RigLoadError", "equilibrium", "roughness_parameter", "solve_on_mesh"]
+__all__ = [
+    "ALPHA_WARN",
+    "TAIL_SHARE",
+    "Equilibrium",
+    "RigLoadError",
+    "equilibrium",
+    "preload_note",
+    "roughness_parameter",
+    "solve_on_mesh",
+]
 
 #: Warn when the roughness parameter σ R_eff / b² falls below this (bulk elastic deformation no longer small).
 ALPHA_WARN = 5.0
@@ -76,6 +88,7 @@ class Equilibrium:
 
     @property
     def n_nodes(self) -> int:
+        """Nodes of the mesh the equilibrium was solved on."""
         return self.mesh.n_nodes
 
 
@@ -124,16 +137,47 @@ class _NoBracket(Exception):
     pass
 
 
-def _limits(law: ContactLaw, settings: RigSettings) -> tuple[float, float, float]:
+def search_limits(law: ContactLaw, settings: RigSettings) -> tuple[float, float, float]:
+    """Where the root search for h0 may go [m]: ``(lo, hi, span)``, ``span = h_max − h_min`` of the law.
+
+    Down to 1000 spans below the law's range (or half the piston radius of interference), up to 10 spans above it.
+    """
     span = float(law.h_max) - float(law.h_min)
     lo = max(settings.clearance_m - 0.5 * settings.piston_radius_m, float(law.h_min) - 1000.0 * span)
     hi = max(float(law.h_max), settings.clearance_m) + 10.0 * span
     return lo, hi, span
 
 
+def preload_note(name: str, law: ContactLaw, settings: RigSettings) -> str | None:
+    """A note when the clearance is inside the law's contact range (``c < h_max``), else None.
+
+    The centred, unloaded piston then already presses on the liner all round (an interference fit: zero clearance,
+    or roughness comparable with the clearance): the real area includes that pre-load and hardly grows with weight.
+    """
+    if settings.clearance_m >= float(law.h_max):
+        return None
+    return (
+        f"{name}: the clearance c = {settings.clearance_m:.3g} m is inside the contact law's range (h_max = "
+        f"{float(law.h_max):.3g} m): the unloaded, centred piston is already in (possibly slight) contact all round "
+        "(pre-loaded fit); the areas include that pre-load"
+    )
+
+
+def bracket_error(name: str, law: ContactLaw, load_n: float, side: str, limit_m: float) -> RigLoadError:
+    """The error of a root search that found no bracket: the load is too large (``side="below"``) or no
+    contact-free separation exists (``"above"``)."""
+    if side == "below":
+        return RigLoadError(
+            f"{name}: the load {load_n:.6g} N exceeds what the contact law carries down to a minimum gap of "
+            f"{limit_m:.4g} m (its range starts at h_min = {float(law.h_min):.4g} m): extend the database's "
+            "separation range"
+        )
+    return RigLoadError(f"{name}: no contact-free separation found up to {limit_m:.4g} m for load {load_n:.6g} N")
+
+
 def _solve(loads: SkirtLoads, load_n: float, guess: float, step: float, name: str) -> _Root:
     law, s = loads.law, loads.settings
-    lo, hi, span = _limits(law, s)
+    lo, hi, span = search_limits(law, s)
     before = loads.evaluations
 
     def g(h0: float) -> float:
@@ -142,14 +186,8 @@ def _solve(loads: SkirtLoads, load_n: float, guess: float, step: float, name: st
     try:
         a, b = _bracket(g, min(max(guess, lo), hi), step, lo, hi)
     except _NoBracket as exc:
-        if str(exc) == "below":
-            raise RigLoadError(
-                f"{name}: the load {load_n:.6g} N exceeds what the contact law carries down to a minimum gap of "
-                f"{lo:.4g} m (its range starts at h_min = {law.h_min:.4g} m): extend the database's separation range"
-            ) from None
-        raise RigLoadError(
-            f"{name}: no contact-free separation found up to {hi:.4g} m for load {load_n:.6g} N"
-        ) from None
+        side = str(exc)
+        raise bracket_error(name, law, load_n, side, lo if side == "below" else hi) from None
     if a == b:
         return _Root(a, 0, loads.evaluations - before)
     h0, info = brentq(g, a, b, xtol=1e-10 * span, rtol=4 * np.finfo(float).eps, maxiter=200, full_output=True)
@@ -229,15 +267,20 @@ def _refine(law: ContactLaw, s: RigSettings, weight_kg: float, guess_m: float | 
     step = 0.05 * span if guess_m is None else 1e-3 * span
     n_theta, n_axial = s.n_theta, s.n_axial
     crowned = s.crown_m > 0
+    tail = True  # cells beyond the contact zone: dropped once a solution shows (tail_bound) they do not matter
+    keep_tail = False  # set when levels without tail failed their check three times: no going back and forth
+    refits = 0
     evaluations = iterations = levels = 0
     previous: tuple[SkirtLoads, _Root, float] | None = None
-    change = math.nan
+    change = area = math.nan
     while True:
         # The fine zone ends where the gap reaches the law's h_max: for the asperity models that is the contact onset,
         # a kink in p and a; putting a cell edge on it keeps the midpoint cells second order.
         theta_zone = contact_edge_angle_rad(h_edge, h, s.liner_radius_m, s.clearance_m, s.exact_gap)
         y_zone = contact_half_length_m(h_edge, h, s.skirt_length_m, s.crown_m) if crowned else None
-        mesh = variable_mesh(s.piston_radius_m, s.skirt_length_m, theta_zone, n_theta, y_zone, n_axial)
+        if levels and not keep_tail:
+            tail = tail_matters(law, s, theta_zone, h, load_n, area)
+        mesh = variable_mesh(s.piston_radius_m, s.skirt_length_m, theta_zone, n_theta, y_zone, n_axial, tail=tail)
         if previous is not None and mesh.n_nodes > s.max_nodes:
             warning = (
                 f"{name}: weight {weight_kg:g} kg: mesh not converged within max_nodes = {s.max_nodes} "
@@ -252,6 +295,13 @@ def _refine(law: ContactLaw, s: RigSettings, weight_kg: float, guess_m: float | 
         iterations += root.iterations
         levels += 1
         area = loads.area_m2(root.h0)
+        if not tail and tail_matters(law, s, float(mesh.theta_edges_rad[-1]), root.h0, load_n, area):
+            # The solution moved the contact edge past the zone's: refit the zone, same level (mesh the tail if
+            # that keeps happening).
+            refits += 1
+            tail = keep_tail = refits > 2
+            h, step = root.h0, 1e-3 * span
+            continue
         if previous is not None:
             change = abs(area - previous[2]) / area if area > 0 else 0.0
             if change <= s.mesh_tol:

@@ -324,6 +324,85 @@ def rig_cases() -> list[Case]:
     ]
 
 
+def _delta_with_overflow(indices: set[int], count: int = 10) -> dict[str, float]:
+    from instruments.delta import DeltaSettings
+    from instruments.k6221 import Keithley6221
+    from instruments.simulated import Faults, SimulatedBench, simulated_resource_manager
+
+    bench = SimulatedBench(resistance_ohm=5e-3, seed=5, faults=Faults(overflow_readings=indices))
+    rm = simulated_resource_manager(bench=bench)
+    with Keithley6221.open("GPIB0::12::INSTR", resource_manager=rm, timeout_ms=2000) as k:
+        block = k.run_delta(DeltaSettings(high_a=1e-3, count=count))
+    out = {"n": block.n, "n_invalid": block.n_invalid}
+    if block.n:
+        out["mean_ohm"] = float(block.resistance_ohm()[block.valid].mean())
+    return out
+
+
+def _check_overflow_not_averaged(v: dict[str, float]) -> None:
+    assert v["n"] + v["n_invalid"] == 10
+    if "mean_ohm" in v:
+        assert abs(v["mean_ohm"] / 5e-3 - 1) < 1e-3, f"mean {v['mean_ohm']} is not the sample's 5 mΩ"
+
+
+def _session_file_damaged(kind: str) -> dict[str, object]:
+    import tempfile
+    from pathlib import Path
+
+    from daq import load_session
+    from daq.acquire import acquire
+
+    scene = _scene_with({"session.repeats": 1, "session.weights_kg": [5.44, 7.44], "delta.count": 5})
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "s.h5"
+        acquire(scene, path, sim=True, yes=True, sim_speed=float("inf"), quiet=True, fsync=False)
+        raw = path.read_bytes()
+        if kind == "truncated":
+            path.write_bytes(raw[: len(raw) // 3])
+        else:  # a block's stored values altered after the fact: its checksum no longer matches
+            import h5py
+
+            with h5py.File(path, "r+") as f:
+                f["entry/readings/resistance_ohm"][0] *= 1.01
+        session = load_session(path)
+        return {"blocks": len(session.summary)}
+
+
+def instrument_and_session_cases() -> list[Case]:
+    return [
+        Case(
+            "2 of 10 readings at +9.9E37",
+            "instruments.run_delta",
+            "2182A overflow in part of a block",
+            lambda: _delta_with_overflow({3, 7}),
+            "warning",
+            check=_check_overflow_not_averaged,
+        ),
+        Case(
+            "10 of 10 readings at +9.9E37",
+            "instruments.run_delta",
+            "no valid reading at all",
+            lambda: _delta_with_overflow(set(range(10))),
+            "warning",
+            check=_check_overflow_not_averaged,
+        ),
+        Case(
+            "truncated session file",
+            "daq.load_session",
+            "a file cut to a third of its size",
+            lambda: _session_file_damaged("truncated"),
+            "error",
+        ),
+        Case(
+            "altered reading",
+            "daq.load_session",
+            "a stored value changed after the session",
+            lambda: _session_file_damaged("tampered"),
+            "error",
+        ),
+    ]
+
+
 def all_cases() -> list[Case]:
     """Every case, in report order."""
     cases: list[Case] = []
@@ -331,4 +410,5 @@ def all_cases() -> list[Case]:
     cases += asperity_cases()
     cases += database_cases()
     cases += rig_cases()
+    cases += instrument_and_session_cases()
     return cases

@@ -30,7 +30,9 @@ def test_paper_outputs_pin_only_the_product():
 
 
 def test_current_source_mode_reports_compliance_voltage():
-    s = CircuitSettings(series_resistance_ohm=1.0, added_resistance_ohm=0.0, piston_resistance_ohm=0.5)
+    s = CircuitSettings(
+        resistivity_ohm_m=1e-7, series_resistance_ohm=1.0, added_resistance_ohm=0.0, piston_resistance_ohm=0.5
+    )
     d = s.design(current_a=0.1)
     r_t = 1e-7 * 5e-3 / 4.47e-3
     assert d.current_a == 0.1
@@ -44,9 +46,22 @@ def test_measured_resistance_adds_series():
     assert float(s.measured_resistance_ohm(1e-7)) == pytest.approx(2e-4 + 5e-3, rel=1e-12)
 
 
-def test_default_scene_table_loads_and_is_the_paper_example():
-    s = CircuitSettings.from_scene(load_scene())
-    assert round(s.design().contact_voltage_v * 1e9, 1) == 13.4
+def test_default_scene_table_is_the_class_default():
+    assert CircuitSettings.from_scene(load_scene()) == CircuitSettings()
+
+
+def test_default_scene_gives_a_simulated_session_the_magnitude_of_tab1():
+    # the scene comment's assumption: R_s + ζh/A(W) with the rig's greenwood_tripp area is within ~25 % of the
+    # published Tab. 1 means at every weight (Tab. 1's shape is not 1/A, so not closer); refit if this fails
+    from analysis.measured import load_tab1
+    from sims.rig import sweep
+
+    tab1 = load_tab1()
+    scene = load_scene()
+    area = sweep(scene, models=["greenwood_tripp"], weights_kg=list(tab1.weight_kg)).models["greenwood_tripp"]
+    simulated = CircuitSettings.from_scene(scene).measured_resistance_ohm(area.contact_area_m2)
+    ratio = simulated / tab1.mean_ohm
+    assert 0.7 < ratio.min() and ratio.max() < 1.35, ratio
 
 
 def test_unknown_key_is_named():

@@ -10,15 +10,16 @@ from daq.cli import main
 W = np.array([5.0, 10.0, 15.0, 20.0])
 
 
-def _sweep_file(path):
+def _sweep_file(path, weights=W):
     from sims.rig import ModelSweep, SweepResult, save_sweep
 
     models = {}
     for name, expo in (("greenwood_tripp", 0.8), ("hertz", 2 / 3)):
-        n = W.size
+        n = weights.size
         models[name] = ModelSweep(
-            name=name, weight_kg=W, contact_area_m2=1e-7 * (W / 5) ** expo, min_separation_m=np.full(n, 1e-6),
-            force_n=W * 9.80665, peak_pressure_pa=np.full(n, 1e6), contact_width_m=np.full(n, 1e-3),
+            name=name, weight_kg=weights, contact_area_m2=1e-7 * (weights / 5) ** expo,
+            min_separation_m=np.full(n, 1e-6),
+            force_n=weights * 9.80665, peak_pressure_pa=np.full(n, 1e6), contact_width_m=np.full(n, 1e-3),
             n_nodes=np.full(n, 10), converged=np.ones(n, bool),
         )  # fmt: skip
     return save_sweep(SweepResult(models=models, warnings=[], provenance={"software_version": "test"}), path)
@@ -46,10 +47,17 @@ def _incomplete_session(path):
 
 
 def test_circuit_prints_the_paper_example(capsys):
-    assert main(["circuit"]) == 0
+    assert main(["circuit", "--paper"]) == 0
     out = capsys.readouterr()
     assert "120 mA" in out.out and "13.42 nV" in out.out
     assert "105" in out.err  # the 6221 cannot source it
+    # the default scene: its own ζ (fitted to Tab. 1), same 120 mA; U_c scales with ζ: 13.42 nV · ζ / 1e-7
+    assert main(["circuit", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    i = d["inputs"]
+    r_t = i["resistivity_ohm_m"] * i["contact_height_m"] / i["contact_area_m2"]
+    assert i["resistivity_ohm_m"] != 1e-7
+    assert d["result"]["contact_voltage_v"] == pytest.approx(r_t * 12.0 / (100.0 + r_t), rel=1e-12)
 
 
 def test_circuit_json_and_bad_value(capsys):
@@ -96,9 +104,58 @@ def test_figures_command_writes_png_and_pdf(tmp_path, capsys):
     assert "fig02_database: not drawn" in capsys.readouterr().err
 
 
-def test_missing_session_is_a_one_line_error(tmp_path, capsys):
-    assert main(["fit", str(tmp_path / "nope.h5"), "--sim", str(tmp_path / "nope-sim.h5")]) == 2
-    assert "nope.h5" in capsys.readouterr().err
+def _empty_session(path):
+    from daq.records import now_iso
+    from daq.session_file import SessionFile
+
+    with SessionFile.create(path) as sf:
+        sf.write_start({"started": now_iso(), "operator": "tester"}, "")
+    return path
+
+
+@pytest.mark.parametrize(
+    ("argv", "expected"),
+    [
+        (["fit", "{tmp}/nope.h5", "--sim", "{sim}"], "nope.h5"),
+        (["fit", "{garbage}", "--sim", "{sim}"], "garbage.h5"),
+        (["fit", "{session}", "--sim", "{tmp}/nope-sim.h5"], "nope-sim.h5"),
+        (["fit", "{session}", "--sim", "{session}"], "not a contactrig sweep file"),
+        (["fit", "{session}", "--sim", "{garbage}"], "garbage.h5"),
+        (["fit", "{sim}", "--sim", "{sim}"], "not a contactrig session"),
+        (["fit", "{empty}", "--sim", "{sim}"], "no measurement block"),
+        (["fit", "{empty}"], "incomplete session"),
+        (["fit", "{session}", "--sim", "{sim}", "--bootstrap", "-5"], "n_boot = -5"),
+        (["fit", "{session}", "--sim", "{sim}", "--seed", "-1"], "seed = -1"),
+        (["fit", "{session}", "--sim", "{sim}", "--models", "nomodel"], "nomodel"),
+        (["fit", "{session}", "--sim", "{narrow}"], "outside the simulated range"),
+        (["figures", "{session}", "--sim", "{sim}", "-o", "{garbage}"], "a file of that name exists"),
+        (["report", "{tmp}/nope.h5", "--sim", "{sim}", "-o", "{tmp}/rep"], "nope.h5"),
+        (["report", "{session}", "--sim", "{sim}", "-o", "{garbage}"], "a file of that name exists"),
+        (["demo", "-o", "{garbage}"], "a file of that name exists"),
+        (["demo", "-o", "{tmp}/demo", "--bootstrap", "-1"], "bootstrap = -1"),
+        (["circuit", "--area", "nan"], "circuit.contact_area_m2"),
+        (["circuit", "--resistivity", "0"], "circuit.resistivity_ohm_m"),
+        (["circuit", "--current", "-0.1"], "current_a"),
+        (["circuit", "--scene", "{tmp}/nope.toml"], "nope.toml"),
+    ],
+)
+def test_bad_input_is_a_one_line_error(tmp_path, capsys, argv, expected):
+    files = {
+        "tmp": str(tmp_path),
+        "sim": str(_sweep_file(tmp_path / "sim.h5")),
+        "session": str(_incomplete_session(tmp_path / "inc.h5")),
+        "empty": str(_empty_session(tmp_path / "empty.h5")),
+        "garbage": str(tmp_path / "garbage.h5"),
+        "narrow": str(_sweep_file(tmp_path / "narrow.h5", W[:-1])),
+    }
+    (tmp_path / "garbage.h5").write_text("not HDF5\n")
+    capsys.readouterr()
+    rc = main([a.format(**files) for a in argv])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    assert expected in err, err
+    assert not (tmp_path / "demo").exists()  # rejected before any work
 
 
 @pytest.mark.slow

@@ -57,6 +57,17 @@ def test_normalised_starts_at_one_for_all_curves():
     assert _units(ax) and "R/R₀" in ax.get_ylabel()
 
 
+def test_normalised_error_bars_are_student_t_intervals():
+    from scipy import stats
+
+    measured = normalise_measured(CURVE)
+    fig = F.figure_normalised(measured, {}, dof=2)
+    (bars,) = fig.axes[0].containers[0].lines[2]  # ErrorbarContainer: (data line, caps, bar collections)
+    half = np.array([abs(seg[1, 1] - seg[0, 1]) / 2 for seg in bars.get_segments()])
+    assert np.allclose(half, stats.t.ppf(0.975, 2) * measured.se, rtol=1e-9)
+    assert "t, 2 dof" in fig.axes[0].containers[0].get_label()
+
+
 def test_fit_figure_has_fits_and_residual_bars():
     cmp = compare_models(CURVE, AREAS, height_m=5e-3, n_boot=50)
     fig = F.figure_fit(cmp)

@@ -6,6 +6,9 @@
 2. Bootstrap of the repeats (B resamples). Reference and baseline: refitting every resample with
    least_squares. Method: the vectorised closed form used by ``fit_model`` (weights held fixed, same estimator).
    Error: largest difference of the 95 % interval end points, relative to the interval width.
+3. Bootstrap interval coverage with 6 paired series (Tab. 1's design), over N simulated data sets with known R_s
+   and s. Baseline: percentile intervals; method: studentized (bootstrap-t) intervals, the default; beside them the
+   Student-t intervals. Error: |coverage − 0.95| averaged over R_s and s (binomial SD ≈ 0.007 at N = 1000).
 
 Run: ``python tests/benchmarks/bench_fit.py`` (prints one row per method: study, method, setting, error, seconds).
 """
@@ -68,7 +71,7 @@ def main() -> None:
     rows = []
     p, t = _best_time(lambda: curve_fit(lambda xx, a, b: a + b * xx, x, y, sigma=sig, absolute_sigma=True)[0])
     rows.append(("point fit", "curve_fit (baseline)", "8 weights", err(p), t))
-    f, t = _best_time(lambda: fit_model(curve, area, height_m=h, n_boot=0))
+    f, t = _best_time(lambda: fit_model(curve, area, height_m=h, n_boot=0, weighting="repeats"))
     rows.append(("point fit", "fit_model least_squares lm", "8 weights", err([f.R_series_ohm, f.scale]), t))
 
     def closed() -> np.ndarray:
@@ -99,9 +102,57 @@ def main() -> None:
         rows.append(("bootstrap", "least_squares per resample (baseline)", f"B={n_boot}", 0.0, t_base))
         rows.append(("bootstrap", "vectorised closed form", f"B={n_boot}", e, t_fast))
 
-    print(f"{'study':<10} {'method':<40} {'setting':<10} {'error':>10} {'seconds':>11}")
+    rows += _coverage_rows(w, area, h)
+    print(f"{'study':<10} {'method':<46} {'setting':<10} {'error':>10} {'seconds':>11}")
     for r in rows:
-        print(f"{r[0]:<10} {r[1]:<40} {r[2]:<10} {r[3]:>10.2e} {r[4]:>11.3e}")
+        print(f"{r[0]:<10} {r[1]:<46} {r[2]:<10} {r[3]:>10.2e} {r[4]:>11.3e}")
+
+
+def _coverage_rows(w: np.ndarray, area: np.ndarray, h: float, n_sets: int = 1000, r: int = 6) -> list[tuple]:
+    """Coverage of the 95 % intervals over ``n_sets`` data sets: percentile, studentized bootstrap, Student t."""
+    from analysis.fit import fit_model
+    from analysis.measured import MeasuredCurve
+
+    truth_p = np.array([2e-4, 1e-7])
+    truth = truth_p[0] + truth_p[1] * h / area
+    rows = []
+    for interval in ("percentile", "studentized"):
+        hits_boot = np.zeros(2)
+        hits_t = np.zeros(2)
+        t0 = time.perf_counter()
+        for seed in range(n_sets):
+            rng = np.random.default_rng(seed)
+            noise = np.sqrt(0.5) * (rng.normal(size=(1, r)) + rng.normal(size=(w.size, r)))
+            curve = MeasuredCurve(w, truth[:, None] * (1 + 0.05 * noise), paired=True)
+            f = fit_model(curve, area, height_m=h, n_boot=999, boot_interval=interval, seed=seed)
+            for k, (lo_hi_b, lo_hi_t) in enumerate(
+                ((f.R_series_boot_ci, f.R_series_ci), (f.scale_boot_ci, f.scale_ci))
+            ):
+                hits_boot[k] += lo_hi_b[0] <= truth_p[k] <= lo_hi_b[1]
+                hits_t[k] += lo_hi_t[0] <= truth_p[k] <= lo_hi_t[1]
+        seconds = (time.perf_counter() - t0) / n_sets
+        cov = hits_boot / n_sets
+        label = "percentile (baseline)" if interval == "percentile" else "studentized bootstrap-t"
+        rows.append(
+            (
+                "coverage",
+                f"{label} {cov[0]:.3f}/{cov[1]:.3f}",
+                f"N={n_sets}",
+                float(np.mean(np.abs(cov - 0.95))),
+                seconds,
+            )
+        )
+    cov_t = hits_t / n_sets
+    rows.append(
+        (
+            "coverage",
+            f"Student t {cov_t[0]:.3f}/{cov_t[1]:.3f}",
+            f"N={n_sets}",
+            float(np.mean(np.abs(cov_t - 0.95))),
+            seconds,
+        )
+    )
+    return rows
 
 
 if __name__ == "__main__":

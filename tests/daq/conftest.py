@@ -44,8 +44,9 @@ sim_seed = 7
 """
 
 
-def sim_scene_text() -> str:
-    """The packaged default scene (materials, surfaces, rig, circuit) with a small session: 3 weights × 2 × 8."""
+def sim_scene_text(repeat_sd: float | None = None) -> str:
+    """The packaged default scene (materials, surfaces, rig, circuit) with a small session: 3 weights × 2 × 8;
+    ``repeat_sd`` replaces ``[session].sim_repeat_sd``."""
     import re
 
     from sims.scene import default_scene_text
@@ -54,6 +55,9 @@ def sim_scene_text() -> str:
     text = re.sub(r"(?m)^count = .*$", "count = 8", text)
     text = re.sub(r"(?m)^repeats = .*$", "repeats = 2", text)
     text = re.sub(r"(?m)^timeout_ms = .*$", "timeout_ms = 1000", text)
+    if repeat_sd is not None:
+        text, n = re.subn(r"(?m)^sim_repeat_sd = .*$", f"sim_repeat_sd = {repeat_sd!r}", text)
+        assert n == 1
     return text.replace("[session]\n", "[session]\nweights_kg = [5.44, 10.526, 25.966]\n")
 
 

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 from daq.acquire import drive
 from daq.plan import SessionPlan, session_steps
-from daq.session_file import SessionFile
+from daq.session_file import Session, SessionFile, load_session
 from daq.writers import FileWriter
 
 from .conftest import make_link
@@ -40,3 +41,20 @@ def write_session(plan: SessionPlan, path: Path, *, steps=None, link=None, promp
     finally:
         sf.close()
     return outcome, link
+
+
+def load_quietly(path: Path) -> Session:
+    """``load_session`` without its warnings (incomplete or aborted sessions warn on purpose)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return load_session(path)
+
+
+def written_commands(path: Path) -> list[str]:
+    """Every command written to the instrument, in order, as recorded in the session file (read with h5py)."""
+    import h5py
+
+    with h5py.File(path, "r") as h5:
+        kinds = h5["entry/exchanges/kind"].asstr()[:]
+        messages = h5["entry/exchanges/message"].asstr()[:]
+    return [m for k, m in zip(kinds, messages, strict=True) if k == "write"]

@@ -8,10 +8,8 @@ import signal
 import subprocess
 import sys
 import time
-import warnings
 from datetime import datetime
 
-import h5py
 import pytest
 
 from daq.acquire import acquire
@@ -22,16 +20,11 @@ from daq.session_file import load_session
 from instruments.simulated import SimulatedBench, simulated_resource_manager
 
 from .conftest import ROOT, small_scene
+from .sessions import load_quietly, written_commands
 
 
 def _rm(seed=1):
     return simulated_resource_manager(bench=SimulatedBench(resistance_ohm=5e-3, seed=seed, time_scale=0.0))
-
-
-def _load(path):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return load_session(path)
 
 
 def test_acquire_writes_start_and_stop_records(tmp_path):
@@ -59,7 +52,7 @@ def test_existing_file_needs_force(tmp_path):
         acquire(small_scene(), path, yes=True, resource_manager=_rm(), quiet=True)
     assert path.read_bytes() == b"precious"
     acquire(small_scene(), path, yes=True, resource_manager=_rm(), quiet=True, force=True)
-    assert _load(path).complete
+    assert load_quietly(path).complete
 
 
 @pytest.mark.parametrize(
@@ -155,12 +148,9 @@ def test_ctrl_c_once_in_a_real_process(tmp_path):
     rest = proc.stdout.read()
     assert proc.wait(timeout=20) == 1, rest
     assert "stopping after this block" in rest
-    s = _load(out)
+    s = load_quietly(out)
     assert s.complete and s.status == "aborted" and 2 <= len(s.summary) < 12
-    with h5py.File(out, "r") as h5:
-        writes = [m for k, m in zip(h5["entry/exchanges/kind"].asstr()[:], h5["entry/exchanges/message"].asstr()[:],
-                                    strict=True) if k == "write"]  # fmt: skip
-    assert writes[-1] == "SOUR:SWE:ABOR"
+    assert written_commands(out)[-1] == "SOUR:SWE:ABOR"
 
 
 def test_ctrl_c_twice_in_a_real_process(tmp_path):
@@ -173,13 +163,10 @@ def test_ctrl_c_twice_in_a_real_process(tmp_path):
     proc.send_signal(signal.SIGINT)
     rest = proc.stdout.read()
     assert proc.wait(timeout=20) == 1, rest
-    s = _load(out)
+    s = load_quietly(out)
     assert s.complete and s.status == "aborted" and len(s.summary) == 2
     assert "Ctrl-C twice" in s.stop["reason"] and "(block #2)" in s.stop["reason"]
-    with h5py.File(out, "r") as h5:
-        writes = [m for k, m in zip(h5["entry/exchanges/kind"].asstr()[:], h5["entry/exchanges/message"].asstr()[:],
-                                    strict=True) if k == "write"]  # fmt: skip
-    assert writes[-1] == "SOUR:SWE:ABOR"
+    assert written_commands(out)[-1] == "SOUR:SWE:ABOR"
 
 
 FULL_DISK_SCRIPT = """
@@ -253,7 +240,7 @@ def test_replay_at_the_recorded_pace(tmp_path):
     path = tmp_path / "p.h5"
     rm = simulated_resource_manager(bench=SimulatedBench(resistance_ohm=5e-3, seed=1, time_scale=0.1))
     acquire(small_scene(repeats="repeats = 1", count="count = 4"), path, yes=True, resource_manager=rm, quiet=True)
-    s = _load(path)
+    s = load_quietly(path)
     span = float(s.exchanges.t_s.max() - s.exchanges.t_s.min())
     fast = replay_session(path)
     paced = replay_session(path, pace=True)

@@ -28,6 +28,7 @@ def test_import_tab1_reproduces_the_papers_averages(tmp_path):
     assert main(["import", "--tab1", "-o", str(out)]) == 0
     s = load_session(out)
     assert s.imported and s.complete and s.start["source"]["unit"] == "mohm"
+    assert s.start["operator"] and s.start["operator_source"] == "login"  # nobody named: the login is recorded
     assert len(s.summary) == 48 and set(s.summary.repeat) == set(range(1, 7))
     avg = s.summary.groupby("weight_kg").mean_ohm.mean()
     assert list(avg.index) == TAB1_WEIGHTS_KG
@@ -73,30 +74,35 @@ def test_import_needs_a_unit(tmp_path, capsys):
     assert "--unit is required" in capsys.readouterr().err
 
 
-def _scene(tmp_path):
+def _scene(tmp_path, repeat_sd=None):
     path = tmp_path / "scene.toml"
-    path.write_text(sim_scene_text())
+    path.write_text(sim_scene_text(repeat_sd))
     return path
 
 
-def test_simulated_session_follows_eq23_from_the_rig(tmp_path, capsys):
-    """--sim: mean R at each weight = R_s + ζ·h/A(W) (eq. 23, computed here by hand from the recorded areas)."""
+def _sim_session(tmp_path, capsys, repeat_sd):
     out = tmp_path / "sim.h5"
-    code = main(["acquire", str(_scene(tmp_path)), "--sim", "--yes", "--sim-speed", "inf", "-o", str(out)])
+    code = main(["acquire", str(_scene(tmp_path, repeat_sd)), "--sim", "--yes", "--sim-speed", "inf", "-o", str(out)])
     assert code == 0, capsys.readouterr().err
     s = load_session(out)
     sim = s.start["simulation"]
     assert s.start["sim"] and sim["model"] == "greenwood_tripp" and sim["time_scale"] == 0.0
-    area = np.array(sim["contact_area_m2"])
-    c = sim["circuit"]
     import tomllib
 
     table = tomllib.loads(sim_scene_text())["circuit"]
+    c = sim["circuit"]
     assert all(c[k] == table[k] for k in ("resistivity_ohm_m", "contact_height_m", "series_resistance_ohm"))
-    expected = c["series_resistance_ohm"] + c["resistivity_ohm_m"] * c["contact_height_m"] / area
+    # seed eq. 23 by hand from the recorded areas: contact term ζ·h/A per weight
+    contact = c["resistivity_ohm_m"] * c["contact_height_m"] / np.array(sim["contact_area_m2"])
+    return out, s, c["series_resistance_ohm"], contact
+
+
+def test_simulated_session_follows_eq23_from_the_rig(tmp_path, capsys):
+    """--sim without re-seating scatter: mean R at each weight = R_s + ζ·h/A(W) (eq. 23) within the noise."""
+    out, s, r_s, contact = _sim_session(tmp_path, capsys, 0.0)
     means = s.summary.groupby("weight_kg").mean_ohm.mean()
-    assert list(means.index) == sim["weights_kg"]
-    np.testing.assert_allclose(means.to_numpy(), expected, rtol=1e-3)
+    assert list(means.index) == s.start["simulation"]["weights_kg"]
+    np.testing.assert_allclose(means.to_numpy(), r_s + contact, rtol=1e-3)
     assert np.all(np.diff(means.to_numpy()) < 0)  # falls with weight, as Tab. 1
     assert np.all((means > 1e-4) & (means < 1e-1))  # mΩ scale, as Tab. 1
     # replay through the dispatcher, as JSON
@@ -104,6 +110,26 @@ def test_simulated_session_follows_eq23_from_the_rig(tmp_path, capsys):
     assert main(["replay", str(out), "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["identical"] is True and report["blocks_replayed"] == 6
+
+
+def test_simulated_repeats_scatter_by_a_seeded_lognormal_contact_factor(tmp_path, capsys):
+    """Each block's contact term is multiplied by f_b = exp(σ z_b − σ²/2), z_b the documented seeded normals;
+    the series resistance stays fixed; the repeats then scatter far beyond the instrument noise, and replay
+    still reproduces every block exactly."""
+    out, s, r_s, contact = _sim_session(tmp_path, capsys, 0.3)
+    import tomllib
+
+    sigma, seed = 0.3, tomllib.loads(sim_scene_text())["session"]["sim_seed"]
+    z = np.random.default_rng([seed, 0x5EA7]).standard_normal(6)  # the generator daq.simulated documents
+    expected = r_s + np.repeat(contact, 2) * np.exp(sigma * z - sigma**2 / 2)
+    np.testing.assert_allclose(s.summary.mean_ohm.to_numpy(), expected, rtol=1e-3)
+    np.testing.assert_allclose(s.start["simulation"]["block_resistance_ohm"], expected, rtol=1e-12)
+    between = s.summary.groupby("weight_kg").mean_ohm.std(ddof=1)
+    within = s.summary.groupby("weight_kg").sem_ohm.max()
+    assert (between > 20 * within).sum() >= 2  # repeat scatter dominates the noise (unless two z_b nearly agree)
+    capsys.readouterr()
+    assert main(["replay", str(out), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["identical"] is True
 
 
 def test_cli_argument_errors(tmp_path, capsys):
@@ -149,3 +175,24 @@ def test_killed_sim_process_via_the_cli(tmp_path):
         s = load_session(out)
     assert not s.complete and len(s.summary) >= 2
     assert any("INCOMPLETE" in str(w.message) for w in caught)
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["replay", "{tmp}/missing.h5"], "no such session file: {tmp}/missing.h5"),
+        (["import", "{tmp}/missing.csv", "--unit", "ohm", "-o", "{tmp}/o.h5"], "no such table: {tmp}/missing.csv"),
+        (["import", "--tab1", "-o", "{tmp}/no/such/dir/o.h5"], "the folder {tmp}/no/such/dir does not exist"),
+        (["acquire", "--sim", "--yes", "--resume", "-o", "{tmp}/missing.h5"], "no session file {tmp}/missing.h5"),
+        (["acquire", "--sim", "--yes", "-o", "{tmp}/no/such/dir/o.h5"], "the folder {tmp}/no/such/dir does not exist"),
+        (["import", "--tab1", "--unit", "ohm", "-o", "{tmp}/o.h5"], "Tab. 1 is in mΩ"),
+        (["import", "--tab1", "{tmp}/t.csv", "-o", "{tmp}/o.h5"], "either TABLE or --tab1"),
+    ],
+)
+def test_file_errors_are_one_plain_line(tmp_path, capsys, argv, message):
+    """Exit 2, one line naming the file and what is wrong, no traceback and no ``[Errno N]`` prefix."""
+    assert main([a.format(tmp=tmp_path) for a in argv]) == 2
+    err = capsys.readouterr().err
+    assert message.format(tmp=tmp_path) in err and "[Errno" not in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "o.h5").exists()

@@ -3,28 +3,22 @@
 from __future__ import annotations
 
 import signal
-import warnings
 
 import pytest
 
 from daq.acquire import terminal_prompter
 from daq.engine import Interrupts
 from daq.plan import PlaceWeight
-from daq.session_file import load_session
 from instruments.errors import InstrumentTimeout
 
 from .conftest import make_link
-from .sessions import write_session
-
-
-def _load(path):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return load_session(path)
+from .sessions import load_quietly, write_session
 
 
 def _last_command(link):
-    return [e.message for e in link.recorder.exchanges if e.kind == "write"][-1]
+    """The last thing sent to the 6221 (write or query): it must be SOUR:SWE:ABOR, with nothing after it."""
+    last = link.recorder.exchanges[-1]
+    return last.message if last.kind == "write" else f"{last.kind} {last.message}"
 
 
 class SignalAfter:
@@ -58,7 +52,7 @@ def test_operator_skip_and_quit(plan, tmp_path):
         next(answers)])  # fmt: skip
     assert out.stop.status == "aborted" and "operator stopped" in out.stop.reason
     assert out.stop.weights_skipped == (5.44,)
-    s = _load(tmp_path / "a.h5")
+    s = load_quietly(tmp_path / "a.h5")
     assert list(s.summary.weight_kg) == [10.526, 10.526]
     assert _last_command(link) == "SOUR:SWE:ABOR"
 
@@ -85,7 +79,7 @@ def test_ctrl_c_once_stops_after_the_current_block(plan, tmp_path):
         out, _ = write_session(plan, tmp_path / "c.h5", link=link, interrupts=intr)
     assert out.interrupted and out.stop.status == "aborted"
     assert "stopped after the block at 10.526 kg, repeat 1 (block #2)" in out.stop.reason
-    s = _load(tmp_path / "c.h5")
+    s = load_quietly(tmp_path / "c.h5")
     assert list(s.summary.block) == [0, 1, 2] and s.complete
     assert _last_command(link) == "SOUR:SWE:ABOR"
 
@@ -105,7 +99,7 @@ def test_ctrl_c_twice_stops_now_and_keeps_completed_blocks(plan, tmp_path):
     with Interrupts() as intr:
         out, _ = write_session(plan, tmp_path / "d.h5", link=link, interrupts=intr)
     assert out.stop.status == "aborted" and "(block #1)" in out.stop.reason
-    s = _load(tmp_path / "d.h5")
+    s = load_quietly(tmp_path / "d.h5")
     assert list(s.summary.block) == [0]
     assert set(s.exchanges.block) >= {-1, 0, 1}  # the discarded block's exchanges are kept for diagnosis
     assert _last_command(link) == "SOUR:SWE:ABOR"
@@ -133,7 +127,7 @@ def test_instrument_timeout_mid_session(plan, tmp_path):
     out, _ = write_session(plan, tmp_path / "t.h5", link=link)
     assert out.stop.status == "failed" and isinstance(out.error, InstrumentTimeout)
     assert "10.526 kg, repeat 1 (block #2)" in out.stop.reason and "TRAC:DATA:SEL?" in out.stop.reason
-    s = _load(tmp_path / "t.h5")
+    s = load_quietly(tmp_path / "t.h5")
     assert s.complete and s.status == "failed" and list(s.summary.block) == [0, 1]
     assert _last_command(link) == "SOUR:SWE:ABOR"
 
@@ -153,7 +147,96 @@ def test_invalid_readings_are_counted_not_averaged(plan, tmp_path):
 
     link = make_link(plan, faults=Faults(overflow_readings={2, 5}))
     out, _ = write_session(plan, tmp_path / "o.h5", link=link)
-    s = _load(tmp_path / "o.h5")
+    s = load_quietly(tmp_path / "o.h5")
     assert out.stop.status == "success"
     assert (s.summary.n_invalid == 2).all() and (s.summary.n == plan.delta.count - 2).all()
     assert (~s.readings.valid).sum() == 2 * plan.blocks_planned
+
+
+class FailingWriter:
+    """A writer that raises in ``where`` (start/block/stop), like a full disk or a bug in a sink."""
+
+    def __init__(self, where):
+        self.where = where
+
+    def _maybe(self, name):
+        if name == self.where:
+            raise OSError(28, f"writer failed in {name}")
+
+    def start(self, start, scene_text):
+        self._maybe("start")
+
+    def exchanges(self, exchanges, block):
+        pass
+
+    def block(self, rec):
+        self._maybe("block")
+
+    def stop(self, stop):
+        self._maybe("stop")
+
+
+@pytest.mark.parametrize("where", ["start", "block", "stop", "prompter", "prepare_block", "interrupt"])
+def test_every_exit_path_leaves_the_source_idle(plan, where):
+    """Whatever ends the run — a writer error, an operator prompt that fails, the bench hook, Ctrl-C at the
+    prompt — SOUR:SWE:ABOR is the last command the 6221 receives, and nothing is sent after it."""
+    from daq.acquire import drive
+    from daq.plan import session_steps
+
+    from .sessions import start_record
+
+    link = make_link(plan)
+    if where == "prepare_block":
+
+        def broken(block):
+            raise RuntimeError("bench hook failed")
+
+        link._prepare_block = broken
+
+    def prompter(step):
+        if where == "prompter":
+            raise ValueError("prompt failed")
+        if where == "interrupt" and step.weight_index == 1:
+            raise KeyboardInterrupt
+        return "go"
+
+    try:
+        out = drive(link, plan.delta, session_steps(plan), [FailingWriter(where)], start_record(plan), "",
+                    prompter=prompter)  # fmt: skip
+    except OSError:
+        assert where == "start"  # the start record could not be written: drive raises after closing the link
+    else:
+        assert out.stop.status == ("aborted" if where == "interrupt" else "failed") or where == "stop"
+    assert _last_command(link) == "SOUR:SWE:ABOR"
+
+
+@pytest.mark.parametrize("what", ["reopen", "display"])
+def test_acquire_closes_the_link_when_setting_up_the_run_fails(plan, tmp_path, monkeypatch, what):
+    """A failure between opening the bench and starting the run (reopening the file, building the live display)
+    still leaves the source idle and removes the file it created."""
+    from daq import acquire as acquire_module
+    from daq.acquire import acquire
+    from daq.session_file import SessionFile
+
+    links = []
+    real_open = acquire_module.open_visa_link
+
+    def spy(*args, **kwargs):
+        links.append(real_open(*args, **kwargs))
+        return links[-1]
+
+    def fail(*args, **kwargs):
+        raise OSError(5, "disk gone")
+
+    monkeypatch.setattr(acquire_module, "open_visa_link", spy)
+    if what == "reopen":
+        monkeypatch.setattr(SessionFile, "open_for_resume", classmethod(lambda cls, *a, **k: fail()))
+    else:
+        monkeypatch.setattr(acquire_module, "LiveDisplay", fail)
+    from instruments.simulated import SimulatedBench, simulated_resource_manager
+
+    rm = simulated_resource_manager(bench=SimulatedBench(seed=1))
+    with pytest.raises(OSError, match="disk gone"):
+        acquire(plan.scene, tmp_path / "x.h5", yes=True, resource_manager=rm, quiet=True)
+    assert links and links[0].driver._closed and links[0].recorder.exchanges[-1].message == "SOUR:SWE:ABOR"
+    assert not (tmp_path / "x.h5").exists()  # it held nothing

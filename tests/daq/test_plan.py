@@ -105,3 +105,13 @@ def test_steps_skip_done_blocks_for_resume():
     # weight 1 is done, weight 2 has repeat 2 left, weight 3 untouched
     assert isinstance(steps[0], PlaceWeight) and steps[0].weight_kg == 10.526 and steps[0].repeats_left == 1
     assert [s.block for s in steps if isinstance(s, Measure)] == [3, 4, 5]
+
+
+@pytest.mark.parametrize("value", ["-0.1", "1.5", '"0.1"', "nan"])
+def test_sim_repeat_sd_is_checked(value):
+    text = SMALL_SCENE.replace("[session]\n", f"[session]\nsim_repeat_sd = {value}\n")
+    with pytest.raises(SettingError) as err:
+        SessionPlan.from_scene(parse_scene(text))
+    assert err.value.field == "session.sim_repeat_sd" and "not allowed" in str(err.value)
+    text = SMALL_SCENE.replace("[session]\n", "[session]\nsim_repeat_sd = 0.0\n")
+    assert SessionPlan.from_scene(parse_scene(text)).session.sim_repeat_sd == 0.0

@@ -29,7 +29,7 @@ def _edit_exchange(path, match, edit):
     """Edit the first recorded exchange whose message satisfies ``match``; re-sign its block's exchange digest
     (a recording whose replies and readings disagree, as a buggy writer would leave), return the block."""
     from daq.records import exchanges_digest
-    from daq.session_file import _exchange_list, _read_table
+    from daq.session_file import _read_table, exchange_list
 
     with h5py.File(path, "a") as h5:
         ex = h5["entry/exchanges"]
@@ -41,7 +41,7 @@ def _edit_exchange(path, match, edit):
         row = list(s["block"][:]).index(block)
         cols = _read_table(ex, ("kind", "message", "reply", "t_s", "error"), ex["kind"].shape[0])
         a = int(s["first_exchange"][row])
-        s["exchanges_sha256"][row] = exchanges_digest(_exchange_list(cols, a, a + int(s["n_exchanges"][row]))).encode()
+        s["exchanges_sha256"][row] = exchanges_digest(exchange_list(cols, a, a + int(s["n_exchanges"][row]))).encode()
     return block
 
 

@@ -333,3 +333,63 @@ def test_third_party_style_sequence_long_forms_and_extra_elements():
     r.write(":SOUR:SWE:ABORT")
     r.write("FORM:ELEM READ,BOGUS")
     assert r.query("SYST:ERR?") == '-224,"Illegal parameter value"'
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"time_scale": -1.0}, "time_scale"),
+        ({"time_scale": float("inf")}, "time_scale"),
+        ({"resistance_ohm": -1e-3}, "resistance_ohm"),
+        ({"resistance_ohm": float("nan")}, "resistance_ohm"),
+        ({"lead_resistance_ohm": -0.1}, "lead_resistance_ohm"),
+        ({"line_frequency_hz": 55}, "line_frequency_hz"),
+        ({"arm_time_s": -1}, "arm_time_s"),
+    ],
+)
+def test_bench_settings_are_validated(kwargs, field):
+    from sims.validation import SettingError
+
+    with pytest.raises(SettingError) as err:
+        SimulatedBench(**kwargs)
+    assert err.value.field == field and "not allowed" in str(err.value)
+    bench = SimulatedBench()
+    with pytest.raises(SettingError, match="resistance_ohm"):
+        bench.resistance_ohm = -1.0
+    assert bench.resistance_ohm == 5e-3  # unchanged, nothing clamped
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"poll_interval_s": 0.0}, "poll_interval_s"),
+        ({"arm_timeout_s": -1.0}, "arm_timeout_s"),
+        ({"relay_timeout_s": float("nan")}, "relay_timeout_s"),
+        ({"chunk_size": 0}, "chunk_size"),
+        ({"chunk_size": 70000}, "chunk_size"),
+        ({"chunk_size": 2.5}, "chunk_size"),
+    ],
+)
+def test_driver_options_are_validated(kwargs, field):
+    from sims.validation import SettingError
+
+    with pytest.raises(SettingError) as err:
+        Keithley6221(object(), **kwargs)
+    assert err.value.field == field
+
+
+def test_invalid_readings_are_announced_with_a_warning_naming_the_count():
+    import warnings
+
+    from instruments.errors import InvalidReadingsWarning
+    from instruments.simulated import Faults
+
+    bench = SimulatedBench(resistance_ohm=5e-3, seed=3, faults=Faults(overflow_readings={0, 4}))
+    rm = simulated_resource_manager(bench=bench)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with Keithley6221.open("GPIB0::12::INSTR", resource_manager=rm, timeout_ms=2000) as k:
+            block = k.run_delta(DeltaSettings(high_a=1e-3, count=10))
+    msgs = [str(w.message) for w in caught if issubclass(w.category, InvalidReadingsWarning)]
+    assert block.n_invalid == 2 and block.n == 8
+    assert len(msgs) == 1 and msgs[0].startswith("2 of 10 Delta readings invalid")

@@ -4,6 +4,7 @@ the asperity-pair integral, elementary closed forms)."""
 from __future__ import annotations
 
 import math
+import sys
 import warnings
 
 import mpmath as mp
@@ -72,8 +73,21 @@ def test_limits() -> None:
     big = np.array([-1e3, -1e6, -1e50])
     # E[(|t| + X)^n] = |t|^n (1 + n(n − 1)/(2t²) + …), X ~ N(0, 1)
     np.testing.assert_allclose(gt.F(2.5, big) / np.abs(big) ** 2.5, 1 + 1.875 / big**2, rtol=1e-12)
+    # the far left: finite up to the float range, an explicit error beyond it (never inf or an overflow warning)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for n in (0.0, 1.0, 2.5, 10.0):
+            t = max(gt.t_min(n), -sys.float_info.max)
+            f = gt.F(n, [t, 0.5 * t])
+            assert np.all(np.isfinite(f)) and f[0] >= f[1] > 0
+            assert gt.log_F(n, [-sys.float_info.max])[0] == pytest.approx(n * math.log(sys.float_info.max), rel=1e-12)
+    assert gt.F(0, [-sys.float_info.max])[0] == pytest.approx(1.0, rel=1e-12)
+    with pytest.raises(SettingError, match="float range"):
+        gt.F(2.5, [-1e122])
     with pytest.raises(SettingError):
-        gt.F(2.5, [-1e120])
+        gt.F(10, [-1e31])
+    with pytest.raises(SettingError):
+        gt.F(2.5, [-np.inf])
     with pytest.raises(SettingError):
         gt.F(2.5, [0.0, np.nan])
     with pytest.raises(SettingError):
@@ -180,15 +194,18 @@ def test_area_fraction_against_asperity_pair_integral(h: float) -> None:
 
 @settings(max_examples=40, deadline=None)
 @given(
-    st.floats(min_value=1e-12, max_value=1e-4),
+    st.floats(min_value=1e-15, max_value=1e-4),
     st.floats(min_value=-1e-3, max_value=1.0),
-    st.floats(min_value=1e3, max_value=1e12),
+    st.floats(min_value=1e3, max_value=1e13),
 )
 def test_pressure_finite_nonnegative_for_extreme_inputs(sigma: float, h: float, e_star: float) -> None:
+    # σ → 0 (1e-15 m), separations from −1 mm to 1 m, E* from kPa to 10 TPa
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         p = gt.pressure([h, h + sigma], sigma=sigma, eta=1e9, beta=1e-5, E_star=e_star)
+        a = gt.area_fraction([h + sigma, h + 2 * sigma], sigma=sigma, eta=1e7, beta=1e-5)
     assert np.all(np.isfinite(p)) and np.all(p >= 0) and p[0] >= p[1]
+    assert np.all(np.isfinite(a)) and np.all(a >= 0) and a[0] >= a[1]
 
 
 def test_bad_statistics_are_errors_naming_the_field() -> None:

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from sims.rig_dynamics import settle, stiffness_ratio
+from sims.rig_dynamics import explicit_cost_estimate, settle, stiffness_ratio
 from sims.rig_loads import SkirtLoads
 from sims.rig_settings import RigSettings
 from sims.rig_statics import RigLoadError, equilibrium
@@ -61,10 +61,55 @@ def test_heavy_damping_is_stiff_and_implicit_methods_settle(static, method):
 
 
 def test_explicit_method_pays_for_stiffness_in_evaluations(static):
-    explicit = settle(LAW, SETTINGS, 25.966, damping_n_s_per_m=6e6, static=static, method="RK45")
-    implicit = settle(LAW, SETTINGS, 25.966, damping_n_s_per_m=6e6, static=static, method="BDF")
+    with pytest.warns(RuntimeWarning, match="implicit method"):
+        explicit = settle(LAW, SETTINGS, 25.966, damping_n_s_per_m=3e6, static=static, method="RK45")
+    implicit = settle(LAW, SETTINGS, 25.966, damping_n_s_per_m=3e6, static=static, method="BDF")
     assert explicit.stiff and explicit.settled and implicit.settled
     assert explicit.nfev > 10 * implicit.nfev
+    assert any("stiff" in w for w in explicit.warnings) and not implicit.warnings
+    # The stability-limited estimate is a lower bound of the explicit cost.
+    assert explicit.nfev >= explicit_cost_estimate(static.stiffness_n_per_m, 25.966, 3e6, 1e-6)
+
+
+def test_explicit_method_on_a_stiff_case_stops_at_the_evaluation_budget(static):
+    with pytest.warns(RuntimeWarning) as caught:
+        run = settle(LAW, SETTINGS, 25.966, damping_n_s_per_m=2e6, static=static, method="RK45", max_evaluations=3000)
+    messages = [str(w.message) for w in caught]
+    assert any("implicit method" in m for m in messages)
+    assert any("Maximum number of function evaluations" in m for m in messages)
+    assert run.status == -2 and not run.settled
+    assert "Maximum number of function evaluations" in run.message and "3000" in run.message
+    assert 3000 <= run.nfev < 3000 + 20  # stopped after the step that crossed the budget
+    assert math.isfinite(run.final_separation_m) and 0 < run.settle_time_s < run.t_s.max() + 1e-12
+    assert len(run.warnings) == 2
+    with pytest.raises(ValueError, match="max_evaluations"):
+        settle(LAW, SETTINGS, 25.966, static=static, max_evaluations=0)
+
+
+@pytest.mark.parametrize("method", ["RK45", "Radau", "BDF", "LSODA"])
+def test_light_damping_first_overshoot_is_the_linear_oscillators(static, method):
+    # Released δ above rest (linear regime), a lightly damped oscillator overshoots by δ·exp(−πζ/√(1−ζ²)) half a
+    # period later: the analytic reference for numerical damping. Error control keeps every method on it.
+    m, k, damping = 25.966, static.stiffness_n_per_m, 2e4
+    zeta = damping / (2 * math.sqrt(k * m))
+    period = 2 * math.pi / (math.sqrt(k / m) * math.sqrt(1 - zeta**2))
+    delta = 1e-3 * static.load_n / k
+    t = np.linspace(0.0, period, 2001)
+    run = settle(
+        LAW,
+        SETTINGS,
+        25.966,
+        method=method,
+        damping_n_s_per_m=damping,
+        static=static,
+        start_m=static.min_separation_m + delta,
+        t_eval_s=t,
+        t_max_s=period,
+        rtol=1e-6,
+    )
+    assert run.status == 0 and np.array_equal(run.t_s, t)
+    overshoot = static.min_separation_m - run.min_separation_m.min()
+    assert overshoot == pytest.approx(delta * math.exp(-math.pi * zeta / math.sqrt(1 - zeta**2)), rel=2e-3)
 
 
 def test_stiffness_ratio_of_the_linear_oscillator():

@@ -55,13 +55,14 @@ def test_gap_limits_and_small_clearance_form():
 def test_the_h0_plus_c_form_fails_at_zero_clearance():
     # Reference-note form h0 + c(1 − cos θ): with c = 0 it is uniform (no load capacity). The eccentricity form
     # h0 + e(1 − cos θ), e = c − h0, is right: with c = 0 and h0 < 0 the bottom is compressed and the top opens.
+    # Reference: the ray/circle intersection construction at zero clearance (the piston pushed 1 µm into the liner).
     theta = np.array([0.0, math.pi / 2, math.pi])
     h0 = -1e-6
-    reference_note = h0 + 0.0 * (1 - np.cos(theta))
-    ours = gap_m(theta, h0, R_L, 0.0, exact=False)
-    assert np.all(reference_note == h0)
-    assert ours.tolist() == pytest.approx([-1e-6, 0.0, 1e-6], abs=1e-18)
-    assert float(gap_m(math.pi, h0, R_L, 0.0)) == pytest.approx(1e-6, rel=1e-4)
+    exact = [_gap_by_intersection(t, h0, R_L, 0.0) for t in theta]
+    second_order = h0**2 / R_L  # the small-clearance form drops terms of order e²/R
+    assert exact == pytest.approx([-1e-6, 0.0, 1e-6], abs=second_order)  # not uniform: the note's form fails
+    assert gap_m(theta, h0, R_L, 0.0, exact=False).tolist() == pytest.approx(exact, abs=second_order)
+    assert gap_m(theta, h0, R_L, 0.0).tolist() == pytest.approx(exact, abs=1e-16)
 
 
 def test_slope_of_the_gap():
@@ -94,6 +95,10 @@ def test_meshes_cover_the_skirt_once():
         assert np.all(mesh.area_m2 > 0)
         assert np.all(np.diff(mesh.theta_edges_rad) > 0) and np.all(np.diff(mesh.y_edges_m) > 0)
         assert mesh.n_nodes == mesh.area_m2.size
+    # Without the tail the mesh is the contact zone only: its nodes stand for the zone's nominal area.
+    zone_only = variable_mesh(r_p, length, 0.3, 16, tail=False)
+    assert zone_only.theta_edges_rad[-1] == pytest.approx(0.3) and zone_only.n_nodes == 16
+    assert zone_only.area_m2.sum() == pytest.approx(2 * 0.3 / math.pi * whole / 2, rel=1e-12)
     m = variable_mesh(r_p, length, 0.3, 16)
     fine = np.diff(m.theta_edges_rad)[:16]
     assert np.allclose(fine, 0.3 / 16) and m.theta_edges_rad[16] == pytest.approx(0.3)

@@ -208,3 +208,61 @@ def test_extreme_surfaces_stay_finite_and_balanced(law):
         assert abs(eq.residual_n) <= 1e-8 * eq.load_n
         assert np.all(eq.pressure_pa >= 0) and np.all(np.isfinite(eq.pressure_pa))
         assert eq.contact_area_m2 <= 2 * math.pi * RigSettings().piston_radius_m * RigSettings().skirt_length_m
+
+
+def test_tail_bound_bounds_the_integral_beyond_the_zone():
+    # Independent: quad of the force and area integrands beyond θ_z on the exact gap, against the bound.
+    from sims.rig_loads import tail_bound
+
+    s = RigSettings()
+    R_l, c, L, R_p = s.liner_radius_m, s.clearance_m, s.skirt_length_m, s.piston_radius_m
+    h0 = 0.5e-6
+    for law in (EXP, GreenwoodTrippLaw()):
+        for zone in (0.2, 0.3, 0.5):
+            f_bound, a_bound = tail_bound(law, s, zone, h0)
+            f_tail = 2 * R_p * L * quad(lambda t, w=law: _p_at(w, t, h0, R_l, c) * math.cos(t), zone, math.pi)[0]
+            a_tail = 2 * R_p * L * quad(lambda t, w=law: _a_at(w, t, h0, R_l, c), zone, math.pi)[0]
+            assert abs(f_tail) <= f_bound[0] and a_tail <= a_bound[0]
+    # A law that is exactly zero above h_max (contact onset, like an asperity curve): nothing beyond its edge.
+    onset = WinklerLaw(k=1e13, h_c=1e-6, h_max=1e-6, h_min=-1e-6)
+    from sims.rig_geometry import contact_edge_angle_rad
+
+    edge = contact_edge_angle_rad(onset.h_max, h0, R_l, c)
+    assert tail_bound(onset, s, edge, h0)[0][0] == 0.0 and tail_bound(onset, s, edge + 0.1, h0)[1][0] == 0.0
+    assert tail_bound(onset, s, 0.5 * edge, h0)[1][0] > 0
+
+
+def _p_at(law, t, h0, R_l, c):
+    return float(law.pressure(_exact_gap(t, h0, R_l, c)))
+
+
+def _a_at(law, t, h0, R_l, c):
+    return float(law.area_fraction_at(_exact_gap(t, h0, R_l, c)))
+
+
+def test_variable_mesh_leaves_out_the_tail_only_where_it_carries_nothing():
+    # Onset law (zero above h_max, like an asperity curve): the mesh ends at the contact edge. Reference: the
+    # equilibrium of quad integrals over the whole half circumference on the small-clearance gap.
+    onset = WinklerLaw(k=1e13, h_c=1e-6, h_max=1e-6, h_min=-1e-6)
+    s = RigSettings(gap="small_clearance", n_theta=8, mesh_tol=1e-6)
+    eq = equilibrium(onset, s, 25.966)
+    assert eq.mesh.theta_edges_rad[-1] < 0.5 and eq.converged
+    R, L, c = s.piston_radius_m, s.skirt_length_m, s.clearance_m
+
+    def gap(t, h0):
+        return h0 + (c - h0) * (1 - math.cos(t))
+
+    def edge(h0):
+        return [math.acos(1 - (onset.h_c - h0) / (c - h0))]
+
+    def force(h0):
+        integrand = lambda t: float(onset.pressure(gap(t, h0))) * math.cos(t)  # noqa: E731
+        return 2 * R * L * quad(integrand, 0, math.pi, points=edge(h0), limit=200)[0]
+
+    h_ref = brentq(lambda h: force(h) - eq.load_n, -2e-6, 0.99e-6, xtol=1e-20)
+    area = quad(lambda t: float(onset.area_fraction_at(gap(t, h_ref))), 0, math.pi, points=edge(h_ref), limit=200)[0]
+    assert eq.contact_area_m2 == pytest.approx(2 * R * L * area, rel=1e-5)
+    # Midpoint cells are second order on this integrand (it vanishes linearly at the edge): h0 to ~(Δθ/θe)²/8.
+    assert eq.min_separation_m == pytest.approx(h_ref, abs=1e-3 * (onset.h_c - h_ref))
+    # The exponential law's tail beyond h_max still carries load: the mesh keeps its tail cells to θ = π.
+    assert equilibrium(EXP, RigSettings(), 25.966).mesh.theta_edges_rad[-1] == pytest.approx(math.pi)

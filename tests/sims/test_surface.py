@@ -48,15 +48,24 @@ def test_summit_statistics_agree_with_mccool_on_a_resolved_gaussian_surface() ->
     assert direct.eta == pytest.approx(mc.eta, rel=0.03)
     assert direct.beta == pytest.approx(mc.beta, rel=0.03)
     assert direct.sigma_s == pytest.approx(mc.sigma_s, rel=0.05)
+    # summits sit well above the mean plane of the heights (what GT's F_n(h/σ) assumes to be 0)
+    assert direct.mean_height == pytest.approx(mc.mean_height, rel=0.03)
+    assert direct.mean_height > 1.2 * 0.5e-6
 
 
-def test_mccool_formulas_are_dimensionally_right() -> None:
-    m = s.SpectralMoments(m0=1e-12, m2=1e-4, m4=1e6)
-    st = s.mccool(m)
-    assert st.eta == pytest.approx(1e6 / (6 * math.pi * math.sqrt(3) * 1e-4))
-    assert st.beta == pytest.approx(0.375 * math.sqrt(math.pi / 1e6))
-    assert st.alpha == pytest.approx(1e-12 * 1e6 / 1e-8)
-    assert st.sigma_s == pytest.approx(math.sqrt(1 - 0.8968 / st.alpha) * 1e-6)
+def test_mccool_of_a_gaussian_autocorrelation_matches_the_closed_forms() -> None:
+    # ACF Sq² exp(−r²/λ²): α = 3, η = 1/(π√3 λ²), β = 0.375 λ² √(π/12)/Sq, σ_s = √(1 − 0.8968/3) Sq and mean summit
+    # height 4 Sq/√(3π). Moments of the prescribed spectrum on a 64 λ box at 8 px/λ (no surface generated).
+    sq, lam = 0.5e-6, 8e-6
+    spec = s.SurfaceSpec.from_table(
+        "surfaces.x", {"kind": "gaussian", "n": 512, "pixel_m": lam / 8, "sq_m": sq, "correlation_m": lam}
+    )
+    st = s.mccool(spec.moments())
+    assert st.alpha == pytest.approx(3.0, rel=3e-3)
+    assert st.eta == pytest.approx(1 / (math.pi * math.sqrt(3) * lam**2), rel=3e-3)
+    assert st.beta == pytest.approx(0.375 * lam**2 * math.sqrt(math.pi / 12) / sq, rel=3e-3)
+    assert st.sigma_s == pytest.approx(math.sqrt(1 - 0.8968 / 3) * sq, rel=3e-3)
+    assert st.mean_height == pytest.approx(4 * sq / math.sqrt(3 * math.pi), rel=3e-3)
 
 
 def test_summits_eight_neighbour_periodic_and_border() -> None:
