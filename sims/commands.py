@@ -1,8 +1,8 @@
 """``contactrig`` subcommands of the ``sims`` package (registered by ``daq.cli``).
 
-``contactrig database [SCENE] -o db.h5 [--models a,b] [--n-separations N] [--plot FILE]`` builds the contact
-database of a scene (the packaged default when SCENE is omitted), writes it to HDF5 and optionally draws seed
-Fig. 2. Nothing heavy is imported at module level.
+``contactrig database [SCENE] -o db.h5 [--models a,b] [--n-separations N] [--gt-heights summits|seed]
+[--plot FILE]`` builds the contact database of a scene (the packaged default when SCENE is omitted), writes it to
+HDF5 and optionally draws seed Fig. 2. Nothing heavy is imported at module level.
 """
 
 from __future__ import annotations
@@ -30,6 +30,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "pasaribu_schipper, jackson_green",
     )
     p.add_argument("--n-separations", type=int, default=None, help="grid points per curve (default: the scene's)")
+    p.add_argument(
+        "--gt-heights",
+        choices=("summits", "seed"),
+        default=None,
+        help="Greenwood-Tripp asperity heights: 'summits' (McCool's summit distribution, same origin of h as the "
+        "asperity models) or 'seed' (eq. 1-3 as printed); default: the scene's [database].gt_heights",
+    )
     p.add_argument("--plot", default=None, metavar="FILE", help="also draw pressure vs separation (Fig. 2) to FILE")
     p.set_defaults(handler=run_database)
 
@@ -45,7 +52,7 @@ def run_database(args: argparse.Namespace) -> int:
         models = [m.strip() for m in args.models.split(",") if m.strip()]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # the same text is in provenance["warnings"], printed below
-        db = build_database(scene, models=models, n_separations=args.n_separations)
+        db = build_database(scene, models=models, n_separations=args.n_separations, gt_heights=args.gt_heights)
     out = save_database(db, args.output)
     prov = db.provenance
     for w in prov.get("warnings", []):

@@ -20,7 +20,8 @@ of separations h (distance between the mean planes of the two surfaces, m):
 
 Curves interpolate ln p and ln(A/A0) with a monotone cubic (Fritsch–Carlson) so ``pressure(h)`` is smooth,
 monotone, positive and has the analytic slope ``dpressure_dh``. Between the last tabulated point in contact and the
-first contact (asperity models) p follows the single-summit law (h_top − h)^(3/2) and A/A0 ∝ (h_top − h); above
+first contact (asperity models) p and A/A0 follow a power law (h_top − h)^m, m ≥ 1 matched to the slope of the
+last cubic (a single Hertzian summit would give 3/2 and 1; the shape-preserving limiter may steepen it); above
 ``h_max`` p = 0 (asperity) or the log-linear tail (GT); below ``h_min`` the curve continues along its tangent
 (linear in p: a log-linear extrapolation overflows a few µm below the table) and ``in_range`` is False (the rig
 warns).
@@ -446,13 +447,17 @@ def _with_radius(asp_model: Any, R: Any) -> Any:
 
 
 def build_database(
-    scene: Any, models: Sequence[str] | None = None, *, n_separations: int | None = None
+    scene: Any,
+    models: Sequence[str] | None = None,
+    *,
+    n_separations: int | None = None,
+    gt_heights: str | None = None,
 ) -> ContactDatabase:
     """Build the curves of ``models`` (default: the scene's ``[database].models``) for ``scene``.
 
     Only the models asked for are built; surfaces are generated (or loaded) only when an asperity model is asked
-    for. ``n_separations`` overrides the scene's. Raises :class:`~sims.validation.SettingError` (a ValueError)
-    naming the scene key on bad settings.
+    for. ``n_separations`` and ``gt_heights`` (``"summits"`` | ``"seed"``) override the scene's. Raises
+    :class:`~sims.validation.SettingError` (a ValueError) naming the scene key on bad settings.
     """
     from sims import asperity
     from sims.surface import mccool, statistics_of, summit_data, surfaces_from_scene
@@ -463,6 +468,8 @@ def build_database(
         settings = replace(settings, models=_check_models("models", list(models)))
     if n_separations is not None:
         settings = replace(settings, n_separations=check_int("n_separations", n_separations, 16, 100_000))
+    if gt_heights is not None:
+        settings = replace(settings, gt_heights=check_choice("gt_heights", gt_heights, GT_HEIGHTS))
     mats: ContactMaterials = materials_from_scene(scene)
     liner, piston = surfaces_from_scene(scene)
     E_star = mats.E_star

@@ -142,6 +142,7 @@ def test_missing_nanovoltmeter_fails_before_any_block(plan, tmp_path):
     assert _last_command(link) == "SOUR:SWE:ABOR"
 
 
+@pytest.mark.filterwarnings("ignore::instruments.errors.InvalidReadingsWarning")  # expected: overflow injected
 def test_invalid_readings_are_counted_not_averaged(plan, tmp_path):
     from instruments.simulated import Faults
 

@@ -48,6 +48,7 @@ def head(count=3):
     ]
 
 
+@pytest.mark.filterwarnings("ignore::instruments.errors.InvalidReadingsWarning")  # expected: overflow injected
 def test_delta_block_exact_sequence(clock):
     script = [
         *head(3),

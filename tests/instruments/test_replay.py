@@ -31,6 +31,7 @@ def record(settings, bench=None):
     return rec.exchanges, ident, block
 
 
+@pytest.mark.filterwarnings("ignore::instruments.errors.InvalidReadingsWarning")  # expected: overflow injected
 def test_round_trip_identical_block(tmp_path):
     s = DeltaSettings(high_a=1e-3, count=10)
     exchanges, ident, block = record(s)
@@ -50,6 +51,7 @@ def test_round_trip_identical_block(tmp_path):
     assert clock.t == 0.0  # nothing waited
 
 
+@pytest.mark.filterwarnings("ignore::instruments.errors.InvalidReadingsWarning")  # expected: overflow injected
 def test_replay_detects_divergence():
     exchanges, _, _ = record(DeltaSettings(high_a=1e-3, count=10))
     with pytest.raises(ReplayMismatch, match=r"SOUR:DELT:HIGH 0\.002"):

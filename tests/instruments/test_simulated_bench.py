@@ -255,6 +255,7 @@ def test_fault_error_queued():
     assert err.value.code == -350 and "Queue overflow" in str(err.value)
 
 
+@pytest.mark.filterwarnings("ignore::instruments.errors.InvalidReadingsWarning")  # expected: overflow injected
 def test_fault_overflow_readings_are_nan_and_not_averaged():
     bench = SimulatedBench(resistance_ohm=5e-3, seed=1)
     bench.faults.overflow_readings.update({2, 5})
@@ -265,6 +266,7 @@ def test_fault_overflow_readings_are_nan_and_not_averaged():
     assert block.mean == pytest.approx(np.nanmean(block.readings)) and math.isfinite(block.mean)
 
 
+@pytest.mark.filterwarnings("ignore::instruments.errors.InvalidReadingsWarning")  # expected: overflow injected
 def test_range_overflow_from_physics():
     bench = SimulatedBench(resistance_ohm=20.0, seed=1, lead_resistance_ohm=0.0)  # 20 mV on the 10 mV range
     with open_k(bench) as k:

@@ -162,9 +162,10 @@ def test_curve_finite_for_any_separation(small_db, hs: list[float]) -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("error")
             p, dp, a = c.pressure(h), c.dpressure_dh(h), c.area_fraction_at(h)
-        assert np.all(np.isfinite(p)) and np.all(p >= 0) and np.all(np.diff(p) <= 0)
+        # monotone to rounding (the cubic Hermite sum is not exactly monotone in the last bits: ~1e-15 relative)
+        assert np.all(np.isfinite(p)) and np.all(p >= 0) and np.all(np.diff(p) <= 1e-13 * p[:-1])
         assert np.all(np.isfinite(dp)) and np.all(dp <= 0)
-        assert np.all((a >= 0) & (a <= 1)) and np.all(np.diff(a) <= 0)
+        assert np.all((a >= 0) & (a <= 1)) and np.all(np.diff(a) <= 1e-13 * a[:-1])
         assert np.array_equal(c.in_range(h), h >= c.h_min)
 
 
@@ -267,6 +268,10 @@ def test_cli_database(tmp_path) -> None:
     scene.write_text(SMALL)
     assert main(["database", str(scene), "-o", str(out), "--models", "greenwood_tripp,hertz"]) == 0
     assert list(load_database(out)) == ["greenwood_tripp", "hertz"]
+    assert load_database(out)["greenwood_tripp"].parameters["heights"] == "summits"
+    assert main(["database", str(scene), "-o", str(out), "--models", "greenwood_tripp", "--gt-heights", "seed"]) == 0
+    back = load_database(out)["greenwood_tripp"]
+    assert back.parameters["heights"] == "seed" and back.parameters["offset_m"] == 0.0
     assert main(["database", str(scene), "-o", str(out), "--models", "nope"]) == 2
 
 

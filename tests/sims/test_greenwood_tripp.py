@@ -105,14 +105,14 @@ def test_F_finite_nonnegative_monotone_no_warning(ts: list[float], n: float) -> 
         warnings.simplefilter("error")
         f = gt.F(n, t)
     assert np.all(np.isfinite(f)) and np.all(f >= 0)
-    assert np.all(np.diff(f) <= 0)
+    assert np.all(np.diff(f) <= 1e-14 * f[:-1])  # non-increasing to rounding (a few ulp)
 
 
 def test_F_monotone_across_table_ends_and_nodes() -> None:
     for t0 in (-12.0, 14.0, 0.0):
         t = t0 + np.linspace(-1e-6, 1e-6, 2001)
         f = gt.F(2.5, t)
-        assert np.all(np.diff(f) <= 0)
+        assert np.all(np.diff(f) <= 1e-14 * f[:-1])
 
 
 def test_methods_agree_where_they_should() -> None:

@@ -56,3 +56,20 @@ def test_simulate_errors_are_one_line_exit_2(argv, message, capsys):
 def test_parse_list():
     assert parse_list("--weights", "1, 2.5") == [1.0, 2.5]
     assert parse_list("--models", "a,b", str) == ["a", "b"]
+
+
+def test_simulate_imports_neither_pyvisa_nor_matplotlib():
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, io, contextlib\n"
+        "import sims.rig, sims.rig_dynamics\n"
+        "from daq.cli import main\n"
+        "with contextlib.redirect_stdout(io.StringIO()):\n"
+        "    rc = main(['simulate', '--models', 'greenwood_tripp', '--weights', '5.44', '--json'])\n"
+        "heavy = [m for m in ('pyvisa', 'matplotlib') if m in sys.modules]\n"
+        "print(rc, heavy)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
+    assert out.stdout.strip() == "0 []", out.stdout + out.stderr
