@@ -403,6 +403,52 @@ def instrument_and_session_cases() -> list[Case]:
     ]
 
 
+def _settle(method: str, damping: float, budget: int | None) -> dict[str, float]:
+    from sims.database import build_database
+    from sims.rig_dynamics import settle
+    from sims.rig_settings import RigSettings
+    from sims.scene import load_scene
+
+    scene = load_scene()
+    curve = build_database(scene, models=["greenwood_tripp"])["greenwood_tripp"]
+    run = settle(
+        curve, RigSettings.from_scene(scene), 25.966, method=method, damping_n_s_per_m=damping, max_evaluations=budget
+    )
+    out = {"nfev": float(run.nfev), "status": float(abs(run.status))}
+    if run.settled:
+        out["rest_error"] = abs(run.separation_error_m) / abs(run.static_separation_m)
+    return out
+
+
+def _check_settled(v: dict[str, float]) -> None:
+    assert "rest_error" in v and v["rest_error"] < 1e-4, v
+
+
+def _check_budget_stops(v: dict[str, float]) -> None:
+    assert v["status"] == 2 and "rest_error" not in v and v["nfev"] <= 20_010, v
+
+
+def dynamics_cases() -> list[Case]:
+    return [
+        Case(
+            "BDF, B = 1e7 N·s/m",
+            "rig_dynamics.settle",
+            "stiff damping, implicit method with the analytic Jacobian",
+            lambda: _settle("BDF", 1e7, 100_000),
+            "finite",
+            check=_check_settled,
+        ),
+        Case(
+            "RK45, B = 1e7 N·s/m, budget 2e4",
+            "rig_dynamics.settle",
+            "stiff damping, explicit method: must stop at its budget and say so, not run for minutes",
+            lambda: _settle("RK45", 1e7, 20_000),
+            "warning",
+            check=_check_budget_stops,
+        ),
+    ]
+
+
 def all_cases() -> list[Case]:
     """Every case, in report order."""
     cases: list[Case] = []
@@ -410,5 +456,6 @@ def all_cases() -> list[Case]:
     cases += asperity_cases()
     cases += database_cases()
     cases += rig_cases()
+    cases += dynamics_cases()
     cases += instrument_and_session_cases()
     return cases
