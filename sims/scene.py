@@ -29,7 +29,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from sims.validation import SettingError, check_keys
+from sims.validation import SettingError, check_keys, read_text_file
 
 __all__ = ["KNOWN_TABLES", "Scene", "default_scene_text", "load_scene", "parse_scene"]
 
@@ -89,11 +89,4 @@ def load_scene(path: str | Path | None = None) -> Scene:
     """Load the scene at ``path``, or the packaged default scene when ``path`` is None."""
     if path is None:
         return parse_scene(default_scene_text(), "<default>")
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SettingError("scene", str(p), "file not found") from None
-    except OSError as exc:
-        raise SettingError("scene", str(p), f"cannot be read ({exc.strerror})") from None
-    return parse_scene(text, str(p))
+    return parse_scene(read_text_file("scene", path), str(path))

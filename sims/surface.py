@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sims.validation import SettingError, check_choice, check_int, check_keys, check_range
+from sims.validation import SettingError, check_choice, check_int, check_keys, check_range, read_text_file
 
 __all__ = [
     "SURFACE_KINDS",
@@ -161,12 +161,7 @@ def load_height_map(path: str | Path, *, pixel_m: float, height_unit_m: float = 
     pixel_m = check_range("pixel_m", pixel_m, 0.0, 1.0, lo_open=True, unit="m")
     height_unit_m = check_range("height_unit_m", height_unit_m, 0.0, 1e3, lo_open=True, unit="m")
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SettingError("path", str(p), "file not found") from None
-    except OSError as exc:
-        raise SettingError("path", str(p), f"cannot be read ({exc.strerror})") from None
+    text = read_text_file("path", p)
     rows = []
     for line_no, line in enumerate(text.splitlines(), 1):
         line = line.split("#", 1)[0].strip()
