@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from analysis.resistance import bulk_resistance_ohm
-from sims.validation import check_keys, check_range
+from contactrig.core.validation import check_keys, check_range
 
 __all__ = [
     "K6221_MAX_CURRENT_A",
@@ -109,7 +109,7 @@ class CircuitSettings:
 
     @classmethod
     def from_scene(cls, scene: Any) -> CircuitSettings:
-        """Build from ``scene.table("circuit")`` (a :class:`sims.scene.Scene`)."""
+        """Build from ``scene.table("circuit")`` (a :class:`contactrig.core.scene.Scene`)."""
         return cls.from_mapping(scene.table("circuit"))
 
     def replace(self, **changes: Any) -> CircuitSettings:

@@ -53,12 +53,12 @@ def run_demo(
     from analysis.measured import MeasuredCurve
     from analysis.pipeline import analyse, analyse_tab1, simulate
     from analysis.report import output_directory, write_report
+    from contactrig.core.scene import load_scene
+    from contactrig.core.validation import check_int
     from daq import load_session
     from daq.acquire import acquire
     from daq.replay import replay_session
     from sims.rig import save_sweep
-    from sims.scene import load_scene
-    from sims.validation import check_int
 
     check_int("bootstrap", n_boot, 0, 1_000_000)
     out = output_directory(directory)

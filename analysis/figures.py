@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from analysis.measured import MeasuredCurve
-from sims.validation import SettingError, check_choice
+from contactrig.core.validation import SettingError, check_choice
 
 __all__ = [
     "MODEL_LABELS",

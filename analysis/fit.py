@@ -53,7 +53,7 @@ import numpy as np
 
 from analysis.measured import MeasuredCurve
 from analysis.resistance import CONVERSIONS
-from sims.validation import SettingError, check_choice, check_int, check_range
+from contactrig.core.validation import SettingError, check_choice, check_int, check_range
 
 __all__ = [
     "WEIGHTINGS",

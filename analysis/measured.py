@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from sims.validation import SettingError
+from contactrig.core.validation import SettingError
 
 __all__ = ["TAB1_RESOURCE", "MeasuredCurve", "load_tab1"]
 

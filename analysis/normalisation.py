@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from analysis.measured import MeasuredCurve
-from sims.validation import SettingError
+from contactrig.core.validation import SettingError
 
 __all__ = ["NormalisedCurve", "normalise_measured", "normalise_simulated"]
 

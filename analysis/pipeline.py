@@ -116,7 +116,7 @@ def analyse(
 
 
 def _scene_for(session: Any) -> Any:
-    from sims.scene import load_scene, parse_scene
+    from contactrig.core.scene import load_scene, parse_scene
 
     text = getattr(session, "scene_text", "") or ""
     if text.strip():
@@ -198,7 +198,7 @@ def analyse_tab1(
 
     ``series`` selects columns (e.g. ``["M1", "M2", "M3"]``, the ones that are not copies of others).
     """
-    from sims.scene import load_scene
+    from contactrig.core.scene import load_scene
 
     curve = load_tab1()
     notes = tab1_integrity_notes(curve)

@@ -26,28 +26,20 @@ from analysis.figures import (
     model_label,
     save_figure,
 )
+from contactrig.core.provenance import software_version
 
 __all__ = ["output_directory", "render_markdown", "write_figures", "write_report"]
 
 
 def output_directory(directory: str | Path) -> Path:
     """Create ``directory`` (and parents) for output; a file of that name is an error naming it."""
-    from sims.validation import SettingError
+    from contactrig.core.validation import SettingError
 
     out = Path(directory)
     if out.exists() and not out.is_dir():
         raise SettingError("output", str(out), "expected a directory; a file of that name exists")
     out.mkdir(parents=True, exist_ok=True)
     return out
-
-
-def _software_version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("contactrig")
-    except PackageNotFoundError:
-        return "0+unknown"
 
 
 def _slug(text: str) -> str:
@@ -294,7 +286,7 @@ def render_markdown(
     parts = [f"# {title}\n"]
     parts += [_banner(a.measured_info) for a in analyses if _banner(a.measured_info)]
     parts.append(
-        f"Generated {now} by contactrig {_software_version()} (Python {platform.python_version()}, "
+        f"Generated {now} by contactrig {software_version()} (Python {platform.python_version()}, "
         f"numpy {np.__version__}).\n"
     )
     if preamble:

@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from sims.validation import SettingError, check_int, check_range
+from contactrig.core.validation import SettingError, check_int, check_range
 
 __all__ = [
     "CONVERSIONS",

@@ -18,14 +18,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
+from contactrig.core.provenance import host_name, login_name
+from contactrig.core.scene import Scene, load_scene, parse_scene
 from daq.engine import AcquisitionEngine, Interrupts, OperatorQuit, Prompter, RunOutcome, Writer, answer_yes
 from daq.errors import MissingFileError, SessionExistsError, SessionStateError, SessionWriteError
 from daq.link import InstrumentLink, open_visa_link
 from daq.plan import Measure, PlaceWeight, SessionPlan, session_steps
 from daq.records import now_iso
-from daq.session_file import SCHEMA_VERSION, SessionFile, host_name, load_session, login_name, software_versions
+from daq.session_file import SCHEMA_VERSION, SessionFile, load_session, software_versions
 from daq.writers import FileWriter, LiveDisplay
-from sims.scene import Scene, load_scene, parse_scene
 
 __all__ = ["DEFAULT_SIM_SPEED", "AcquisitionResult", "acquire", "drive", "terminal_prompter"]
 
@@ -164,7 +165,8 @@ def acquire(
 ) -> AcquisitionResult:
     """Run a bench session and write it to ``output`` (see the module docstring for the order of work).
 
-    ``scene``: a :class:`~sims.scene.Scene`, a path, or None (the packaged default; with ``resume``, None means
+    ``scene``: a :class:`~contactrig.core.scene.Scene`, a path, or None (the packaged default; with ``resume``,
+    None means
     the scene recorded in the file). ``sim_speed``: simulated instrument time runs this many times faster
     (1 = real pace, ``inf`` = no waiting). ``link_wrapper(transport) -> transport`` wraps the instrument
     transport (fault-injection in tests). Raises the error that ended the session, after its stop record.

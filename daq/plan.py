@@ -34,9 +34,9 @@ from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from contactrig.core.scene import Scene
+from contactrig.core.validation import SettingError, check_choice, check_int, check_keys, check_range
 from instruments.delta import DeltaSettings
-from sims.scene import Scene
-from sims.validation import SettingError, check_choice, check_int, check_keys, check_range
 
 __all__ = [
     "INSTRUMENT_KEYS",

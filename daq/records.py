@@ -13,11 +13,11 @@ import hashlib
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from datetime import datetime
 from typing import Any, Literal
 
 import numpy as np
 
+from contactrig.core.provenance import now_iso
 from instruments.transport import Exchange
 
 __all__ = [
@@ -32,11 +32,6 @@ __all__ = [
 ]
 
 StopStatus = Literal["success", "aborted", "failed"]
-
-
-def now_iso() -> str:
-    """The current local time as ISO-8601 with its UTC offset, e.g. ``2026-11-21T10:15:17.123+01:00``."""
-    return datetime.now().astimezone().isoformat(timespec="milliseconds")
 
 
 @dataclass(frozen=True)

@@ -32,8 +32,6 @@ import hashlib
 import json
 import os
 import re
-import socket
-import sys
 import warnings
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
@@ -44,6 +42,7 @@ import h5py
 import numpy as np
 import pandas as pd
 
+from contactrig.core import provenance
 from daq.errors import (
     ChecksumError,
     FileLockingError,
@@ -122,38 +121,8 @@ _EXCHANGE_FIELDS: dict[str, tuple[Any, str]] = {
 
 
 def software_versions() -> dict[str, str]:
-    """Versions of contactrig, Python, numpy, h5py, HDF5 and pyvisa (read from metadata: pyvisa is not imported)."""
-    from importlib.metadata import PackageNotFoundError, version
-
-    def _v(name: str) -> str:
-        try:
-            return version(name)
-        except PackageNotFoundError:
-            return "not installed"
-
-    return {
-        "contactrig": _v("contactrig"),
-        "python": sys.version.split()[0],
-        "numpy": np.__version__,
-        "h5py": h5py.version.version,
-        "hdf5": h5py.version.hdf5_version,
-        "pyvisa": _v("pyvisa"),
-        "pyvisa-sim": _v("pyvisa-sim"),
-    }
-
-
-def host_name() -> str:
-    return socket.gethostname()
-
-
-def login_name() -> str:
-    """The operator's login name, recorded when the scene (or ``--operator``) names nobody; "unknown" if none."""
-    import getpass
-
-    try:
-        return getpass.getuser()
-    except Exception:  # no login name in some containers
-        return "unknown"
+    """:func:`contactrig.core.provenance.software_versions` plus the HDF5 library version the file was written with."""
+    return {**provenance.software_versions(), "h5py": h5py.version.version, "hdf5": h5py.version.hdf5_version}
 
 
 # ---- opening files, with one clear message per failure ---------------------------------------------------------

@@ -19,10 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
+from contactrig.core.provenance import host_name, login_name
+from contactrig.core.validation import SettingError, check_choice
 from daq.errors import MissingFileError
 from daq.records import BlockRecord, StopRecord, now_iso
-from daq.session_file import SCHEMA_VERSION, SessionFile, host_name, login_name, software_versions
-from sims.validation import SettingError, check_choice
+from daq.session_file import SCHEMA_VERSION, SessionFile, software_versions
 
 __all__ = ["UNITS_OHM", "ResistanceTable", "import_table", "read_table", "tab1_path"]
 

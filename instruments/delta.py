@@ -7,7 +7,7 @@ conversions,
     Δn = (Vn − 2·Vn+1 + Vn+2) / 4 · (−1)^(n−1),
 
 which equals R·(high − low)/2 and cancels a constant thermal EMF and a linear drift (:func:`delta_readings`).
-This module imports only numpy and :mod:`sims.validation`.
+This module imports only numpy and :mod:`contactrig.core.validation`.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sims.validation import SettingError, check_choice, check_int, check_range
+from contactrig.core.validation import SettingError, check_choice, check_int, check_range
 
 __all__ = [
     "CURRENT_RANGES_A",

@@ -1,7 +1,8 @@
 """Typed errors of the instrument layer.
 
 Every error a user can act on subclasses :class:`RuntimeError`, so the ``contactrig`` dispatcher prints it as one
-line (exit 2) instead of a traceback. Invalid *settings* raise :class:`sims.validation.SettingError` (a ValueError)
+line (exit 2) instead of a traceback. Invalid *settings* raise
+:class:`contactrig.core.validation.SettingError` (a ValueError)
 before anything is sent to an instrument.
 """
 

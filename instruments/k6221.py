@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from contactrig.core.validation import check_int, check_range
 from instruments.delta import DeltaBlock, DeltaSettings, parse_buffer
 from instruments.errors import (
     InstrumentError,
@@ -28,7 +29,6 @@ from instruments.errors import (
     SweepAborted,
 )
 from instruments.transport import Transport, VisaTransport
-from sims.validation import check_int, check_range
 
 __all__ = ["Identity", "Keithley6221"]
 

@@ -33,9 +33,9 @@ from pyvisa_sim.component import NoResponse
 from pyvisa_sim.devices import Device, Devices
 from pyvisa_sim.highlevel import SimVisaLibrary
 
+from contactrig.core.validation import check_choice, check_range
 from instruments.delta import delta_readings
 from instruments.scpi import Command, parse_message, split_params, unquote
-from sims.validation import check_choice, check_range
 
 __all__ = [
     "GPIB_ADDRESS",

@@ -16,8 +16,8 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Protocol
 
+from contactrig.core.validation import check_int
 from instruments.errors import CommunicationError, InstrumentTimeout, ReplayMismatch
-from sims.validation import check_int
 
 __all__ = [
     "Exchange",

@@ -31,8 +31,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from contactrig.core.validation import SettingError, check_choice, check_range
 from sims.materials import HARDNESS_TO_YIELD
-from sims.validation import SettingError, check_choice, check_range
 
 __all__ = [
     "MODELS",

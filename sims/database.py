@@ -52,8 +52,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from contactrig.core.provenance import json_default, software_version
+from contactrig.core.validation import SettingError, check_choice, check_int, check_keys, check_range
 from sims.materials import ContactMaterials, materials_from_scene
-from sims.validation import SettingError, check_choice, check_int, check_keys, check_range
 
 __all__ = [
     "DATABASE_KEYS",
@@ -358,15 +359,6 @@ def _check_models(field_name: str, models: Any) -> tuple[str, ...]:
 # Building.
 
 
-def _software_version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("contactrig")
-    except PackageNotFoundError:  # pragma: no cover
-        return "0+unknown"
-
-
 def greenwood_tripp_parameters(
     liner: Any, piston: Any, sq_liner_m: float, sq_piston_m: float, heights: str = "summits"
 ) -> dict[str, Any]:
@@ -457,7 +449,7 @@ def build_database(
 
     Only the models asked for are built; surfaces are generated (or loaded) only when an asperity model is asked
     for. ``n_separations`` and ``gt_heights`` (``"summits"`` | ``"seed"``) override the scene's. Raises
-    :class:`~sims.validation.SettingError` (a ValueError) naming the scene key on bad settings.
+    :class:`~contactrig.core.validation.SettingError` (a ValueError) naming the scene key on bad settings.
     """
     from sims import asperity
     from sims.surface import mccool, statistics_of, summit_data, surfaces_from_scene
@@ -476,7 +468,7 @@ def build_database(
 
     prov: dict[str, Any] = {
         "software": "contactrig",
-        "software_version": _software_version(),
+        "software_version": software_version(),
         "scene_name": getattr(scene, "name", ""),
         "scene_source": getattr(scene, "source", ""),
         "scene_text": getattr(scene, "text", ""),
@@ -592,14 +584,6 @@ def _moments_of(z: NDArray[np.float64], spec: Any) -> Any:
 _UNITS = {"separation_m": "m", "pressure_pa": "Pa", "area_fraction": "1"}
 
 
-def _json_default(obj: Any) -> Any:
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    return str(obj)
-
-
 def save_database(db: ContactDatabase, path: str | Path) -> Path:
     """Write ``db`` to HDF5 at ``path`` (see the module docstring for the layout); returns the path."""
     import h5py
@@ -609,13 +593,13 @@ def save_database(db: ContactDatabase, path: str | Path) -> Path:
     with h5py.File(tmp, "w") as f:
         f.attrs["format"] = "contactrig-contact-database"
         f.attrs["format_version"] = 1
-        f.attrs["provenance"] = json.dumps(db.provenance, default=_json_default)
+        f.attrs["provenance"] = json.dumps(db.provenance, default=json_default)
         for name, curve in db.curves.items():
             g = f.create_group(name)
             for key in ("separation_m", "pressure_pa", "area_fraction"):
                 ds = g.create_dataset(key, data=np.asarray(getattr(curve, key)))
                 ds.attrs["units"] = _UNITS[key]
-            g.attrs["parameters"] = json.dumps(curve.parameters, default=_json_default)
+            g.attrs["parameters"] = json.dumps(curve.parameters, default=json_default)
     tmp.replace(p)
     return p
 

@@ -49,7 +49,7 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sims.validation import SettingError, check_choice, check_int, check_range
+from contactrig.core.validation import SettingError, check_choice, check_int, check_range
 
 __all__ = [
     "METHODS",
@@ -410,7 +410,8 @@ def paper_polynomial(t: ArrayLike, *, decimals: int | None = None) -> NDArray[np
     """F_5/2 by the seed paper's 8th-degree interpolating polynomial (seed §1.1), ``t`` in [0, 4] only.
 
     Outside [0, 4] the polynomial extrapolates wildly (≈ −0.04 at t = 5, −0.8 at t = 6): that is a
-    :class:`~sims.validation.SettingError`. Inside, it is off by tens of per cent to several-fold between t = 3
+    :class:`~contactrig.core.validation.SettingError`. Inside, it is off by tens of per cent to several-fold between
+    t = 3
     and 4, and with node values rounded to 3–4 decimals it dips below zero (t ≈ 3.0–3.5); negative values are
     replaced by 0 with a :class:`PaperPolynomialWarning` saying how many — never silently, never a negative
     (adhesive) pressure.

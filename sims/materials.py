@@ -19,7 +19,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from sims.validation import SettingError, check_keys, check_range
+from contactrig.core.validation import SettingError, check_keys, check_range
 
 __all__ = [
     "MATERIAL_KEYS",
@@ -113,7 +113,7 @@ class ContactMaterials:
 
 
 def materials_from_scene(scene: Any) -> ContactMaterials:
-    """Parse ``[materials.liner]`` and ``[materials.piston]`` of ``scene`` (a :class:`sims.scene.Scene`)."""
+    """Parse ``[materials.liner]`` and ``[materials.piston]`` of ``scene`` (a :class:`contactrig.core.scene.Scene`)."""
     table = scene.table("materials")
     check_keys("materials", table, ("liner", "piston"))
     bodies = {}

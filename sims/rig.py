@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
+from contactrig.core.provenance import software_version
 from sims.rig_batch import BatchEquilibrium, batch_equilibrium
 from sims.rig_file import load_sweep, save_sweep
 from sims.rig_law import ContactLaw, check_law
@@ -36,7 +37,7 @@ from sims.rig_settings import STANDARD_GRAVITY, RigSettings, check_weights
 from sims.rig_statics import ALPHA_WARN, Equilibrium, RigLoadError, equilibrium, preload_note, roughness_parameter
 
 if TYPE_CHECKING:
-    from sims.scene import Scene
+    from contactrig.core.scene import Scene
 
 __all__ = [
     "BatchEquilibrium",
@@ -126,15 +127,6 @@ class SweepResult:
         }
 
 
-def _software_version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("contactrig")
-    except PackageNotFoundError:
-        return "0+unknown"
-
-
 def roughness_and_modulus(scene: Scene, database: Any = None) -> tuple[float | None, float | None]:
     """Combined RMS roughness σ [m] (seed eq. 3) and composite modulus E* [Pa] (seed eq. 4) for the α check.
 
@@ -173,15 +165,15 @@ def sweep(
     per-model solver diagnostics are in ``provenance["solver"]``; ``provenance["notes"]`` says when the clearance
     lies inside a law's contact range (a pre-loaded fit: zero clearance, or roughness comparable with it).
 
-    ``scene`` (a :class:`~sims.scene.Scene`, a path, or None → the packaged default) gives ``[rig]`` (unless
+    ``scene`` (a :class:`~contactrig.core.scene.Scene`, a path, or None → the packaged default) gives ``[rig]`` (unless
     ``settings`` is given) and the database settings. ``models`` restricts the models (None → the scene's
     ``[database].models``); only those databases are built. ``weights_kg`` overrides ``[rig].weights_kg``. ``laws``
     (name → contact law) or a prebuilt ``database`` replace the database build (and its automatic extension when a
     load leaves the tabulated range). ``roughness_m``/``composite_modulus_pa`` (default: from the database or the
     scene) drive the roughness-parameter check. Raises :class:`RigLoadError` when a law cannot carry a load.
     """
-    from sims.scene import Scene as SceneType
-    from sims.scene import load_scene
+    from contactrig.core.scene import Scene as SceneType
+    from contactrig.core.scene import load_scene
 
     if scene is None or not isinstance(scene, SceneType):
         scene = load_scene(scene)  # None → the packaged default; a path → that file
@@ -193,7 +185,7 @@ def sweep(
         models = list(dict.fromkeys(models))
     built_here = False
     provenance: dict[str, Any] = {
-        "software_version": _software_version(),
+        "software_version": software_version(),
         "scene_name": scene.name,
         "scene_source": scene.source,
         "scene_text": scene.text,
@@ -280,8 +272,8 @@ def _extend_database(
     """
     import copy
 
+    from contactrig.core.scene import Scene as SceneType
     from sims.database import DatabaseSettings, build_database
-    from sims.scene import Scene as SceneType
 
     low = {n: float(b.min_separation_m.min()) for n, b in batches.items() if not np.all(b.in_range)}
     sigma = provenance.get("database", {}).get("greenwood_tripp", {}).get("sigma_m")

@@ -157,7 +157,7 @@ def settle(
 
     from scipy.optimize import brentq
 
-    from sims.validation import check_choice, check_int, check_range
+    from contactrig.core.validation import check_choice, check_int, check_range
 
     check_choice("method", method, METHODS)
     damping = settings.damping_n_s_per_m if damping_n_s_per_m is None else damping_n_s_per_m

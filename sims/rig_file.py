@@ -21,6 +21,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from contactrig.core.provenance import json_default
+
 if TYPE_CHECKING:
     from sims.rig import SweepResult
 
@@ -28,14 +30,6 @@ __all__ = ["FORMAT", "load_sweep", "save_sweep"]
 
 FORMAT = "contactrig-sweep"
 FORMAT_VERSION = 1
-
-
-def _json_default(obj: Any) -> Any:
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    return str(obj)
 
 
 def save_sweep(result: SweepResult, path: str | os.PathLike[str]) -> Path:
@@ -55,7 +49,7 @@ def save_sweep(result: SweepResult, path: str | os.PathLike[str]) -> Path:
         f.create_dataset("scene_text", data=str(result.provenance.get("scene_text", "")), dtype=str_dtype)
         f.create_dataset(
             "provenance_json",
-            data=json.dumps(result.provenance, default=_json_default, sort_keys=True),
+            data=json.dumps(result.provenance, default=json_default, sort_keys=True),
             dtype=str_dtype,
         )
         f.create_dataset("warnings", data=np.array(result.warnings, dtype=object), dtype=str_dtype)

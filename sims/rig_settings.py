@@ -26,10 +26,10 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Any
 
-from sims.validation import SettingError, check_choice, check_int, check_keys, check_range
+from contactrig.core.validation import SettingError, check_choice, check_int, check_keys, check_range
 
 if TYPE_CHECKING:
-    from sims.scene import Scene
+    from contactrig.core.scene import Scene
 
 __all__ = ["PAPER_WEIGHTS_KG", "STANDARD_GRAVITY", "RigSettings"]
 

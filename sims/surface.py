@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sims.validation import SettingError, check_choice, check_int, check_keys, check_range, read_text_file
+from contactrig.core.validation import SettingError, check_choice, check_int, check_keys, check_range, read_text_file
 
 __all__ = [
     "SURFACE_KINDS",

@@ -3,7 +3,7 @@
 import subprocess
 import sys
 
-from daq.cli import build_parser, main
+from contactrig.cli.main import build_parser, main
 
 
 def test_help_lists_subcommands(capsys):
@@ -18,8 +18,8 @@ def test_no_command_prints_help_and_fails(capsys):
 
 def test_sims_and_analysis_import_without_pyvisa_or_matplotlib():
     code = (
-        "import sys, sims, analysis, sims.scene, sims.validation, daq.cli;"
-        "daq.cli.build_parser();"
+        "import sys, sims, analysis, contactrig.core.scene, contactrig.core.validation, contactrig.cli.main;"
+        "contactrig.cli.main.build_parser();"
         "bad = [m for m in ('pyvisa', 'matplotlib', 'pyvisa_sim') if m in sys.modules];"
         "print(bad); sys.exit(1 if bad else 0)"
     )

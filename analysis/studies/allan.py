@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sims.validation import SettingError, check_range
+from contactrig.core.validation import SettingError, check_range
 
 __all__ = ["AllanResult", "allan_deviation"]
 

@@ -152,8 +152,8 @@ def asperity_cases() -> list[Case]:
 
 
 def _database_curve(model: str):
+    from contactrig.core.scene import load_scene
     from sims.database import build_database
-    from sims.scene import load_scene
 
     scene = load_scene()
     return build_database(scene, models=[model], n_separations=64)[model]
@@ -196,7 +196,7 @@ def _scene_with(changes: dict[str, object]):
     import json
     import tomllib
 
-    from sims.scene import default_scene_text, parse_scene
+    from contactrig.core.scene import default_scene_text, parse_scene
 
     data = tomllib.loads(default_scene_text())
     for dotted, value in changes.items():
@@ -250,8 +250,8 @@ def _check_models_differ(v: dict[str, np.ndarray]) -> None:
 def _zero_clearance() -> dict[str, np.ndarray]:
     import dataclasses
 
+    from contactrig.core.scene import load_scene
     from sims.rig_settings import RigSettings
-    from sims.scene import load_scene
 
     settings = dataclasses.replace(RigSettings.from_scene(load_scene()), clearance_m=0.0)
     return _sweep_numbers(None, settings=settings)
@@ -404,10 +404,10 @@ def instrument_and_session_cases() -> list[Case]:
 
 
 def _settle(method: str, damping: float, budget: int | None) -> dict[str, float]:
+    from contactrig.core.scene import load_scene
     from sims.database import build_database
     from sims.rig_dynamics import settle
     from sims.rig_settings import RigSettings
-    from sims.scene import load_scene
 
     scene = load_scene()
     curve = build_database(scene, models=["greenwood_tripp"])["greenwood_tripp"]

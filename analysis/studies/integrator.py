@@ -22,11 +22,11 @@ _WEIGHT_KG = 25.966
 
 
 def run(quick: bool) -> list[Row]:
+    from contactrig.core.scene import load_scene
     from sims.database import build_database
     from sims.rig_dynamics import settle
     from sims.rig_settings import RigSettings
     from sims.rig_statics import equilibrium
-    from sims.scene import load_scene
 
     scene = load_scene()
     settings = RigSettings.from_scene(scene)

@@ -60,10 +60,10 @@ def quad_reference(curve: Any, settings: Any, weight_kg: float) -> tuple[float, 
 
 
 def run(quick: bool) -> list[Row]:
+    from contactrig.core.scene import load_scene
     from sims.database import build_database
     from sims.rig_settings import RigSettings
     from sims.rig_statics import equilibrium
-    from sims.scene import load_scene
 
     scene = load_scene()
     base = RigSettings.from_scene(scene)

@@ -9,7 +9,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-from sims.validation import check_choice
+from contactrig.core.validation import check_choice
 
 __all__ = ["Row", "Stopwatch", "run", "study_names"]
 

@@ -3,8 +3,8 @@
 import pytest
 
 from analysis.circuit import K6221_MAX_CURRENT_A, CircuitSettings, paper_design_example
-from sims.scene import load_scene, parse_scene
-from sims.validation import SettingError
+from contactrig.core.scene import load_scene, parse_scene
+from contactrig.core.validation import SettingError
 
 
 def test_paper_design_example_by_hand():

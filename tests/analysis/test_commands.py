@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from daq.cli import main
+from contactrig.cli.main import main
 
 W = np.array([5.0, 10.0, 15.0, 20.0])
 

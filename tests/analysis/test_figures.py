@@ -9,7 +9,7 @@ from analysis import figures as F
 from analysis.fit import compare_models
 from analysis.measured import MeasuredCurve
 from analysis.normalisation import normalise_measured, normalise_simulated
-from sims.validation import SettingError
+from contactrig.core.validation import SettingError
 
 W = np.array([5.0, 10.0, 15.0, 20.0])
 RNG = np.random.default_rng(0)

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from analysis.fit import area_at_weights, compare_models, fit_model, regressor
 from analysis.measured import MeasuredCurve
-from sims.validation import SettingError
+from contactrig.core.validation import SettingError
 
 W = np.array([5.44, 7.44, 10.526, 13.616, 16.708, 19.795, 22.882, 25.966])
 H = 5e-3

@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 from analysis.measured import MeasuredCurve, load_tab1
-from sims.validation import SettingError
+from contactrig.core.validation import SettingError
 
 
 def _summary():

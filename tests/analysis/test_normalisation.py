@@ -5,7 +5,7 @@ import pytest
 
 from analysis.measured import MeasuredCurve
 from analysis.normalisation import normalise_measured, normalise_simulated
-from sims.validation import SettingError
+from contactrig.core.validation import SettingError
 
 
 def test_first_point_is_exactly_one_with_zero_uncertainty():

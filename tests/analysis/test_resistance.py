@@ -15,7 +15,7 @@ from analysis.resistance import (
     holm_resistance_ohm,
     holm_single_spot_resistance_ohm,
 )
-from sims.validation import SettingError
+from contactrig.core.validation import SettingError
 
 
 def test_bulk_hand_value_and_shape():

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from analysis.studies.allan import allan_deviation
-from sims.validation import SettingError
+from contactrig.core.validation import SettingError
 
 
 def test_white_noise_falls_as_one_over_sqrt_m():

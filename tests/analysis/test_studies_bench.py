@@ -14,7 +14,7 @@ from analysis.studies.rows import study_names
 def quick_bench(tmp_path_factory):
     out = tmp_path_factory.mktemp("bench")
     proc = subprocess.run(
-        [sys.executable, "-m", "daq.cli", "bench", "--quick", "--json", "-o", str(out)],
+        [sys.executable, "-m", "contactrig", "bench", "--quick", "--json", "-o", str(out)],
         capture_output=True,
         text=True,
         timeout=300,

@@ -17,9 +17,9 @@ import time
 
 import numpy as np
 
+from contactrig.core.scene import default_scene_text, parse_scene
 from sims import asperity, surface
 from sims.database import asperity_sums, build_database
-from sims.scene import default_scene_text, parse_scene
 
 
 def scene_of(n: int):

@@ -24,11 +24,11 @@ import warnings
 
 import numpy as np
 
+from contactrig.core.scene import load_scene
 from sims.database import build_database
 from sims.rig_dynamics import MAX_EVALUATIONS, settle
 from sims.rig_settings import RigSettings
 from sims.rig_statics import equilibrium
-from sims.scene import load_scene
 
 
 def main() -> None:

@@ -35,12 +35,12 @@ import numpy as np
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
+from contactrig.core.scene import load_scene
 from sims.database import build_database
 from sims.rig_loads import tail_bound, tail_matters
 from sims.rig_mesh import uniform_mesh, variable_mesh
 from sims.rig_settings import RigSettings
 from sims.rig_statics import equilibrium, solve_on_mesh
-from sims.scene import load_scene
 
 GOAL = 1e-3
 # quad on tabulated, kinked curves reports round-off near its tolerance; the reference is still ~1e-10 (also when

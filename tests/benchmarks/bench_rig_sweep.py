@@ -19,12 +19,12 @@ import time
 import numpy as np
 from bench_rig_mesh import reference  # same directory: run as a script
 
+from contactrig.core.scene import load_scene
 from sims.database import build_database
 from sims.rig import sweep
 from sims.rig_mesh import uniform_mesh
 from sims.rig_settings import RigSettings
 from sims.rig_statics import equilibrium, solve_on_mesh
-from sims.scene import load_scene
 
 
 def best_of(fn, repeat: int = 7) -> tuple[float, object]:

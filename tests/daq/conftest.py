@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
+from contactrig.core.scene import parse_scene
 from daq.link import open_visa_link
 from daq.plan import SessionPlan
-from sims.scene import parse_scene
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -49,7 +49,7 @@ def sim_scene_text(repeat_sd: float | None = None) -> str:
     ``repeat_sd`` replaces ``[session].sim_repeat_sd``."""
     import re
 
-    from sims.scene import default_scene_text
+    from contactrig.core.scene import default_scene_text
 
     text = default_scene_text()
     text = re.sub(r"(?m)^count = .*$", "count = 8", text)

@@ -70,8 +70,8 @@ def test_unreachable_address_leaves_no_file(tmp_path, address, what):
 
 
 def test_bad_scene_fails_before_anything_is_written(tmp_path):
-    from sims.scene import parse_scene
-    from sims.validation import SettingError
+    from contactrig.core.scene import parse_scene
+    from contactrig.core.validation import SettingError
 
     text = small_scene().text.replace("[session]\n", "[session]\nrepeets = 3\n")
     with pytest.raises(SettingError, match=r"session\.repeets"):

@@ -12,7 +12,7 @@ import warnings
 import numpy as np
 import pytest
 
-from daq.cli import main
+from contactrig.cli.main import main
 from daq.session_file import load_session
 from daq.table_import import tab1_path
 
@@ -154,10 +154,10 @@ def test_malformed_scene_is_one_error(tmp_path, capsys):
 
 
 def test_killed_sim_process_via_the_cli(tmp_path):
-    """`python -m daq.cli acquire --sim` killed with SIGKILL: the file opens and holds every reported block."""
+    """`python -m contactrig acquire --sim` killed with SIGKILL: the file opens and holds every reported block."""
     out = tmp_path / "k.h5"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "daq.cli", "acquire", str(_scene(tmp_path)), "--sim", "--yes", "--sim-speed", "4",
+        [sys.executable, "-m", "contactrig", "acquire", str(_scene(tmp_path)), "--sim", "--yes", "--sim-speed", "4",
          "-o", str(out)],
         cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
         env={**os.environ, "PYTHONUNBUFFERED": "1"},

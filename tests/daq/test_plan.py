@@ -6,9 +6,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from contactrig.core.scene import load_scene, parse_scene
+from contactrig.core.validation import SettingError
 from daq.plan import InstrumentSettings, Measure, PlaceWeight, SessionPlan, SessionSettings, session_steps
-from sims.scene import load_scene, parse_scene
-from sims.validation import SettingError
 
 from .conftest import SMALL_SCENE, small_scene
 

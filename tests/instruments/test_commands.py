@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from daq.cli import main
+from contactrig.cli.main import main
 
 
 def test_identify_sim(capsys):

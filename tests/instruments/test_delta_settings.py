@@ -9,8 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from contactrig.core.validation import SettingError
 from instruments.delta import DeltaBlock, DeltaSettings, delta_readings, parse_buffer
-from sims.validation import SettingError
 
 finite = st.floats(allow_nan=False, allow_infinity=False)
 

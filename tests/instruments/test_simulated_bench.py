@@ -58,7 +58,7 @@ def test_pyvisa_sim_version_in_pinned_range():
 
 def test_importing_instruments_does_not_import_pyvisa():
     code = (
-        "import sys, instruments, instruments.delta, instruments.commands, instruments.k6221;"
+        "import sys, instruments, instruments.delta, contactrig.cli.instruments, instruments.k6221;"
         "sys.exit(1 if 'pyvisa' in sys.modules else 0)"
     )
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
@@ -350,7 +350,7 @@ def test_third_party_style_sequence_long_forms_and_extra_elements():
     ],
 )
 def test_bench_settings_are_validated(kwargs, field):
-    from sims.validation import SettingError
+    from contactrig.core.validation import SettingError
 
     with pytest.raises(SettingError) as err:
         SimulatedBench(**kwargs)
@@ -373,7 +373,7 @@ def test_bench_settings_are_validated(kwargs, field):
     ],
 )
 def test_driver_options_are_validated(kwargs, field):
-    from sims.validation import SettingError
+    from contactrig.core.validation import SettingError
 
     with pytest.raises(SettingError) as err:
         Keithley6221(object(), **kwargs)

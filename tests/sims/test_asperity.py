@@ -11,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import integrate
 
+from contactrig.core.validation import SettingError
 from sims import asperity
-from sims.validation import SettingError
 
 E_STAR, R, H = 49e9, 2e-3, 1.2e9
 

@@ -14,6 +14,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import integrate
 
+from contactrig.core.scene import load_scene, parse_scene
+from contactrig.core.validation import SettingError
 from sims import greenwood_tripp as gt
 from sims import surface
 from sims.database import (
@@ -24,8 +26,6 @@ from sims.database import (
     save_database,
 )
 from sims.materials import Material, composite_modulus
-from sims.scene import load_scene, parse_scene
-from sims.validation import SettingError
 
 SMALL = """
 [scene]
@@ -261,7 +261,7 @@ def test_default_scene_covers_the_rig_and_is_elastic_dominated() -> None:
 
 
 def test_cli_database(tmp_path) -> None:
-    from daq.cli import main
+    from contactrig.cli.main import main
 
     out = tmp_path / "db.h5"
     scene = tmp_path / "scene.toml"
@@ -276,7 +276,7 @@ def test_cli_database(tmp_path) -> None:
 
 
 def test_cli_plot(tmp_path) -> None:
-    from daq.cli import main
+    from contactrig.cli.main import main
 
     scene = tmp_path / "scene.toml"
     scene.write_text(SMALL)
@@ -286,7 +286,10 @@ def test_cli_plot(tmp_path) -> None:
 
 
 def test_commands_import_nothing_heavy() -> None:
-    code = "import sys, sims.commands, sims.database; print({'h5py', 'matplotlib', 'pyvisa'} & set(sys.modules))"
+    code = (
+        "import sys, contactrig.cli.database, sims.database\n"
+        "print({'h5py', 'matplotlib', 'pyvisa'} & set(sys.modules))"
+    )
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert res.stdout.strip() == "set()"
 

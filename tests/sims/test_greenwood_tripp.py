@@ -15,8 +15,8 @@ from hypothesis import strategies as st
 from scipy import integrate
 from scipy.special import erfc
 
+from contactrig.core.validation import SettingError
 from sims import greenwood_tripp as gt
-from sims.validation import SettingError
 
 ORDERS = (0.0, 1.0, 1.5, 2.0, 2.5)
 

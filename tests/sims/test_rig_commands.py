@@ -6,9 +6,9 @@ import json
 
 import pytest
 
-from daq.cli import main
+from contactrig.cli.main import main
+from contactrig.cli.simulate import parse_list
 from sims.rig import load_sweep
-from sims.rig_commands import parse_list
 
 
 def test_simulate_json_with_weights_and_output(tmp_path, capsys):
@@ -28,7 +28,7 @@ def test_simulate_json_with_weights_and_output(tmp_path, capsys):
 
 
 def test_simulate_table_for_a_scene_file(tmp_path, capsys):
-    from sims.scene import default_scene_text
+    from contactrig.core.scene import default_scene_text
 
     scene = tmp_path / "scene.toml"
     scene.write_text(default_scene_text().replace("clearance_m = 40e-6", "clearance_m = 20e-6"))
@@ -65,7 +65,7 @@ def test_simulate_imports_neither_pyvisa_nor_matplotlib():
     code = (
         "import sys, io, contextlib\n"
         "import sims.rig, sims.rig_dynamics\n"
-        "from daq.cli import main\n"
+        "from contactrig.cli.main import main\n"
         "with contextlib.redirect_stdout(io.StringIO()):\n"
         "    rc = main(['simulate', '--models', 'greenwood_tripp', '--weights', '5.44', '--json'])\n"
         "heavy = [m for m in ('pyvisa', 'matplotlib') if m in sys.modules]\n"

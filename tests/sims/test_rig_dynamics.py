@@ -130,8 +130,8 @@ def test_massless_piston_is_an_error():
 
 
 def test_settles_on_the_database_curve():
+    from contactrig.core.scene import load_scene
     from sims.database import build_database
-    from sims.scene import load_scene
 
     scene = load_scene()
     curve = build_database(scene, models=["greenwood_tripp"])["greenwood_tripp"]

@@ -12,10 +12,10 @@ from hypothesis import strategies as st
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
+from contactrig.core.scene import load_scene, parse_scene
+from contactrig.core.validation import SettingError
 from sims.rig import ModelSweep, RigSettings, SweepResult, equilibrium, load_sweep, save_sweep, sweep
 from sims.rig_settings import PAPER_WEIGHTS_KG, STANDARD_GRAVITY
-from sims.scene import load_scene, parse_scene
-from sims.validation import SettingError
 from tests.sims.test_rig_laws import ExponentialLaw, GreenwoodTrippLaw, WinklerLaw
 
 LAWS = {"exp": ExponentialLaw(), "gt": GreenwoodTrippLaw()}

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
+from contactrig.core.validation import SettingError
 from sims import surface as s
-from sims.validation import SettingError
 
 PX = 1e-6
 

@@ -1,4 +1,4 @@
-"""``contactrig`` subcommands of the ``sims`` package (registered by ``daq.cli``).
+"""``contactrig`` subcommands of the ``sims`` package (registered by ``contactrig.cli.main``).
 
 ``contactrig database [SCENE] -o db.h5 [--models a,b] [--n-separations N] [--gt-heights summits|seed]
 [--plot FILE]`` builds the contact database of a scene (the packaged default when SCENE is omitted), writes it to
@@ -43,8 +43,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run_database(args: argparse.Namespace) -> int:
     """Handler of ``contactrig database``."""
+    from contactrig.core.scene import load_scene
     from sims.database import build_database, save_database
-    from sims.scene import load_scene
 
     scene = load_scene(args.scene)
     models = None

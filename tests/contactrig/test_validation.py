@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from sims.validation import SettingError, check_choice, check_int, check_keys, check_range
+from contactrig.core.validation import SettingError, check_choice, check_int, check_keys, check_range
 
 
 def test_range_error_names_field_value_and_range():
@@ -60,7 +60,7 @@ def test_choice_and_keys():
 
 
 def test_read_text_file_names_the_field(tmp_path):
-    from sims.validation import read_text_file
+    from contactrig.core.validation import read_text_file
 
     good = tmp_path / "a.txt"
     good.write_text("x = 1\n", encoding="utf-8")

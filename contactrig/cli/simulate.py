@@ -1,6 +1,6 @@
 """``contactrig simulate``: the rig model's load sweep, contact area against added weight (``sims.rig``).
 
-Registered by ``daq.cli``. Nothing heavy is imported until the command runs.
+Registered by ``contactrig.cli.main``. Nothing heavy is imported until the command runs.
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def parse_list(option: str, text: str, kind: type = float) -> list[Any]:
     """Split a comma-separated option value; an empty item or a bad number is an error naming the option."""
-    from sims.validation import SettingError
+    from contactrig.core.validation import SettingError
 
     items = [t.strip() for t in text.split(",")]
     if not items or any(t == "" for t in items):
@@ -54,8 +54,8 @@ def parse_list(option: str, text: str, kind: type = float) -> list[Any]:
 
 
 def _simulate(args: argparse.Namespace) -> int:
+    from contactrig.core.scene import load_scene
     from sims.rig import save_sweep, sweep
-    from sims.scene import load_scene
 
     scene = load_scene(args.scene)
     from sims.rig_settings import check_weights

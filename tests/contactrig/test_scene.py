@@ -2,8 +2,8 @@
 
 import pytest
 
-from sims.scene import KNOWN_TABLES, load_scene, parse_scene
-from sims.validation import SettingError
+from contactrig.core.scene import KNOWN_TABLES, load_scene, parse_scene
+from contactrig.core.validation import SettingError
 
 
 def test_default_scene_loads_and_has_only_known_tables():

@@ -1,4 +1,4 @@
-"""``contactrig instruments …`` subcommands (registered by ``daq.cli``): a thin layer over the driver.
+"""``contactrig instruments …`` subcommands (registered by ``contactrig.cli.main``): a thin layer over the driver.
 
 Nothing heavy is imported at module level: pyvisa and numpy load only when a command runs.
 """
@@ -52,7 +52,7 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 
 def _open(args: argparse.Namespace) -> Any:
-    from sims.validation import SettingError, check_int
+    from contactrig.core.validation import SettingError, check_int
 
     check_int("--timeout-ms", args.timeout_ms, 1, 3_600_000)
     check_int("--seed", args.seed, 0, 2**63 - 1)
@@ -85,8 +85,8 @@ def identify_command(args: argparse.Namespace) -> int:
 
 def delta_command(args: argparse.Namespace) -> int:
     """Run one Delta block; print mean, SD, SEM, N and the invalid count (or JSON with --json)."""
+    from contactrig.core.validation import SettingError
     from instruments.delta import DeltaSettings
-    from sims.validation import SettingError
 
     try:  # validated before any connection is opened
         settings = DeltaSettings(

@@ -18,7 +18,7 @@ table               what                                    parsed by
 ==================  =====================================  ==============================
 
 An unknown top-level table is an error naming it; unknown keys inside a table are errors raised by its owner.
-The default scene ships with the package (``sims/scenes/default.toml``).
+The default scene ships with the package (``contactrig/scenes/default.toml``).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from sims.validation import SettingError, check_keys, read_text_file
+from contactrig.core.validation import SettingError, check_keys, read_text_file
 
 __all__ = ["KNOWN_TABLES", "Scene", "default_scene_text", "load_scene", "parse_scene"]
 
@@ -68,7 +68,7 @@ class Scene:
 
 def default_scene_text() -> str:
     """The text of the scene shipped with the package."""
-    return resources.files("sims").joinpath("scenes/default.toml").read_text(encoding="utf-8")
+    return resources.files("contactrig").joinpath("scenes/default.toml").read_text(encoding="utf-8")
 
 
 def parse_scene(text: str, source: str = "<string>") -> Scene:

@@ -1,4 +1,4 @@
-"""``contactrig`` subcommands of the ``analysis`` package (registered by ``daq.cli``).
+"""``contactrig`` subcommands of the ``analysis`` package (registered by ``contactrig.cli.main``).
 
 ``circuit`` (seed eq. 23–25 design calculator), ``fit`` (measured R(W) against every model's simulated A(W)),
 ``figures``, ``report`` and ``demo``. Nothing heavy is imported here: each handler imports what it needs.
@@ -88,7 +88,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _circuit(args: argparse.Namespace) -> int:
     from analysis.circuit import CircuitSettings, paper_design_example
-    from sims.scene import load_scene
+    from contactrig.core.scene import load_scene
 
     base = paper_design_example() if args.paper else CircuitSettings.from_scene(load_scene(args.scene))
     settings = base.replace(
@@ -138,7 +138,7 @@ def _analysis(args: argparse.Namespace) -> Any:
 
         if args.sim:
             from analysis.pipeline import _load_sim
-            from sims.scene import load_scene
+            from contactrig.core.scene import load_scene
 
             scene = load_scene(None)
             sweep_result, _, info = _load_sim(args.sim, scene, None, args.models)

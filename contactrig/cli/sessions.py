@@ -1,4 +1,4 @@
-"""``contactrig acquire``, ``replay`` and ``import`` (registered by ``daq.cli``): a thin layer over daq functions.
+"""``contactrig acquire``, ``replay`` and ``import``: a thin layer over daq functions.
 
 Nothing heavy is imported at module level: h5py, pyvisa and pandas load only when a command runs.
 """

@@ -16,13 +16,15 @@ import sys
 from collections.abc import Sequence
 from typing import NoReturn
 
+from contactrig.core.provenance import software_version
+
 _COMMAND_MODULES = (
-    "instruments.commands",
-    "sims.commands",
-    "sims.rig_commands",
-    "daq.commands",
-    "analysis.commands",
-    "analysis.studies.commands",
+    "contactrig.cli.instruments",
+    "contactrig.cli.database",
+    "contactrig.cli.simulate",
+    "contactrig.cli.sessions",
+    "contactrig.cli.analysis",
+    "contactrig.cli.bench",
 )
 
 
@@ -40,21 +42,12 @@ def build_parser() -> argparse.ArgumentParser:
         description="Piston/liner contact area by electrical contact resistance: bench, simulation, analysis.",
     )
     parser.add_argument("--debug", action="store_true", help="show tracebacks instead of one-line errors")
-    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {software_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_OneLineErrors)
     for name in _COMMAND_MODULES:
         module = importlib.import_module(name)
         module.register(sub)
     return parser
-
-
-def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("contactrig")
-    except PackageNotFoundError:
-        return "0+unknown"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
