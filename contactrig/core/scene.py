@@ -29,21 +29,11 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from contactrig.core.validation import SettingError, check_keys, read_text_file
+from contactrig.core.validation import SCENE_TABLES, SettingError, check_keys, read_text_file
 
 __all__ = ["KNOWN_TABLES", "Scene", "default_scene_text", "load_scene", "parse_scene"]
 
-KNOWN_TABLES = (
-    "scene",
-    "materials",
-    "surfaces",
-    "database",
-    "rig",
-    "circuit",
-    "instrument",
-    "delta",
-    "session",
-)
+KNOWN_TABLES = SCENE_TABLES
 
 
 @dataclass(frozen=True)

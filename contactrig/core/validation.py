@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 __all__ = [
+    "SCENE_TABLES",
     "SettingError",
     "check_choice",
     "check_finite",
@@ -20,17 +21,41 @@ __all__ = [
     "check_keys",
     "check_range",
     "read_text_file",
+    "scene_key",
 ]
 
 
+# The top-level tables of a scene file (see contactrig.core.scene); a setting path that starts with one of them is
+# a scene key and is shown as the user wrote it in the file: ``surfaces.liner.sq_m`` → ``[surfaces.liner] sq_m``.
+SCENE_TABLES = ("scene", "materials", "surfaces", "database", "rig", "circuit", "instrument", "delta", "session")
+_BODY_TABLES = ("materials", "surfaces")
+
+
+def scene_key(path: str) -> str:
+    """How a setting path reads in a scene file: ``"rig.clearance_m"`` → ``"[rig] clearance_m"``.
+
+    Paths that are not scene keys (a function argument such as ``"current"``) are returned unchanged.
+    """
+    parts = path.split(".")
+    if parts[0] not in SCENE_TABLES or len(parts) < 2:
+        return path
+    if parts[0] in _BODY_TABLES and len(parts) == 2:
+        return f"[{path}]"  # a whole body table, e.g. a missing [surfaces.liner]
+    n_table = 2 if parts[0] in _BODY_TABLES else 1
+    return f"[{'.'.join(parts[:n_table])}] {'.'.join(parts[n_table:])}"
+
+
 class SettingError(ValueError):
-    """A setting is invalid. ``field``, ``value`` and ``allowed`` say which, what and what would do."""
+    """A setting is invalid. ``field``, ``value`` and ``allowed`` say which, what and what would do.
+
+    ``field`` is a dotted path; scene keys are shown as in the file (``[surfaces.liner] sq_m``, see :func:`scene_key`).
+    """
 
     def __init__(self, field: str, value: Any, allowed: str) -> None:
         self.field = field
         self.value = value
         self.allowed = allowed
-        super().__init__(f"{field} = {value!r} is not allowed: {allowed}")
+        super().__init__(f"{scene_key(field)} = {value!r} is not allowed: {allowed}")
 
 
 def _as_float(field: str, value: Any) -> float:

@@ -65,7 +65,7 @@ def test_circuit_json_and_bad_value(capsys):
     d = json.loads(capsys.readouterr().out)
     assert d["result"]["current_a"] == 0.1
     assert main(["circuit", "--area", "-1"]) == 2
-    assert "circuit.contact_area_m2" in capsys.readouterr().err
+    assert "[circuit] contact_area_m2" in capsys.readouterr().err
 
 
 def test_fit_json_on_an_incomplete_session(tmp_path, capsys):
@@ -133,8 +133,8 @@ def _empty_session(path):
         (["report", "{session}", "--sim", "{sim}", "-o", "{garbage}"], "a file of that name exists"),
         (["demo", "-o", "{garbage}"], "a file of that name exists"),
         (["demo", "-o", "{tmp}/demo", "--bootstrap", "-1"], "bootstrap = -1"),
-        (["circuit", "--area", "nan"], "circuit.contact_area_m2"),
-        (["circuit", "--resistivity", "0"], "circuit.resistivity_ohm_m"),
+        (["circuit", "--area", "nan"], "[circuit] contact_area_m2"),
+        (["circuit", "--resistivity", "0"], "[circuit] resistivity_ohm_m"),
         (["circuit", "--current", "-0.1"], "current_a"),
         (["circuit", "--scene", "{tmp}/nope.toml"], "nope.toml"),
     ],

@@ -13,7 +13,7 @@ def test_range_error_names_field_value_and_range():
     with pytest.raises(SettingError) as err:
         check_range("delta.high_a", 0.5, -0.105, 0.105, unit="A")
     msg = str(err.value)
-    assert "delta.high_a" in msg and "0.5" in msg and "[-0.105, 0.105] A" in msg
+    assert "[delta] high_a" in msg and "0.5" in msg and "[-0.105, 0.105] A" in msg
 
 
 @given(st.floats(allow_nan=True, allow_infinity=True))
@@ -55,7 +55,7 @@ def test_choice_and_keys():
     assert check_choice("unit", "V", ("V", "OHMS")) == "V"
     with pytest.raises(SettingError, match="'OHMS'"):
         check_choice("unit", "W", ("V", "OHMS"))
-    with pytest.raises(SettingError, match=r"rig\.radius"):
+    with pytest.raises(SettingError, match=r"\[rig\] radius"):
         check_keys("rig", {"radius": 1}, ("radius_m",))
 
 

@@ -74,7 +74,7 @@ def test_bad_scene_fails_before_anything_is_written(tmp_path):
     from contactrig.core.validation import SettingError
 
     text = small_scene().text.replace("[session]\n", "[session]\nrepeets = 3\n")
-    with pytest.raises(SettingError, match=r"session\.repeets"):
+    with pytest.raises(SettingError, match=r"\[session\] repeets"):
         acquire(parse_scene(text), tmp_path / "s.h5", yes=True, resource_manager=_rm(), quiet=True)
     assert not (tmp_path / "s.h5").exists()
 

@@ -27,7 +27,7 @@ def test_unknown_key_is_an_error_naming_it(table):
     text = SMALL_SCENE.replace(f"[{table}]\n", f"[{table}]\nbogus_key = 1\n")
     with pytest.raises(SettingError) as err:
         SessionPlan.from_scene(parse_scene(text))
-    assert f"{table}.bogus_key" in str(err.value)
+    assert f"[{table}] bogus_key" in str(err.value)
 
 
 @pytest.mark.parametrize(
@@ -69,7 +69,7 @@ def test_bad_weights(weights):
     text = SMALL_SCENE.replace("[session]\n", f"[session]\nweights_kg = {weights}\n")
     with pytest.raises(SettingError) as err:
         SessionPlan.from_scene(parse_scene(text))
-    assert "session.weights_kg" in str(err.value)
+    assert "[session] weights_kg" in str(err.value)
 
 
 def test_instrument_settings_defaults_are_valid():

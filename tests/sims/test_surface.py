@@ -136,11 +136,11 @@ def test_load_height_map_removes_the_plane(tmp_path) -> None:
 def test_surface_spec_validation_names_the_key() -> None:
     good = {"kind": "gaussian", "n": 64, "pixel_m": 1e-6, "sq_m": 1e-6, "correlation_m": 8e-6}
     assert s.SurfaceSpec.from_table("surfaces.liner", good).n == 64
-    with pytest.raises(SettingError, match=r"surfaces\.liner\.hurst"):
+    with pytest.raises(SettingError, match=r"\[surfaces\.liner\] hurst"):
         s.SurfaceSpec.from_table("surfaces.liner", {**good, "hurst": 0.5})
-    with pytest.raises(SettingError, match=r"surfaces\.liner\.sq_m"):
+    with pytest.raises(SettingError, match=r"\[surfaces\.liner\] sq_m"):
         s.SurfaceSpec.from_table("surfaces.liner", {**good, "sq_m": -1.0})
-    with pytest.raises(SettingError, match=r"surfaces\.liner\.kind"):
+    with pytest.raises(SettingError, match=r"\[surfaces\.liner\] kind"):
         s.SurfaceSpec.from_table("surfaces.liner", {**good, "kind": "fractal"})
-    with pytest.raises(SettingError, match=r"surfaces\.liner\.correlation_m"):
+    with pytest.raises(SettingError, match=r"\[surfaces\.liner\] correlation_m"):
         s.SurfaceSpec.from_table("surfaces.liner", {k: v for k, v in good.items() if k != "correlation_m"})

@@ -1,0 +1,105 @@
+"""The contact-model registry: one class (or builder) plus one registration per model.
+
+Everything that lists contact models — the database build, the rig sweep, the fit, the figures and the report, the
+stability atlas and the CLI help — asks this registry instead of keeping a list of names. Adding a model is one
+:func:`register` call next to its physics; a test can register a toy model and see it flow through every stage.
+
+A :class:`ContactModel` says how to build its curve on the database's separation grid (``build``), how to show it
+(``label``, ``style``) and what it assumes (``elastic_only``: no hardness cap, so a plasticity index > 1 makes its
+answer doubtful; ``needs_surface``: it sums over the summits of a generated or measured composite surface, so the
+database generates one — models from statistics alone never do).
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+__all__ = [
+    "BUILTIN_MODULES",
+    "ContactModel",
+    "get_model",
+    "model_label",
+    "model_names",
+    "models",
+    "register",
+    "unregister",
+]
+
+# Modules whose import registers the built-in models (imported lazily, on the first look-up).
+BUILTIN_MODULES = ("sims.greenwood_tripp", "sims.asperity")
+
+
+@dataclass(frozen=True)
+class ContactModel:
+    """One contact model as the rest of contactrig sees it.
+
+    ``key``: the name in scenes, files and the CLI (``"hertz"``). ``label``: display name (``"Hertz"``).
+    ``equations``: where it comes from (``"seed eq. 5–7"``). ``build(context) -> ContactCurve``: the curve on the
+    database grid (see :mod:`sims.database`). ``style``: optional matplotlib keywords (colour, linestyle, marker)
+    so the model looks the same in every figure; models without one get a colour from a cycle.
+    """
+
+    key: str
+    label: str
+    build: Callable[..., Any]
+    equations: str = ""
+    description: str = ""
+    elastic_only: bool = False
+    needs_surface: bool = True
+    style: dict[str, Any] = field(default_factory=dict)
+
+
+_REGISTRY: dict[str, ContactModel] = {}
+_loaded = False
+
+
+def _load_builtins() -> None:
+    global _loaded
+    if not _loaded:
+        _loaded = True
+        for name in BUILTIN_MODULES:
+            importlib.import_module(name)
+
+
+def register(model: ContactModel, *, replace: bool = False) -> ContactModel:
+    """Add ``model`` to the registry (a second model with the same key is an error unless ``replace``)."""
+    if not replace and model.key in _REGISTRY and _REGISTRY[model.key] is not model:
+        raise ValueError(f"a contact model {model.key!r} is registered already")
+    _REGISTRY[model.key] = model
+    return model
+
+
+def unregister(key: str) -> None:
+    """Remove a model (tests use it to clean up a toy model)."""
+    _REGISTRY.pop(key, None)
+
+
+def models() -> Iterator[ContactModel]:
+    """Every registered model, in registration order (built-ins first)."""
+    _load_builtins()
+    return iter(list(_REGISTRY.values()))
+
+
+def model_names() -> tuple[str, ...]:
+    """The keys of every registered model, in registration order."""
+    _load_builtins()
+    return tuple(_REGISTRY)
+
+
+def get_model(key: str) -> ContactModel:
+    """The model ``key``; an unknown key is a :class:`KeyError` naming the known ones."""
+    _load_builtins()
+    try:
+        return _REGISTRY[key]
+    except KeyError:
+        raise KeyError(f"unknown contact model {key!r}; known: {', '.join(_REGISTRY)}") from None
+
+
+def model_label(key: str) -> str:
+    """Display name of model ``key`` (the key itself, made readable, for a model that is not registered)."""
+    _load_builtins()
+    m = _REGISTRY.get(key)
+    return m.label if m is not None else key.replace("_", " ")
