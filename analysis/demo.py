@@ -2,7 +2,7 @@
 
 1. simulate the rig for every model of the default scene (``sims.rig.sweep``; contact database built once) and
    save it (``sim.h5``);
-2. acquire a session on the simulated bench, unattended (``daq.acquire.acquire(..., sim=True, yes=True)``), whose
+2. acquire a session on the simulated bench, unattended (``acquire(..., bench=SimulatedRigBench(), yes=True)``), whose
    resistance is R_s + f·ζh/A(W) of the scene's ``[session].sim_model`` — f a seeded, mean-one log-normal
    re-seating factor per block (``[session].sim_repeat_sd``) — plus the simulated instruments' noise
    (``session.h5``);
@@ -53,6 +53,7 @@ def run_demo(
     from analysis.measured import MeasuredCurve
     from analysis.pipeline import analyse, analyse_tab1, simulate
     from analysis.report import output_directory, write_report
+    from analysis.simulated_session import SimulatedRigBench
     from contactrig.core.scene import load_scene
     from contactrig.core.validation import check_int
     from daq import load_session
@@ -81,7 +82,7 @@ def run_demo(
 
     t0 = time.perf_counter()
     session_path = out / "session.h5"
-    acq = acquire(scene, session_path, sim=True, yes=True, sim_speed=math.inf, quiet=True, force=True, stream=say)
+    acq = acquire(scene, session_path, bench=SimulatedRigBench(math.inf), yes=True, quiet=True, force=True, stream=say)
     step(f"acquire ({acq.blocks_done} blocks, {acq.status})", t0)
 
     t0 = time.perf_counter()

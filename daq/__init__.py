@@ -1,4 +1,4 @@
-"""Bench sessions: Delta-mode resistance per added weight, logged to HDF5, resumed, replayed, imported.
+"""Bench sessions: resistance blocks per added weight, logged to HDF5, resumed, replayed, imported.
 
 ``from daq import load_session`` reads a session file (see :mod:`daq.session_file`). The package imports
 nothing heavy until a name is used, so the ``contactrig`` dispatcher stays fast.

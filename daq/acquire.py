@@ -13,25 +13,21 @@ import errno
 import os
 import sys
 import warnings
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
-from contactrig.core.provenance import host_name, login_name
+from contactrig.core.provenance import host_name, login_name, now_iso
 from contactrig.core.scene import Scene, load_scene, parse_scene
-from daq.engine import AcquisitionEngine, Interrupts, OperatorQuit, Prompter, RunOutcome, Writer, answer_yes
+from daq.engine import AcquisitionEngine, Decision, Interrupts, OperatorQuit, Prompter, RunOutcome, Writer, answer_yes
 from daq.errors import MissingFileError, SessionExistsError, SessionStateError, SessionWriteError
-from daq.link import InstrumentLink, open_visa_link
+from daq.link import Bench, InstrumentLink, OpenedBench, VisaBench
 from daq.plan import Measure, PlaceWeight, SessionPlan, session_steps
-from daq.records import now_iso
 from daq.session_file import SCHEMA_VERSION, SessionFile, load_session, software_versions
 from daq.writers import FileWriter, LiveDisplay
 
-__all__ = ["DEFAULT_SIM_SPEED", "AcquisitionResult", "acquire", "drive", "terminal_prompter"]
-
-#: Default ``--sim-speed``: the simulated instruments run this many times faster than real ones.
-DEFAULT_SIM_SPEED = 1000.0
+__all__ = ["AcquisitionResult", "acquire", "drive", "terminal_prompter"]
 
 
 @dataclass(frozen=True)
@@ -46,11 +42,21 @@ class AcquisitionResult:
     run: int
 
 
-def terminal_prompter(stream: TextIO | None = None, read: Any = input) -> Prompter:
+@dataclass(frozen=True)
+class _Prior:
+    """What the file holds already (``--resume``): the blocks done, their readings, the first run's start record."""
+
+    resumed: bool = False
+    done: frozenset[int] = frozenset()
+    readings: int = 0
+    first_start: dict[str, Any] | None = None
+
+
+def terminal_prompter(stream: TextIO | None = None, read: Callable[[], str] = input) -> Prompter:
     """Ask the operator at the terminal: Enter → go on, ``s`` → skip this weight, ``q`` → stop."""
     out = stream if stream is not None else sys.stderr
 
-    def prompt(step: PlaceWeight) -> Any:
+    def prompt(step: PlaceWeight) -> Decision:
         while True:
             print(
                 f"Place weight {step.weight_index + 1}: {step.weight_kg:g} kg in the piston "
@@ -76,7 +82,7 @@ def terminal_prompter(stream: TextIO | None = None, read: Any = input) -> Prompt
 
 def drive(
     link: InstrumentLink,
-    plan_settings: Any,
+    block_settings: object,
     steps: Iterable[PlaceWeight | Measure],
     writers: list[Writer],
     start: dict[str, Any],
@@ -91,7 +97,8 @@ def drive(
 ) -> RunOutcome:
     """The acquisition path shared by acquire and replay: identify, start record, blocks, close, stop record.
 
-    ``start`` is completed with the instruments' identities. The link is closed (source idle) on every path.
+    ``block_settings`` are the instrument pair's settings of every block; ``start`` is completed with the
+    instruments' identities. The link is closed (source idle) on every path.
     """
     try:
         identity = link.identify()
@@ -105,7 +112,7 @@ def drive(
     }
     engine = AcquisitionEngine(
         link,
-        plan_settings,
+        block_settings,
         writers,
         run=run,
         prompter=prompter,
@@ -123,7 +130,7 @@ def drive(
     return engine.run(steps)
 
 
-def _resume_state(path: Path, scene: Scene | None, sim: bool) -> tuple[Scene, set[int], int, dict[str, Any]]:
+def _resume_state(path: Path, scene: Scene | None, simulated: bool) -> tuple[Scene, _Prior]:
     if not path.exists():
         raise MissingFileError(errno.ENOENT, f"--resume: no session file {path} to continue")
     with warnings.catch_warnings():
@@ -139,131 +146,57 @@ def _resume_state(path: Path, scene: Scene | None, sim: bool) -> tuple[Scene, se
             f"the scene {scene.source} differs from the one recorded in {path}; --resume continues the recorded "
             "plan: leave out the SCENE argument"
         )
-    if bool(session.start.get("sim", False)) != sim:
+    if bool(session.start.get("sim", False)) != simulated:
         how = "with --sim" if session.start.get("sim") else "without --sim (on the real bench)"
         raise SessionStateError(f"{path} was recorded {how}; resume it the same way")
-    done = {int(b) for b in session.summary["block"]}
+    done = frozenset(int(b) for b in session.summary["block"])
     readings = int(session.summary["n"].sum() + session.summary["n_invalid"].sum())
-    return recorded, done, readings, session.start
+    return recorded, _Prior(resumed=True, done=done, readings=readings, first_start=session.start)
 
 
 def acquire(
     scene: Scene | str | Path | None,
     output: str | Path,
     *,
-    sim: bool = False,
+    bench: Bench | None = None,
     yes: bool = False,
-    sim_speed: float = DEFAULT_SIM_SPEED,
     resume: bool = False,
     force: bool = False,
     prompter: Prompter | None = None,
     stream: TextIO | None = None,
     quiet: bool = False,
-    resource_manager: Any = None,
-    link_wrapper: Any = None,
     fsync: bool = True,
 ) -> AcquisitionResult:
     """Run a bench session and write it to ``output`` (see the module docstring for the order of work).
 
     ``scene``: a :class:`~contactrig.core.scene.Scene`, a path, or None (the packaged default; with ``resume``,
-    None means
-    the scene recorded in the file). ``sim_speed``: simulated instrument time runs this many times faster
-    (1 = real pace, ``inf`` = no waiting). ``link_wrapper(transport) -> transport`` wraps the instrument
-    transport (fault-injection in tests). Raises the error that ended the session, after its stop record.
+    None means the scene recorded in the file). ``bench``: where the blocks are taken (default
+    :class:`~daq.link.VisaBench`, the plan's VISA address; ``analysis.simulated_session.SimulatedRigBench`` is
+    ``--sim``); a session resumes only on the same kind of bench. ``prompter`` asks the operator to place each
+    weight (default: at the terminal, or nobody with ``yes``). ``fsync=False`` leaves syncing to the OS (faster;
+    a power cut may then lose the last blocks). Raises the error that ended the session, after its stop record.
     """
     path = Path(output)
-    if isinstance(scene, (str, Path)):
-        scene = load_scene(scene)
-    if resume:
-        scene, done, readings_before, first_start = _resume_state(path, scene, sim)
-    else:
-        if scene is None:
-            scene = load_scene(None)
-        done, readings_before, first_start = set(), 0, None
-        if path.exists() and not force:
-            raise SessionExistsError(
-                errno.EEXIST, f"{path} exists; use --force to overwrite it or --resume to continue it"
-            )
+    bench = bench if bench is not None else VisaBench()
+    scene, prior = _scene_and_prior(scene, path, resume=resume, force=force, simulated=bench.simulated)
     plan = SessionPlan.from_scene(scene)
-    if sim and not (sim_speed > 0):
-        raise ValueError(f"--sim-speed = {sim_speed!r} is not allowed: expected a number > 0 (1 = real pace, inf)")
-
-    # 1. the output file: proves the path is writable before any instrument is touched
-    created = False
-    if resume:
-        if not os.access(path, os.W_OK):
-            raise SessionWriteError(errno.EACCES, f"no permission to write {path}")
-    else:
-        sf = SessionFile.create(path, delta_unit=plan.delta.unit, force=force, fsync=fsync)
-        sf.close()
-        created = True
-
-    # 2. the bench
-    sim_info: dict[str, Any] = {}
-    try:
-        if sim:
-            from daq.simulated import open_sim_link
-
-            link, sim_info = open_sim_link(plan, sim_speed=sim_speed, link_wrapper=link_wrapper)
-        else:
-            link = open_visa_link(plan.instrument.address, plan.instrument.timeout_ms, resource_manager)
-            if link_wrapper is not None:
-                link = InstrumentLink(link_wrapper(link.recorder.inner), address=plan.instrument.address)
-    except BaseException:
-        if created:
-            path.unlink(missing_ok=True)
-        raise
-
-    # 3. the session. From here on the link is closed (source idle, idempotent) in `finally`, whatever fails —
-    # also what fails before `drive` takes the link over (reopening the file, the display, a Ctrl-C).
+    created = _prepare_file(path, plan, resume=resume, force=force, fsync=fsync)
+    opened = _open_bench(bench, plan, path, created)
+    ask = prompter or (answer_yes if yes else terminal_prompter(stream))
     sf: SessionFile | None = None
     display: LiveDisplay | None = None
     outcome: RunOutcome | None = None
+    # From here on the link is closed (source idle, idempotent) in `finally`, whatever fails — also what fails
+    # before `drive` takes the link over (reopening the file, the display, a Ctrl-C).
     try:
-        sf = SessionFile.open_for_resume(path, fsync=fsync, keep_blocks=len(done) if resume else None)
-        start = _start_record(plan, scene, sim=sim, sim_info=sim_info, run=sf.run, first_start=first_start)
-        display = LiveDisplay(plan.blocks_planned, done=len(done), stream=stream, quiet=quiet)
-        for note in sim_info.get("rig_warnings", []):
-            display.message(f"rig simulation: {note}")
-        writers: list[Writer] = [FileWriter(sf), display]
-        base_prompt = prompter or (answer_yes if yes else terminal_prompter(stream))
-        shown = display
-
-        def ask(step: PlaceWeight) -> Any:
-            with shown.paused():
-                return base_prompt(step)
-
-        with Interrupts(notify=display.message) as interrupts:
-            outcome = drive(
-                link,
-                plan.delta,
-                session_steps(plan, frozenset(done)),
-                writers,
-                start,
-                scene.text,
-                run=sf.run,
-                prompter=ask,
-                interrupts=interrupts,
-                blocks_planned=plan.blocks_planned,
-                blocks_before=len(done),
-                readings_before=readings_before,
-            )
+        sf = SessionFile.open_for_resume(path, fsync=fsync, keep_blocks=len(prior.done) if prior.resumed else None)
+        start = _start_record(plan, scene, simulated=bench.simulated, opened=opened, run=sf.run, prior=prior)
+        display = LiveDisplay(plan.blocks_planned, done=len(prior.done), stream=stream, quiet=quiet)
+        for note in opened.notes:
+            display.message(note)
+        outcome = _run(opened.link, plan, start, sf, display, prior, ask)
     finally:
-        try:
-            link.close()  # a no-op when drive has closed it already
-        except Exception:
-            if outcome is not None and outcome.error is None:
-                raise
-        if display is not None:
-            display.close()
-        if sf is not None:
-            try:
-                sf.close()
-            except OSError:
-                if outcome is not None and outcome.error is None:
-                    raise  # otherwise the error that ended the session is the one to report
-        if outcome is None and created and (sf is None or sf.n_blocks_at_close == 0):
-            path.unlink(missing_ok=True)  # failed before the first block (e.g. identify): nothing recorded
+        _clean_up(opened.link, display, sf, outcome, path, created)
     if outcome.error is not None:
         raise outcome.error
     return AcquisitionResult(
@@ -276,14 +209,110 @@ def acquire(
     )
 
 
+def _scene_and_prior(
+    scene: Scene | str | Path | None, path: Path, *, resume: bool, force: bool, simulated: bool
+) -> tuple[Scene, _Prior]:
+    """The scene to run and what the file holds already; refuses an existing file unless ``resume`` or ``force``."""
+    if isinstance(scene, (str, Path)):
+        scene = load_scene(scene)
+    if resume:
+        return _resume_state(path, scene, simulated)
+    if scene is None:
+        scene = load_scene(None)
+    if path.exists() and not force:
+        raise SessionExistsError(errno.EEXIST, f"{path} exists; use --force to overwrite it or --resume to continue it")
+    return scene, _Prior()
+
+
+def _prepare_file(path: Path, plan: SessionPlan, *, resume: bool, force: bool, fsync: bool) -> bool:
+    """Create the output file (or check a resumed one is writable) before any instrument is touched: proves the
+    path is writable. True when a new file was created."""
+    if resume:
+        if not os.access(path, os.W_OK):
+            raise SessionWriteError(errno.EACCES, f"no permission to write {path}")
+        return False
+    unit = plan.pair.reading_unit(plan.block_settings)
+    SessionFile.create(path, reading_unit=unit, force=force, fsync=fsync).close()
+    return True
+
+
+def _open_bench(bench: Bench, plan: SessionPlan, path: Path, created: bool) -> OpenedBench:
+    """Open the bench; if it cannot be reached, the file just created (it holds nothing) is removed."""
+    try:
+        return bench.open(plan)
+    except BaseException:
+        if created:
+            path.unlink(missing_ok=True)
+        raise
+
+
+def _run(
+    link: InstrumentLink,
+    plan: SessionPlan,
+    start: dict[str, Any],
+    sf: SessionFile,
+    display: LiveDisplay,
+    prior: _Prior,
+    prompter: Prompter,
+) -> RunOutcome:
+    """The blocks still to do, to the file and the live display, the operator asked with the display paused."""
+
+    def ask(step: PlaceWeight) -> Decision:
+        with display.paused():
+            return prompter(step)
+
+    with Interrupts(notify=display.message) as interrupts:
+        return drive(
+            link,
+            plan.block_settings,
+            session_steps(plan, prior.done),
+            [FileWriter(sf), display],
+            start,
+            plan.scene.text,
+            run=sf.run,
+            prompter=ask,
+            interrupts=interrupts,
+            blocks_planned=plan.blocks_planned,
+            blocks_before=len(prior.done),
+            readings_before=prior.readings,
+        )
+
+
+def _clean_up(
+    link: InstrumentLink,
+    display: LiveDisplay | None,
+    sf: SessionFile | None,
+    outcome: RunOutcome | None,
+    path: Path,
+    created: bool,
+) -> None:
+    """Close link, display and file on every path; an error here is reported only when the run itself was fine."""
+    ok = outcome is not None and outcome.error is None
+    try:
+        link.close()  # a no-op when drive has closed it already
+    except Exception:
+        if ok:
+            raise
+    if display is not None:
+        display.close()
+    if sf is not None:
+        try:
+            sf.close()
+        except OSError:
+            if ok:
+                raise  # otherwise the error that ended the session is the one to report
+    if outcome is None and created and (sf is None or sf.n_blocks_at_close == 0):
+        path.unlink(missing_ok=True)  # failed before the first block (e.g. identify): nothing recorded
+
+
 def _start_record(
     plan: SessionPlan,
     scene: Scene,
     *,
-    sim: bool,
-    sim_info: dict[str, Any],
+    simulated: bool,
+    opened: OpenedBench,
     run: int,
-    first_start: dict[str, Any] | None,
+    prior: _Prior,
 ) -> dict[str, Any]:
     """The start record of run ``run`` (the instruments' identities are added by :func:`drive`)."""
     return {
@@ -296,14 +325,18 @@ def _start_record(
         "host": host_name(),
         "command": " ".join(sys.argv),
         "imported": False,
-        "sim": bool(sim),
-        "simulation": sim_info,
+        "sim": bool(simulated),
+        "simulation": opened.simulation,
         "scene_source": scene.source,
         "scene_name": scene.name,
         "sample": plan.session.sample,
         "rig": plan.session.rig,
         "plan": plan.describe(),
-        "instrument": {"address": plan.instrument.address, "timeout_ms": plan.instrument.timeout_ms},
+        "instrument": {
+            "address": plan.instrument.address,
+            "timeout_ms": plan.instrument.timeout_ms,
+            "pair": plan.instrument.pair,
+        },
         "run": run,
-        "resumed_from": (first_start or {}).get("started") if first_start is not None else None,
+        "resumed_from": prior.first_start.get("started") if prior.first_start is not None else None,
     }

@@ -22,9 +22,11 @@ from typing import Any, Literal, Protocol
 
 import numpy as np
 
+from contactrig.core.provenance import now_iso
 from daq.link import InstrumentLink
 from daq.plan import Measure, PlaceWeight
-from daq.records import BlockRecord, StopRecord, now_iso
+from daq.records import BlockRecord, StopRecord, StopStatus
+from instruments.block import Block
 from instruments.transport import Exchange
 
 __all__ = [
@@ -120,17 +122,32 @@ class RunOutcome:
     interrupted: bool = False
 
 
+@dataclass
+class _RunState:
+    """What a run has done so far; ``current`` is the block under way (None between blocks)."""
+
+    done: list[BlockRecord] = field(default_factory=list)
+    skipped: list[float] = field(default_factory=list)
+    status: StopStatus = "success"
+    reason: str = ""
+    error: BaseException | None = None
+    interrupted: bool = False
+    current: Measure | None = None
+    skip_weight: int | None = None
+
+
 class AcquisitionEngine:
     """Runs plan steps on ``link`` for ``run`` number ``run`` and hands every record to ``writers``.
 
-    ``settings`` are the Delta settings of every block. ``blocks_planned`` and ``blocks_before`` (already on
-    file, for ``--resume``) only feed the counts of the stop record.
+    ``settings`` are the instrument pair's block settings (e.g. :class:`instruments.delta.DeltaSettings`), the
+    same for every block. ``blocks_planned`` and ``blocks_before`` (already on file, for ``--resume``) only feed
+    the counts of the stop record.
     """
 
     def __init__(
         self,
         link: InstrumentLink,
-        settings: Any,
+        settings: object,
         writers: Sequence[Writer],
         *,
         run: int = 0,
@@ -164,102 +181,96 @@ class AcquisitionEngine:
 
     def run(self, steps: Iterable[PlaceWeight | Measure]) -> RunOutcome:
         """Carry out ``steps``; close the link; write the stop record. Never raises: see ``RunOutcome.error``."""
-        done: list[BlockRecord] = []
-        skipped: list[float] = []
-        status: Literal["success", "aborted", "failed"] = "success"
-        reason = ""
-        error: BaseException | None = None
-        interrupted = False
-        current: Measure | None = None
-        skip_weight: int | None = None
-        intr = self.interrupts
+        state = _RunState()
         try:
-            for step in steps:
-                intr.enter("idle")
-                if intr.stop_requested:
-                    status, reason = "aborted", _after_block_reason(done)
-                    interrupted = True
-                    break
-                if isinstance(step, PlaceWeight):
-                    decision = self.prompter(step)
-                    if decision == "quit":
-                        raise OperatorQuit(f"operator stopped the session at weight {step.weight_kg:g} kg")
-                    if decision == "skip":
-                        skipped.append(step.weight_kg)
-                        skip_weight = step.weight_index
-                        continue
-                    skip_weight = None
-                    self.link.place_weight(step.weight_kg)
-                    continue
-                if step.weight_index == skip_weight:
-                    continue
-                current = step
-                started = now_iso()
-                self.link.prepare_block(step.block)
-                intr.enter("instrument")
-                block = self.link.run_block(self.settings)
-                intr.enter("writing")
-                rec = self._record(step, block, started)
-                for w in self.writers:
-                    w.block(rec)
-                done.append(rec)
-                current = None
-                intr.enter("idle")
-            else:
-                intr.enter("idle")
-                reason = (
-                    f"all {self.blocks_planned} planned blocks done"
-                    if not skipped
-                    else (f"plan done; weights skipped by the operator: {', '.join(f'{w:g} kg' for w in skipped)}")
-                )
+            self._carry_out(steps, state)
         except KeyboardInterrupt:
-            interrupted = True
-            status = "aborted"
-            if current is not None:
-                reason = (
-                    f"interrupted (Ctrl-C twice) during the block at {current.weight_kg:g} kg, repeat "
-                    f"{current.repeat} (block #{current.block}); that block was discarded, every completed one is kept"
-                )
-            elif intr.count >= 1 and done:
-                reason = _after_block_reason(done)
-            else:
-                reason = "interrupted (Ctrl-C)"
+            state.interrupted = True
+            state.status = "aborted"
+            state.reason = _interrupt_reason(state, self.interrupts.count)
         except OperatorQuit as exc:
-            status, reason = "aborted", str(exc)
+            state.status, state.reason = "aborted", str(exc)
         except Exception as exc:
-            status = "failed"
-            error = exc
-            where = (
-                f" in the block at {current.weight_kg:g} kg, repeat {current.repeat} (block #{current.block})"
-                if current is not None
-                else ""
-            )
-            reason = f"{type(exc).__name__}{where}: {exc}"
+            state.status, state.error = "failed", exc
+            state.reason = f"{type(exc).__name__}{_where(state.current)}: {exc}"
         finally:
-            intr.phase = "writing"  # the stop record must not be cut short by another Ctrl-C
-            close_error = self._close(current)
-            if close_error is not None and error is None:
-                status, error = "failed", close_error
-                reason = f"closing the instrument failed: {close_error}"
-            stop = StopRecord(
-                status=status,
-                reason=reason,
-                stopped=now_iso(),
-                blocks_planned=self.blocks_planned,
-                blocks_done=self.blocks_before + len(done),
-                readings_done=self.readings_before + sum(int(r.reading.size) for r in done),
-                weights_skipped=tuple(skipped),
-            )
-            stop_error = None
-            for w in self.writers:
-                try:
-                    w.stop(stop)
-                except Exception as exc:  # a full disk must not hide the original error
-                    stop_error = stop_error or exc
-            intr.phase = "idle"
-        if stop_error is not None and error is None:
-            error = stop_error
-        return RunOutcome(stop=stop, blocks=done, error=error, interrupted=interrupted)
+            stop = self._finish(state)
+        return RunOutcome(stop=stop, blocks=state.done, error=state.error, interrupted=state.interrupted)
+
+    def _carry_out(self, steps: Iterable[PlaceWeight | Measure], state: _RunState) -> None:
+        """The steps in order; a first Ctrl-C ends the run before the next step."""
+        intr = self.interrupts
+        for step in steps:
+            intr.enter("idle")
+            if intr.stop_requested:
+                state.status, state.reason = "aborted", _after_block_reason(state.done)
+                state.interrupted = True
+                return
+            if isinstance(step, PlaceWeight):
+                self._place(step, state)
+            elif step.weight_index != state.skip_weight:
+                self._measure(step, state)
+        intr.enter("idle")
+        state.reason = (
+            f"all {self.blocks_planned} planned blocks done"
+            if not state.skipped
+            else f"plan done; weights skipped by the operator: {', '.join(f'{w:g} kg' for w in state.skipped)}"
+        )
+
+    def _place(self, step: PlaceWeight, state: _RunState) -> None:
+        """Ask the operator to place the weight: go on, skip its blocks, or stop."""
+        decision = self.prompter(step)
+        if decision == "quit":
+            raise OperatorQuit(f"operator stopped the session at weight {step.weight_kg:g} kg")
+        if decision == "skip":
+            state.skipped.append(step.weight_kg)
+            state.skip_weight = step.weight_index
+            return
+        state.skip_weight = None
+        self.link.place_weight(step.weight_kg)
+
+    def _measure(self, step: Measure, state: _RunState) -> None:
+        """One block: run it on the instruments, then hand it to every writer before anything else happens."""
+        intr = self.interrupts
+        state.current = step
+        started = now_iso()
+        self.link.prepare_block(step.block)
+        intr.enter("instrument")
+        block = self.link.run_block(self.settings)
+        intr.enter("writing")
+        rec = self._record(step, block, started)
+        for w in self.writers:
+            w.block(rec)
+        state.done.append(rec)
+        state.current = None
+        intr.enter("idle")
+
+    def _finish(self, state: _RunState) -> StopRecord:
+        """Close the link, then write the stop record; neither may be cut short by another Ctrl-C."""
+        self.interrupts.phase = "writing"
+        close_error = self._close(state.current)
+        if close_error is not None and state.error is None:
+            state.status, state.error = "failed", close_error
+            state.reason = f"closing the instrument failed: {close_error}"
+        stop = StopRecord(
+            status=state.status,
+            reason=state.reason,
+            stopped=now_iso(),
+            blocks_planned=self.blocks_planned,
+            blocks_done=self.blocks_before + len(state.done),
+            readings_done=self.readings_before + sum(int(r.reading.size) for r in state.done),
+            weights_skipped=tuple(state.skipped),
+        )
+        stop_error = None
+        for w in self.writers:
+            try:
+                w.stop(stop)
+            except Exception as exc:  # a full disk must not hide the original error
+                stop_error = stop_error or exc
+        self.interrupts.phase = "idle"
+        if stop_error is not None and state.error is None:
+            state.error = stop_error
+        return stop
 
     def _close(self, current: Measure | None) -> BaseException | None:
         err = None
@@ -274,7 +285,7 @@ class AcquisitionEngine:
             err = err or exc
         return err
 
-    def _record(self, step: Measure, block: Any, started: str) -> BlockRecord:
+    def _record(self, step: Measure, block: Block, started: str) -> BlockRecord:
         ex = self.link.take_exchanges()
         resistance = np.asarray(block.resistance_ohm(), dtype=np.float64)
         return BlockRecord(
@@ -290,6 +301,24 @@ class AcquisitionEngine:
             started=started,
             exchanges=tuple(ex),
         )
+
+
+def _where(current: Measure | None) -> str:
+    if current is None:
+        return ""
+    return f" in the block at {current.weight_kg:g} kg, repeat {current.repeat} (block #{current.block})"
+
+
+def _interrupt_reason(state: _RunState, count: int) -> str:
+    current = state.current
+    if current is not None:
+        return (
+            f"interrupted (Ctrl-C twice) during the block at {current.weight_kg:g} kg, repeat "
+            f"{current.repeat} (block #{current.block}); that block was discarded, every completed one is kept"
+        )
+    if count >= 1 and state.done:
+        return _after_block_reason(state.done)
+    return "interrupted (Ctrl-C)"
 
 
 def _after_block_reason(done: list[BlockRecord]) -> str:
@@ -308,8 +337,8 @@ def format_live_line(rec: BlockRecord, index: int, total: int) -> str:
     if st.n == 0:
         value = "no valid readings"
     else:
-        sem = "" if math.isnan(st.sem_ohm) else f" ± {_ohm(st.sem_ohm)}"
-        value = f"R = {st.mean_ohm * 1e3:.4f} mΩ{sem} (SEM, n = {st.n})"
+        sem = "" if math.isnan(st.sem) else f" ± {_ohm(st.sem)}"
+        value = f"R = {st.mean * 1e3:.4f} mΩ{sem} (SEM, n = {st.n})"
     invalid = f", {st.n_invalid} invalid" if st.n_invalid else ""
     return f"block {index}/{total}  {rec.weight_kg:g} kg  repeat {rec.repeat}  {value}{invalid}"
 

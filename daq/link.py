@@ -1,22 +1,29 @@
-"""The acquisition's connection to the bench: the 6221 driver on a recording transport.
+"""The acquisition's connection to the bench: an instrument pair's driver on a recording transport.
 
 Whatever is underneath — a VISA resource, the simulated bench, or a replay of a recorded session — the
 acquisition engine talks to one :class:`InstrumentLink`, so acquisition and replay run the same code. Every
-exchange is recorded; the engine takes them block by block and hands them to the session file.
+exchange is recorded; the engine takes them block by block and hands them to the session file. The driver comes
+from the plan's instrument pair (:mod:`instruments.pairs`); nothing here knows which instruments they are.
+
+A :class:`Bench` is how :func:`daq.acquire.acquire` gets its link: :class:`VisaBench` opens the plan's VISA
+address; a layer above daq supplies others (``analysis.simulated_session`` builds the ``--sim`` bench, whose
+resistance follows the rig simulation).
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from typing import Any
+from dataclasses import dataclass, field
+from typing import Any, Protocol
 
-from instruments.delta import DeltaBlock, DeltaSettings
+from daq.plan import SessionPlan
+from instruments.block import Block
 from instruments.errors import InstrumentTimeout, ReplyError
-from instruments.k6221 import Identity, Keithley6221
+from instruments.pairs import Identity, InstrumentPair, PairDriver, get_pair
 from instruments.transport import Exchange, RecordingTransport, Transport, VisaTransport
 
-__all__ = ["InstrumentLink", "UnreachableInstrument", "open_visa_link"]
+__all__ = ["Bench", "InstrumentLink", "OpenedBench", "UnreachableInstrument", "VisaBench", "open_visa_link"]
 
 
 class UnreachableInstrument(RuntimeError):
@@ -24,7 +31,7 @@ class UnreachableInstrument(RuntimeError):
 
 
 class InstrumentLink:
-    """A :class:`~instruments.k6221.Keithley6221` whose every exchange is recorded.
+    """The driver of ``pair`` (default: the default pair) on ``transport``, every exchange recorded.
 
     ``place_weight(weight_kg)`` is called when the operator has placed a weight, ``prepare_block(block)`` just
     before block number ``block`` starts (the simulated bench uses them to set its resistance; on real hardware
@@ -35,24 +42,25 @@ class InstrumentLink:
         self,
         transport: Transport,
         *,
+        pair: InstrumentPair | None = None,
         address: str = "",
         place_weight: Callable[[float], None] | None = None,
         prepare_block: Callable[[int], None] | None = None,
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
-        driver_options: dict[str, Any] | None = None,
     ) -> None:
+        self.pair = pair if pair is not None else get_pair()
         self.address = address
         self.recorder = RecordingTransport(transport, clock=clock)
-        self.driver = Keithley6221(self.recorder, clock=clock, sleep=sleep, **(driver_options or {}))
+        self.driver: PairDriver = self.pair.open_driver(self.recorder, clock=clock, sleep=sleep)
         self._place_weight = place_weight
         self._prepare_block = prepare_block
         self._taken = 0
 
     def identify(self) -> Identity:
-        """Both instruments' ``*IDN?`` (and the check that the 2182A answers on the serial link).
+        """Both instruments' ``*IDN?`` (and whatever presence check the pair's driver makes).
 
-        No answer at all to the first ``*IDN?`` (a timeout or an empty reply — what a GPIB address with nothing
+        No answer at all to the first query (a timeout or an empty reply — what a GPIB address with nothing
         behind it gives) raises :class:`UnreachableInstrument`.
         """
         first = len(self.recorder.exchanges)
@@ -62,9 +70,10 @@ class InstrumentLink:
             answered = any(e.reply for e in self.recorder.exchanges[first:])
             if answered:
                 raise
+            name = self.pair.source_name
             raise UnreachableInstrument(
-                f"no answer from a 6221 at {self.address or 'the given address'!r} ({exc}): check the address in "
-                "[instrument].address, that the 6221 is switched on and its GPIB/LAN/RS-232 cable; "
+                f"no answer from a {name} at {self.address or 'the given address'!r} ({exc}): check the address in "
+                f"[instrument].address, that the {name} is switched on and its GPIB/LAN/RS-232 cable; "
                 "`--sim` runs without hardware"
             ) from exc
 
@@ -76,9 +85,9 @@ class InstrumentLink:
         if self._prepare_block is not None:
             self._prepare_block(block)
 
-    def run_block(self, settings: DeltaSettings) -> DeltaBlock:
-        """One Delta block; the driver leaves the source idle whatever happens."""
-        return self.driver.run_delta(settings)
+    def run_block(self, settings: object) -> Block:
+        """One block with the pair's ``settings``; the driver leaves the source idle whatever happens."""
+        return self.driver.run_block(settings)
 
     def take_exchanges(self) -> list[Exchange]:
         """The exchanges recorded since the previous call."""
@@ -87,19 +96,68 @@ class InstrumentLink:
         return ex
 
     def close(self) -> None:
-        """Leave the source idle (``SOUR:SWE:ABOR``) and close the connection."""
+        """Leave the source idle and close the connection."""
         self.driver.close()
 
 
-def open_visa_link(address: str, timeout_ms: int, resource_manager: Any = None, **kwargs: Any) -> InstrumentLink:
-    """Open the 6221 at ``address``; an unreachable address raises :class:`UnreachableInstrument` with advice."""
+def open_visa_link(
+    address: str,
+    timeout_ms: int,
+    resource_manager: Any = None,
+    *,
+    pair: InstrumentPair | None = None,
+    place_weight: Callable[[float], None] | None = None,
+    prepare_block: Callable[[int], None] | None = None,
+) -> InstrumentLink:
+    """Open ``pair`` at ``address`` on ``resource_manager`` (None: the system's VISA library); an unreachable
+    address raises :class:`UnreachableInstrument` with advice."""
+    pair = pair if pair is not None else get_pair()
     try:
         transport = VisaTransport.open(address, resource_manager, timeout_ms)
     except Exception as exc:  # the driver's CommunicationError; raw pyvisa/backends raise ValueError or OSError
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         detail = detail.split(": check")[0]  # keep one piece of advice, ours
+        name = pair.source_name
         raise UnreachableInstrument(
-            f"cannot open the 6221 at {address!r} ({detail}): check the address in [instrument].address, that the "
-            "6221 is switched on and cabled, and that a VISA library is installed; `--sim` runs without hardware"
+            f"cannot open the {name} at {address!r} ({detail}): check the address in [instrument].address, that the "
+            f"{name} is switched on and cabled, and that a VISA library is installed; `--sim` runs without hardware"
         ) from exc
-    return InstrumentLink(transport, address=address, **kwargs)
+    return InstrumentLink(transport, pair=pair, address=address, place_weight=place_weight, prepare_block=prepare_block)
+
+
+@dataclass(frozen=True)
+class OpenedBench:
+    """An open bench: the ``link``, what the start record keeps about a simulation (``simulation``; empty on
+    hardware), and ``notes`` shown to the operator before the first block."""
+
+    link: InstrumentLink
+    simulation: dict[str, Any] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+
+
+class Bench(Protocol):
+    """Where a session's blocks are taken. ``simulated`` is recorded in the start record (``sim``), and a session
+    resumes only on the same kind of bench."""
+
+    @property
+    def simulated(self) -> bool: ...
+
+    def open(self, plan: SessionPlan) -> OpenedBench: ...
+
+
+@dataclass(frozen=True)
+class VisaBench:
+    """The instruments at the plan's ``[instrument].address``, through ``resource_manager`` (None: the system's
+    VISA library; tests give a simulated one and still take the hardware path)."""
+
+    resource_manager: Any = None  # a pyvisa.ResourceManager (pyvisa ships no type information)
+
+    @property
+    def simulated(self) -> bool:
+        return False
+
+    def open(self, plan: SessionPlan) -> OpenedBench:
+        link = open_visa_link(
+            plan.instrument.address, plan.instrument.timeout_ms, self.resource_manager, pair=plan.pair
+        )
+        return OpenedBench(link)

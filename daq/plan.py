@@ -1,19 +1,23 @@
-"""The session plan: what to measure, from the scene's ``[instrument]``, ``[delta]`` and ``[session]`` tables.
+"""The session plan: what to measure, from the scene's ``[instrument]``, the pair's settings table (``[delta]``)
+and ``[session]``.
 
 A plan is data (a frozen dataclass, validated on construction) plus :func:`session_steps`, a pure generator of the
-steps the acquisition engine carries out — ask the operator to place a weight, then run the Delta blocks — so
+steps the acquisition engine carries out — ask the operator to place a weight, then run its blocks — so
 a plan can be inspected and tested without any instrument (after Bluesky's plans).
 
 Scene keys (SI units; every key validated, unknown keys are errors naming the key):
 
 ``[instrument]``
-    ``address``     VISA resource of the 6221 (e.g. ``GPIB0::12::INSTR``, ``TCPIP0::<ip>::1394::SOCKET``)
+    ``address``     VISA resource of the instrument the PC talks to (e.g. the 6221's ``GPIB0::12::INSTR``,
+                    ``TCPIP0::<ip>::1394::SOCKET``)
     ``timeout_ms``  VISA I/O timeout, 100 … 600 000 ms
-``[delta]``
-    passed to ``instruments.delta.DeltaSettings`` (``high_a``, ``low_a``, ``delay_s``, ``count``, ``nplc``,
-    ``unit``, ``compliance_v``, ``compliance_abort`` …), which validates them; ``count`` = readings per block
+    ``pair``        the instrument pair (:mod:`instruments.pairs`; default ``"k6221_2182a"``, the Keithley 6221
+                    with a 2182A in Delta mode)
+the pair's settings table — ``[delta]`` for the Keithley pair
+    validated by the pair (``instruments.delta.DeltaSettings``: ``high_a``, ``low_a``, ``delay_s``, ``count``,
+    ``nplc``, ``unit``, ``compliance_v``, ``compliance_abort`` …); ``count`` = readings per block
 ``[session]``
-    ``repeats``     Delta blocks per weight, 1 … 1000
+    ``repeats``     blocks per weight, 1 … 1000
     ``weights_kg``  weights placed in the piston, in order (optional: default ``[rig].weights_kg``), each in
                     (0, 1000] kg
     ``operator``    who runs the session (empty: the login name is recorded)
@@ -24,7 +28,7 @@ Scene keys (SI units; every key validated, unknown keys are errors naming the ke
     ``sim_repeat_sd``  ``--sim``: repeat-to-repeat scatter of the contact term, the SD of ln f of the mean-one
                     log-normal factor f applied to ζh/A(W) for each block (0 … 1; default 0.15, from the
                     scatter of Tab. 1's independent repeats M1–M3; 0 = instrument noise only). See
-                    :mod:`daq.simulated`.
+                    :mod:`analysis.simulated_session`.
 """
 
 from __future__ import annotations
@@ -36,7 +40,7 @@ from typing import Any
 
 from contactrig.core.scene import Scene
 from contactrig.core.validation import SettingError, check_choice, check_int, check_keys, check_range
-from instruments.delta import DeltaSettings
+from instruments.pairs import DEFAULT_PAIR, InstrumentPair, get_pair
 
 __all__ = [
     "INSTRUMENT_KEYS",
@@ -47,11 +51,13 @@ __all__ = [
     "SessionPlan",
     "SessionSettings",
     "session_steps",
+    "settings_from_record",
 ]
 
-INSTRUMENT_KEYS = ("address", "timeout_ms")
+INSTRUMENT_KEYS = ("address", "timeout_ms", "pair")
 SESSION_KEYS = ("repeats", "weights_kg", "operator", "sample", "rig", "sim_model", "sim_seed", "sim_repeat_sd")
-#: Default ``[session].sim_repeat_sd``: Tab. 1's repeats M1–M3 scatter by 15–16 % at each weight (daq.simulated).
+#: Default ``[session].sim_repeat_sd``: Tab. 1's repeats M1–M3 scatter by 15–16 % at each weight
+#: (analysis.simulated_session).
 DEFAULT_SIM_REPEAT_SD = 0.15
 MAX_WEIGHT_KG = 1000.0
 
@@ -66,10 +72,11 @@ def _check_str(field: str, value: Any, *, nonempty: bool = False) -> str:
 
 @dataclass(frozen=True)
 class InstrumentSettings:
-    """How to reach the 6221: VISA ``address`` and I/O ``timeout_ms`` (ms)."""
+    """How to reach the instruments: VISA ``address``, I/O ``timeout_ms`` (ms) and which registered ``pair``."""
 
     address: str = "GPIB0::12::INSTR"
     timeout_ms: int = 5000
+    pair: str = DEFAULT_PAIR
 
     def __post_init__(self) -> None:
         _check_str("instrument.address", self.address, nonempty=True)
@@ -78,6 +85,7 @@ class InstrumentSettings:
                 "instrument.address", self.address, "expected a VISA resource such as 'GPIB0::12::INSTR'"
             )
         object.__setattr__(self, "timeout_ms", check_int("instrument.timeout_ms", self.timeout_ms, 100, 600_000))
+        get_pair(self.pair)  # an unknown pair is an error naming [instrument] pair and the registered ones
 
     @classmethod
     def from_table(cls, table: Mapping[str, Any]) -> InstrumentSettings:
@@ -119,59 +127,64 @@ class SessionSettings:
 
 @dataclass(frozen=True)
 class SessionPlan:
-    """Everything a session needs, validated: instrument, Delta settings, session settings and the scene itself."""
+    """Everything a session needs, validated: instrument, the pair's block settings (``block_settings``, e.g. a
+    :class:`~instruments.delta.DeltaSettings`), session settings and the scene itself."""
 
     instrument: InstrumentSettings
-    delta: DeltaSettings
+    block_settings: Any
     session: SessionSettings
     scene: Scene
+
+    @property
+    def pair(self) -> InstrumentPair:
+        """The registered instrument pair that runs the blocks."""
+        return get_pair(self.instrument.pair)
 
     @property
     def blocks_planned(self) -> int:
         return len(self.session.weights_kg) * self.session.repeats
 
-    @property
-    def readings_per_block(self) -> int:
-        return int(self.delta.count)
-
     @classmethod
     def from_scene(cls, scene: Scene) -> SessionPlan:
-        """Validate the scene's ``[instrument]``, ``[delta]`` and ``[session]`` tables into a plan."""
+        """Validate the scene's ``[instrument]``, the pair's settings table and ``[session]`` into a plan."""
         instrument = InstrumentSettings.from_table(scene.table("instrument"))
-        delta = delta_settings_from_table(scene.table("delta"))
-        table = dict(scene.table("session"))
-        check_keys("session", table, SESSION_KEYS)
-        if "weights_kg" not in table:
-            rig_weights = scene.table("rig").get("weights_kg")
-            if rig_weights is None:
-                raise SettingError("session.weights_kg", None, "give the weights here or in [rig].weights_kg")
-            table["weights_kg"] = rig_weights
-        session = SessionSettings(**table)
-        models = scene.table("database").get("models")
-        if isinstance(models, list) and models:
-            check_choice("session.sim_model", session.sim_model, models)
-        return cls(instrument=instrument, delta=delta, session=session, scene=scene)
+        pair = get_pair(instrument.pair)
+        block_settings = pair.parse_settings(scene.table(pair.settings_table))
+        return cls(instrument=instrument, block_settings=block_settings, session=_session(scene), scene=scene)
 
     def describe(self) -> dict[str, Any]:
-        """The plan as plain JSON-able data, for the start record."""
+        """The plan as plain JSON-able data, for the start record (block settings under their table's name)."""
         return {
             "instrument": dataclasses.asdict(self.instrument),
-            "delta": dataclasses.asdict(self.delta),
+            self.pair.settings_table: dataclasses.asdict(self.block_settings),
             "session": {**dataclasses.asdict(self.session), "weights_kg": list(self.session.weights_kg)},
             "blocks_planned": self.blocks_planned,
         }
 
 
-def delta_settings_from_table(table: Mapping[str, Any]) -> DeltaSettings:
-    """``instruments.delta.DeltaSettings`` from the ``[delta]`` table; unknown keys are errors naming the key."""
-    allowed = [f.name for f in dataclasses.fields(DeltaSettings) if f.init]
-    check_keys("delta", table, allowed)
-    try:
-        return DeltaSettings(**table)
-    except SettingError as exc:
-        if not exc.field.startswith("delta."):
-            raise SettingError(f"delta.{exc.field}", exc.value, exc.allowed) from None
-        raise
+def _session(scene: Scene) -> SessionSettings:
+    """``[session]``, its weights defaulting to ``[rig].weights_kg``; ``sim_model`` one of ``[database].models``."""
+    table = dict(scene.table("session"))
+    check_keys("session", table, SESSION_KEYS)
+    if "weights_kg" not in table:
+        rig_weights = scene.table("rig").get("weights_kg")
+        if rig_weights is None:
+            raise SettingError("session.weights_kg", None, "give the weights here or in [rig].weights_kg")
+        table["weights_kg"] = rig_weights
+    session = SessionSettings(**table)
+    models = scene.table("database").get("models")
+    if isinstance(models, list) and models:
+        check_choice("session.sim_model", session.sim_model, models)
+    return session
+
+
+def settings_from_record(plan_record: Mapping[str, Any]) -> tuple[InstrumentPair, Any]:
+    """The pair and its block settings from a start record's ``plan`` (:meth:`SessionPlan.describe`).
+
+    Records written before pairs were named hold no ``instrument.pair``: they were taken with the default pair.
+    """
+    pair = get_pair(plan_record.get("instrument", {}).get("pair", DEFAULT_PAIR))
+    return pair, pair.parse_settings(plan_record[pair.settings_table])
 
 
 # ---- steps -----------------------------------------------------------------------------------------------------
@@ -188,7 +201,7 @@ class PlaceWeight:
 
 @dataclass(frozen=True)
 class Measure:
-    """Run one Delta block: block number ``block`` (position in the plan), ``repeat`` 1 … repeats."""
+    """Run one block: block number ``block`` (position in the plan), ``repeat`` 1 … repeats."""
 
     block: int
     weight_index: int

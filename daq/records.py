@@ -1,8 +1,9 @@
-"""The records a session is made of: one start record, one record per Delta block, one stop record.
+"""The records a session is made of: one start record, one record per block, one stop record.
 
 After Bluesky's documents: the acquisition engine emits these records and independent writers consume them (the
 HDF5 session file, the live display, the in-memory collector used by replay). Exchanges are
-:class:`instruments.transport.Exchange` (kind, message, reply, t_s, error).
+:class:`instruments.transport.Exchange` (kind, message, reply, t_s, error); block statistics are
+:func:`instruments.block.block_statistics` (the one implementation, shared with the drivers).
 
 Units: resistance in Ω, weight in kg, times in s; ISO-8601 timestamps carry their time zone.
 """
@@ -10,55 +11,20 @@ Units: resistance in Ω, weight in kg, times in s; ISO-8601 timestamps carry the
 from __future__ import annotations
 
 import hashlib
-import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Literal
 
 import numpy as np
 
 from contactrig.core.provenance import now_iso
+from instruments.block import BlockStatistics, block_statistics
 from instruments.transport import Exchange
 
-__all__ = [
-    "BlockRecord",
-    "BlockStatistics",
-    "Exchange",
-    "StopRecord",
-    "block_digest",
-    "block_statistics",
-    "exchanges_digest",
-    "now_iso",
-]
+# now_iso is contactrig.core.provenance's, re-exported for the writers that import it from here
+__all__ = ["BlockRecord", "StopRecord", "block_digest", "exchanges_digest", "now_iso"]
 
 StopStatus = Literal["success", "aborted", "failed"]
-
-
-@dataclass(frozen=True)
-class BlockStatistics:
-    """Mean, sample standard deviation (ddof = 1) and standard error of the valid readings of one block, in Ω."""
-
-    mean_ohm: float
-    sd_ohm: float
-    sem_ohm: float
-    n: int
-    n_invalid: int
-
-
-def block_statistics(resistance_ohm: np.ndarray, valid: np.ndarray) -> BlockStatistics:
-    """Statistics of one block over its valid readings.
-
-    SEM = sd/√n. With no valid reading the mean is NaN; with one, sd and SEM are NaN (undefined, not zero).
-    The same function serves acquisition, replay and the checks on load, so their results are bit-identical.
-    """
-    r = np.asarray(resistance_ohm, dtype=np.float64)
-    ok = np.asarray(valid, dtype=bool)
-    good = r[ok]
-    n = int(good.size)
-    mean = float(good.mean()) if n else math.nan
-    sd = float(good.std(ddof=1)) if n > 1 else math.nan
-    sem = sd / math.sqrt(n) if n > 1 else math.nan
-    return BlockStatistics(mean_ohm=mean, sd_ohm=sd, sem_ohm=sem, n=n, n_invalid=int(r.size - n))
 
 
 def block_digest(
@@ -77,14 +43,14 @@ def block_digest(
     """
     h = hashlib.sha256()
     h.update(np.asarray([block, repeat, stats.n, stats.n_invalid], dtype="<i8").tobytes())
-    h.update(np.asarray([weight_kg, stats.mean_ohm, stats.sd_ohm, stats.sem_ohm], dtype="<f8").tobytes())
+    h.update(np.asarray([weight_kg, stats.mean, stats.sd, stats.sem], dtype="<f8").tobytes())
     for arr in (reading, time_s, resistance_ohm):
         h.update(np.ascontiguousarray(arr, dtype="<f8").tobytes())
     h.update(np.ascontiguousarray(valid, dtype="u1").tobytes())
     return h.hexdigest()
 
 
-def exchanges_digest(exchanges: Iterable[Any]) -> str:
+def exchanges_digest(exchanges: Iterable[Exchange]) -> str:
     """SHA-256 (hex) over a block's recorded instrument exchanges (kind, message, reply, time, error)."""
     h = hashlib.sha256()
     for e in exchanges:
@@ -96,11 +62,12 @@ def exchanges_digest(exchanges: Iterable[Any]) -> str:
 
 @dataclass(frozen=True)
 class BlockRecord:
-    """One completed Delta block: what the instrument returned, where it was taken, and how it was obtained.
+    """One completed block: what the instruments returned, where it was taken, and how it was obtained.
 
-    ``reading`` is in ``unit`` (``V`` or ``OHMS``, as the 6221 returned it; invalid entries NaN),
-    ``resistance_ohm`` the same readings in Ω, ``time_s`` the 6221's buffer timestamps (first = 0 s).
+    ``reading`` is in ``unit`` (e.g. ``V`` or ``OHMS``, as the instrument returned it; invalid entries NaN),
+    ``resistance_ohm`` the same readings in Ω, ``time_s`` the instrument's timestamps (first = 0 s).
     ``exchanges`` are the instrument exchanges of this block, for replay (empty for imported tables).
+    ``stats`` are the block statistics of ``resistance_ohm`` over ``valid``, in Ω.
     """
 
     block: int

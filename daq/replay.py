@@ -19,14 +19,17 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
 from daq.acquire import drive
 from daq.errors import SessionStateError
 from daq.link import InstrumentLink
-from daq.plan import Measure, PlaceWeight
+from daq.plan import Measure, PlaceWeight, settings_from_record
+from daq.records import BlockRecord
 from daq.session_file import Session, exchange_list, load_session
 from daq.writers import MemoryWriter
 from instruments.errors import ReplayMismatch
+from instruments.pairs import InstrumentPair
 from instruments.transport import Exchange, ReplayTransport
 
 __all__ = ["ReplayReport", "replay_session"]
@@ -104,7 +107,7 @@ def _exchanges(session: Session, run: int, blocks: set[int]) -> list[Exchange]:
     return exchange_list({name: ex[name].to_numpy()[sel] for name in ("kind", "message", "reply", "t_s", "error")})
 
 
-def _steps(rows: Any) -> Iterator[PlaceWeight | Measure]:
+def _steps(rows: pd.DataFrame) -> Iterator[PlaceWeight | Measure]:
     """The recorded blocks of one run as plan steps: a PlaceWeight whenever the weight changes, then its blocks."""
     weights = rows["weight_kg"].to_numpy()
     wi = -1
@@ -122,10 +125,18 @@ def _same(a: float, b: float) -> bool:
     return (math.isnan(a) and math.isnan(b)) or a == b
 
 
+@dataclass
+class _Tally:
+    """What the replay found so far."""
+
+    differences: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    blocks: int = 0
+    readings: int = 0
+
+
 def replay_session(path: str | Path, *, pace: bool = False) -> ReplayReport:
     """Replay the session at ``path`` and compare what it produces with what it recorded."""
-    from instruments.delta import DeltaSettings
-
     t0 = time.perf_counter()
     p = Path(path)
     with warnings.catch_warnings():
@@ -133,71 +144,82 @@ def replay_session(path: str | Path, *, pace: bool = False) -> ReplayReport:
         session = load_session(p)
     if session.imported:
         raise SessionStateError(f"{p} is an imported table: it has no recorded instrument exchanges to replay")
-    settings = DeltaSettings(**session.start["plan"]["delta"])
-    summary = session.summary
-    differences: list[str] = []
-    notes: list[str] = list(session.warnings)
-    replayed = 0
-    n_readings = 0
-    run_ids = sorted(set(summary["run"].tolist()) | set(session.exchanges["run"].tolist()))
+    pair, settings = settings_from_record(session.start["plan"])
+    tally = _Tally(notes=list(session.warnings))
+    run_ids = sorted(set(session.summary["run"].tolist()) | set(session.exchanges["run"].tolist()))
     for run in run_ids:
-        rows = summary[summary["run"] == run]
-        blocks = set(rows["block"].tolist())
-        exchanges = _exchanges(session, run, blocks)
-        if not exchanges:
-            continue
-        replay = ReplayTransport(exchanges, strict=True)
-        transport = _PacedTransport(replay) if pace else replay
-        link = InstrumentLink(transport, clock=lambda: 0.0, sleep=lambda s: None)
-        collector = MemoryWriter()
-        try:
-            outcome = drive(link, settings, _steps(rows), [collector], {}, "", run=run)
-        except ReplayMismatch as exc:
-            differences.append(f"run {run}: {exc}")
-            continue
-        if outcome.error is not None:
-            if (
-                isinstance(outcome.error, ReplayMismatch)
-                and replay.remaining == 0
-                and len(collector.blocks) == len(rows)
-            ):
-                # the recording ended with the blocks (a killed run never closed the instrument): nothing is missing
-                notes.append(f"run {run}: the recording ends without the instrument being closed (killed run)")
-            else:
-                differences.append(f"run {run}: {type(outcome.error).__name__}: {outcome.error}")
-        if replay.remaining:
-            notes.append(f"run {run}: {replay.remaining} recorded exchanges were not used")
-        by_block = {rec.block: rec for rec in collector.blocks}
-        for _, row in rows.iterrows():
-            rec = by_block.get(int(row["block"]))
-            where = f"block {int(row['block'])} (weight {row['weight_kg']:g} kg, repeat {int(row['repeat'])})"
-            if rec is None:
-                differences.append(f"{where}: not reproduced")
-                continue
-            replayed += 1
-            n_readings += int(rec.reading.size)
-            st = rec.stats
-            for name in ("mean_ohm", "sd_ohm", "sem_ohm"):
-                if not _same(float(getattr(st, name)), float(row[name])):
-                    differences.append(f"{where}: {name} recorded {row[name]!r}, replayed {getattr(st, name)!r}")
-            for name in ("n", "n_invalid"):
-                if int(getattr(st, name)) != int(row[name]):
-                    differences.append(f"{where}: {name} recorded {int(row[name])}, replayed {getattr(st, name)}")
-            if rec.weight_kg != float(row["weight_kg"]) or rec.repeat != int(row["repeat"]):
-                differences.append(f"{where}: replayed as weight {rec.weight_kg:g} kg, repeat {rec.repeat}")
-        stored = dict(zip(rows["block"].tolist(), rows["sha256"].tolist(), strict=True))
-        for rec in collector.blocks:
-            if rec.block in stored and stored[rec.block] != rec.sha256:
-                differences.append(f"block {rec.block}: readings differ from the recorded ones (SHA-256)")
+        _replay_run(session, run, pair, settings, pace, tally)
     return ReplayReport(
         path=p,
-        identical=not differences and replayed == len(summary),
-        blocks_recorded=len(summary),
-        blocks_replayed=replayed,
-        readings_replayed=n_readings,
-        differences=tuple(differences),
+        identical=not tally.differences and tally.blocks == len(session.summary),
+        blocks_recorded=len(session.summary),
+        blocks_replayed=tally.blocks,
+        readings_replayed=tally.readings,
+        differences=tuple(tally.differences),
         runs=len(run_ids),
         elapsed_s=time.perf_counter() - t0,
         complete=session.complete,
-        notes=tuple(notes),
+        notes=tuple(tally.notes),
     )
+
+
+def _replay_run(session: Session, run: int, pair: InstrumentPair, settings: object, pace: bool, tally: _Tally) -> None:
+    """Run ``run`` again on its recorded replies through :func:`daq.acquire.drive`, and compare its blocks."""
+    rows = session.summary[session.summary["run"] == run]
+    exchanges = _exchanges(session, run, set(rows["block"].tolist()))
+    if not exchanges:
+        return
+    replay = ReplayTransport(exchanges, strict=True)
+    transport = _PacedTransport(replay) if pace else replay
+    link = InstrumentLink(transport, pair=pair, clock=lambda: 0.0, sleep=lambda s: None)
+    collector = MemoryWriter()
+    try:
+        outcome = drive(link, settings, _steps(rows), [collector], {}, "", run=run)
+    except ReplayMismatch as exc:
+        tally.differences.append(f"run {run}: {exc}")
+        return
+    if outcome.error is not None:
+        if isinstance(outcome.error, ReplayMismatch) and replay.remaining == 0 and len(collector.blocks) == len(rows):
+            # the recording ended with the blocks (a killed run never closed the instrument): nothing is missing
+            tally.notes.append(f"run {run}: the recording ends without the instrument being closed (killed run)")
+        else:
+            tally.differences.append(f"run {run}: {type(outcome.error).__name__}: {outcome.error}")
+    if replay.remaining:
+        tally.notes.append(f"run {run}: {replay.remaining} recorded exchanges were not used")
+    _compare(rows, collector.blocks, tally)
+
+
+#: summary column → the block statistic it holds
+_STATISTICS = {"mean_ohm": "mean", "sd_ohm": "sd", "sem_ohm": "sem"}
+
+
+def _compare(rows: pd.DataFrame, blocks: list[BlockRecord], tally: _Tally) -> None:
+    """Every recorded row against the replayed block of the same number: statistics, counts, place, SHA-256."""
+    by_block = {rec.block: rec for rec in blocks}
+    for _, row in rows.iterrows():
+        rec = by_block.get(int(row["block"]))
+        where = f"block {int(row['block'])} (weight {row['weight_kg']:g} kg, repeat {int(row['repeat'])})"
+        if rec is None:
+            tally.differences.append(f"{where}: not reproduced")
+            continue
+        tally.blocks += 1
+        tally.readings += int(rec.reading.size)
+        tally.differences += _row_differences(where, row, rec)
+    stored = dict(zip(rows["block"].tolist(), rows["sha256"].tolist(), strict=True))
+    for rec in blocks:
+        if rec.block in stored and stored[rec.block] != rec.sha256:
+            tally.differences.append(f"block {rec.block}: readings differ from the recorded ones (SHA-256)")
+
+
+def _row_differences(where: str, row: pd.Series, rec: BlockRecord) -> list[str]:
+    out = []
+    st = rec.stats
+    for column, name in _STATISTICS.items():
+        if not _same(float(getattr(st, name)), float(row[column])):
+            out.append(f"{where}: {column} recorded {row[column]!r}, replayed {getattr(st, name)!r}")
+    for name in ("n", "n_invalid"):
+        if int(getattr(st, name)) != int(row[name]):
+            out.append(f"{where}: {name} recorded {int(row[name])}, replayed {getattr(st, name)}")
+    if rec.weight_kg != float(row["weight_kg"]) or rec.repeat != int(row["repeat"]):
+        out.append(f"{where}: replayed as weight {rec.weight_kg:g} kg, repeat {rec.repeat}")
+    return out

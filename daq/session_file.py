@@ -13,7 +13,7 @@ Layout (schema 1; every numeric field has a ``units`` attribute)::
                               first_reading, started (ISO-8601), sha256 (readings), first_exchange, n_exchanges,
                               exchanges_sha256
     /entry/readings           NXdata, signal resistance_ohm: one row per reading — block, index, time_s, reading
-                              (as returned, in the Delta unit), resistance_ohm, valid
+                              (as returned, in the readings' unit), resistance_ohm, valid
     /entry/exchanges          NXcollection: every instrument exchange — run, block (−1 outside blocks), kind,
                               message, reply, t_s, error — what replay serves back to the driver
     /entry/runs/run_<k>       NXcollection: ``record`` (JSON) for each run (the first and every --resume)
@@ -53,15 +53,9 @@ from daq.errors import (
     SessionFileError,
     SessionWriteError,
 )
-from daq.records import (
-    BlockRecord,
-    BlockStatistics,
-    Exchange,
-    StopRecord,
-    block_digest,
-    exchanges_digest,
-    now_iso,
-)
+from daq.records import BlockRecord, StopRecord, block_digest, exchanges_digest
+from instruments.block import BlockStatistics
+from instruments.transport import Exchange
 
 __all__ = [
     "FORMAT_NAME",
@@ -105,7 +99,7 @@ _READING_FIELDS: dict[str, tuple[Any, str]] = {
     "block": ("<i4", ""),
     "index": ("<i4", ""),
     "time_s": ("<f8", "s"),
-    "reading": ("<f8", "V"),  # replaced by the session's Delta unit on creation
+    "reading": ("<f8", "V"),  # replaced by the unit of the session's readings on creation
     "resistance_ohm": ("<f8", "ohm"),
     "valid": ("u1", ""),
 }
@@ -141,37 +135,49 @@ def _explain_open_error(path: Path, exc: BaseException, writing: bool) -> Except
     text = str(exc)
     code = _errno_of(exc)
     if "unable to lock file" in text:
-        if code in (errno.EAGAIN, errno.EWOULDBLOCK):
-            return FileLockingError(
-                errno.EAGAIN,
-                f"{path} is open in another process (an acquisition still running?); "
-                "close it there first — HDF5 refuses to share a file being written",
-            )
-        return FileLockingError(
-            code or errno.ENOLCK,
-            f"the file system holding {path} refuses HDF5 file locking (typical of NFS/SMB network shares): "
-            "write the session to a local disk and copy it to the share afterwards",
+        return _locking_error(path, code)
+    known = _errno_error(path, code, writing)
+    if known is not None:
+        return known
+    if not writing:
+        return SessionFileError(
+            f"{path} is not a readable HDF5 session file: truncated or corrupted ({_first_line(text)})"
         )
-    if code == errno.ENOSPC:
-        return SessionWriteError(errno.ENOSPC, f"no space left on the device holding {path}")
-    if code == errno.EFBIG:
-        return SessionWriteError(errno.EFBIG, f"the file system refuses to let {path} grow (file too large)")
-    if code in (errno.EACCES, errno.EPERM):
-        what = "write" if writing else "read"
-        return SessionWriteError(code, f"no permission to {what} {path}")
+    return SessionWriteError(code or errno.EIO, f"cannot write {path}: {_first_line(text)}")
+
+
+def _locking_error(path: Path, code: int | None) -> FileLockingError:
+    if code in (errno.EAGAIN, errno.EWOULDBLOCK):
+        return FileLockingError(
+            errno.EAGAIN,
+            f"{path} is open in another process (an acquisition still running?); "
+            "close it there first — HDF5 refuses to share a file being written",
+        )
+    return FileLockingError(
+        code or errno.ENOLCK,
+        f"the file system holding {path} refuses HDF5 file locking (typical of NFS/SMB network shares): "
+        "write the session to a local disk and copy it to the share afterwards",
+    )
+
+
+def _errno_error(path: Path, code: int | None, writing: bool) -> OSError | None:
+    """The error for a file-system errno we can explain, or None."""
     if code == errno.ENOENT:
         if writing and not path.parent.is_dir():
             return SessionWriteError(errno.ENOENT, f"the folder {path.parent} does not exist")
         if writing:
             return SessionWriteError(errno.ENOENT, f"cannot create {path} there (no such file or directory)")
         return MissingFileError(errno.ENOENT, f"no such session file: {path}")
-    if code == errno.EROFS:
-        return SessionWriteError(errno.EROFS, f"{path} is on a read-only file system")
-    if not writing:
-        return SessionFileError(
-            f"{path} is not a readable HDF5 session file: truncated or corrupted ({_first_line(text)})"
-        )
-    return SessionWriteError(code or errno.EIO, f"cannot write {path}: {_first_line(text)}")
+    if code in (errno.EACCES, errno.EPERM):
+        return SessionWriteError(code, f"no permission to {'write' if writing else 'read'} {path}")
+    plain = {
+        errno.ENOSPC: f"no space left on the device holding {path}",
+        errno.EFBIG: f"the file system refuses to let {path} grow (file too large)",
+        errno.EROFS: f"{path} is on a read-only file system",
+    }
+    if code is not None and code in plain:
+        return SessionWriteError(code, plain[code])
+    return None
 
 
 def _first_line(text: str) -> str:
@@ -229,14 +235,15 @@ def _append(columns: _Columns, values: dict[str, Any]) -> None:
 def _json_dataset(group: h5py.Group, name: str, record: dict[str, Any]) -> None:
     if name in group:
         del group[name]
-    group.create_dataset(name, data=json.dumps(record, sort_keys=True, allow_nan=True), dtype=_STR)
+    group.create_dataset(name, data=provenance.to_json(record, sort_keys=True, allow_nan=True), dtype=_STR)
 
 
 class SessionFile:
     """Writer of one session file. Create with :meth:`create` or :meth:`open_for_resume`; use as a context manager.
 
-    Every ``append_block`` ends with ``flush`` and ``os.fsync`` (``fsync=False`` skips the latter, for the
-    benchmark): the block is on disk before the acquisition moves on.
+    Every ``append_block`` ends with ``flush`` and ``os.fsync`` (``fsync=False`` skips the latter and leaves the
+    syncing to the OS: faster, but a power cut may lose the last blocks): the block is on disk before the
+    acquisition moves on.
     """
 
     def __init__(self, h5: h5py.File, path: Path, *, fsync: bool = True) -> None:
@@ -253,8 +260,11 @@ class SessionFile:
 
     # -- creation ---------------------------------------------------------------------------------------------------
     @classmethod
-    def create(cls, path: str | Path, *, delta_unit: str = "V", force: bool = False, fsync: bool = True) -> SessionFile:
-        """Create a new session file at ``path`` (refuses an existing file unless ``force``)."""
+    def create(
+        cls, path: str | Path, *, reading_unit: str = "V", force: bool = False, fsync: bool = True
+    ) -> SessionFile:
+        """Create a new session file at ``path`` (refuses an existing file unless ``force``); ``reading_unit`` is
+        the unit of the readings as the instruments return them (``V``, ``OHMS``/``ohm``)."""
         p = Path(path)
         if p.exists() and not force:
             raise SessionExistsError(errno.EEXIST, f"{p} exists; use --force to overwrite it")
@@ -262,7 +272,7 @@ class SessionFile:
             raise SessionWriteError(errno.EISDIR, f"{p} is a folder, not a file name")
         h5 = _open_h5(p, "w")
         try:
-            cls._layout(h5, delta_unit)
+            cls._layout(h5, reading_unit)
             h5.flush()
         except (OSError, RuntimeError) as exc:
             h5.close()
@@ -270,14 +280,14 @@ class SessionFile:
         return cls(h5, p, fsync=fsync)
 
     @staticmethod
-    def _layout(h5: h5py.File, delta_unit: str) -> None:
+    def _layout(h5: h5py.File, reading_unit: str) -> None:
         versions = software_versions()
         h5.attrs["contactrig_format"] = FORMAT_NAME
         h5.attrs["contactrig_schema"] = SCHEMA_VERSION
         h5.attrs["creator"] = f"contactrig {versions['contactrig']}"
         h5.attrs["HDF5_Version"] = versions["hdf5"]
         h5.attrs["h5py_version"] = versions["h5py"]
-        h5.attrs["file_time"] = now_iso()
+        h5.attrs["file_time"] = provenance.now_iso()
         h5.attrs["default"] = "entry"
         h5.attrs["NX_class"] = "NXroot"
         entry = h5.create_group("entry")
@@ -299,7 +309,7 @@ class SessionFile:
         readings.attrs["signal"] = "resistance_ohm"
         readings.attrs["axes"] = ["."]
         fields = dict(_READING_FIELDS)
-        fields["reading"] = ("<f8", {"OHMS": "ohm", "OHM": "ohm"}.get(delta_unit.upper(), delta_unit))
+        fields["reading"] = ("<f8", {"OHMS": "ohm", "OHM": "ohm"}.get(reading_unit.upper(), reading_unit))
         _make_table(readings, fields, 4096)
 
         exchanges = entry.create_group("exchanges")
@@ -379,7 +389,7 @@ class SessionFile:
             if "record" not in group:  # a resumed session keeps its first start record; each run has its own
                 _json_dataset(group, "record", start)
                 group.create_dataset("scene_text", data=scene_text, dtype=_STR)
-                self._entry.create_dataset("start_time", data=start.get("started", now_iso()), dtype=_STR)
+                self._entry.create_dataset("start_time", data=start.get("started", provenance.now_iso()), dtype=_STR)
                 for key in ("operator", "host", "started"):
                     group.attrs[key] = str(start.get(key, ""))
                 group.attrs["schema_version"] = SCHEMA_VERSION
@@ -435,9 +445,9 @@ class SessionFile:
                     "run": [rec.run],
                     "weight_kg": [rec.weight_kg],
                     "repeat": [rec.repeat],
-                    "mean_ohm": [st.mean_ohm],
-                    "sd_ohm": [st.sd_ohm],
-                    "sem_ohm": [st.sem_ohm],
+                    "mean_ohm": [st.mean],
+                    "sd_ohm": [st.sd],
+                    "sem_ohm": [st.sem],
                     "n": [st.n],
                     "n_invalid": [st.n_invalid],
                     "count": [n],
@@ -781,54 +791,15 @@ def load_session(path: str | Path, *, verify: bool = True) -> Session:
     An incomplete session (no stop record) loads with ``complete=False`` and an :class:`IncompleteSessionWarning`.
     """
     p = Path(path)
-    h5 = _open_h5(p, "r")
-    try:
-        schema = _schema_of(h5, p)
-        try:
-            raw = _read_raw(h5, p)
-        except (KeyError, OSError, ValueError, json.JSONDecodeError) as exc:
-            if isinstance(exc, SessionFileError):
-                raise
-            raise SessionFileError(f"{p} is damaged: {_first_line(str(exc))}") from exc
-    finally:
-        h5.close()
+    schema, raw = _read_file(p)
     for k in range(schema, SCHEMA_VERSION):
         raw = UPGRADES[k](raw)
-    notes = []
+    notes: list[str] = []
     if verify:
-        try:
-            _verify(raw, p)
-        except ChecksumError as exc:
-            n = len(raw["summary"]["block"])
-            if raw["stop"] is not None or exc.position != n - 1:
-                raise
-            # an incomplete session whose writer died while writing its last block: that block is not complete
-            raw = _drop_last_block(raw)
-            notes.append(f"{p}: the last block was cut short when the writer died and is left out ({exc})")
-    if raw["unreadable_exchanges"]:
-        notes.append(
-            f"{p}: {raw['unreadable_exchanges']} instrument exchanges after the last complete block (an unfinished "
-            "block or run) are left out"
-        )
-    if raw["stop_note"]:
-        notes.append(f"{p}: {raw['stop_note']}")
-    if raw["dropped_blocks"]:
-        notes.append(f"{p}: {raw['dropped_blocks']} block(s) whose readings never reached the disk are left out")
+        raw, notes = _verified(raw, p)
     if raw["start"] is None:
         raise SessionFileError(f"{p} has no start record: the acquisition died before it began; no data to read")
-    if raw["stop"] is None:
-        notes.append(
-            f"{p} is an INCOMPLETE session: it has no stop record (the acquisition was killed, lost power or its "
-            f"disk, or is still running); {len(raw['summary']['block'])} complete blocks were read"
-            + (
-                f", {raw['trailing_readings']} readings of an unfinished block ignored"
-                if raw["trailing_readings"]
-                else ""
-            )
-            + "; `contactrig acquire --resume` continues it"
-        )
-    elif raw["stop"]["status"] != "success":
-        notes.append(f"{p}: session {raw['stop']['status']}: {raw['stop']['reason']}")
+    notes += _notes(raw, p)
     for note in notes:
         warnings.warn(note, IncompleteSessionWarning if raw["stop"] is None else UserWarning, stacklevel=2)
     summary, readings, exchanges = _frames(raw)
@@ -846,6 +817,61 @@ def load_session(path: str | Path, *, verify: bool = True) -> Session:
         scene_text=raw["scene_text"],
         warnings=tuple(notes),
     )
+
+
+def _read_file(p: Path) -> tuple[int, dict[str, Any]]:
+    """The file's schema and raw tables; any failure to read them is one :class:`SessionFileError`."""
+    h5 = _open_h5(p, "r")
+    try:
+        schema = _schema_of(h5, p)
+        try:
+            raw = _read_raw(h5, p)
+        except (KeyError, OSError, ValueError, json.JSONDecodeError) as exc:
+            if isinstance(exc, SessionFileError):
+                raise
+            raise SessionFileError(f"{p} is damaged: {_first_line(str(exc))}") from exc
+    finally:
+        h5.close()
+    return schema, raw
+
+
+def _verified(raw: dict[str, Any], p: Path) -> tuple[dict[str, Any], list[str]]:
+    """``raw`` after its checksums are checked; an incomplete session's half-written last block is left out."""
+    try:
+        _verify(raw, p)
+    except ChecksumError as exc:
+        n = len(raw["summary"]["block"])
+        if raw["stop"] is not None or exc.position != n - 1:
+            raise
+        # an incomplete session whose writer died while writing its last block: that block is not complete
+        note = f"{p}: the last block was cut short when the writer died and is left out ({exc})"
+        return _drop_last_block(raw), [note]
+    return raw, []
+
+
+def _notes(raw: dict[str, Any], p: Path) -> list[str]:
+    """What the reader found: rows left out, an unreadable or missing stop record, a session that did not succeed."""
+    notes = []
+    if raw["unreadable_exchanges"]:
+        notes.append(
+            f"{p}: {raw['unreadable_exchanges']} instrument exchanges after the last complete block (an unfinished "
+            "block or run) are left out"
+        )
+    if raw["stop_note"]:
+        notes.append(f"{p}: {raw['stop_note']}")
+    if raw["dropped_blocks"]:
+        notes.append(f"{p}: {raw['dropped_blocks']} block(s) whose readings never reached the disk are left out")
+    if raw["stop"] is None:
+        trailing = raw["trailing_readings"]
+        notes.append(
+            f"{p} is an INCOMPLETE session: it has no stop record (the acquisition was killed, lost power or its "
+            f"disk, or is still running); {len(raw['summary']['block'])} complete blocks were read"
+            + (f", {trailing} readings of an unfinished block ignored" if trailing else "")
+            + "; `contactrig acquire --resume` continues it"
+        )
+    elif raw["stop"]["status"] != "success":
+        notes.append(f"{p}: session {raw['stop']['status']}: {raw['stop']['reason']}")
+    return notes
 
 
 def _frames(raw: dict[str, Any]) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:

@@ -133,7 +133,7 @@ def import_table(path: str | Path, output: str | Path, *, unit: str, force: bool
         "run": 0,
     }
     k = len(table.columns)
-    with SessionFile.create(out, delta_unit="ohm", force=force) as sf:
+    with SessionFile.create(out, reading_unit="ohm", force=force) as sf:
         sf.write_start(start, "")
         for i, weight in enumerate(table.weight_kg):
             for j in range(k):

@@ -1,6 +1,9 @@
-"""Keithley 6221 current source with a 2182A nanovoltmeter in Delta mode: driver and simulated bench.
+"""Instrument drivers: the registry of instrument pairs, and the Keithley 6221 current source with a 2182A
+nanovoltmeter in Delta mode (driver and simulated bench).
 
-Modules: :mod:`instruments.delta` (settings, block, Delta formula), :mod:`instruments.k6221` (driver),
+Modules: :mod:`instruments.pairs` (the pair registry: what a bench session needs from a pair),
+:mod:`instruments.block` (a block of readings and its statistics, common to every pair),
+:mod:`instruments.delta` (Delta settings, block, formula), :mod:`instruments.k6221` (driver),
 :mod:`instruments.transport` (VISA, recording and replay transports), :mod:`instruments.simulated`
 (pyvisa-sim bench), :mod:`instruments.scpi` (SCPI parsing for the simulator), :mod:`instruments.errors`.
 
@@ -14,10 +17,16 @@ import importlib
 from typing import Any
 
 _EXPORTS = {
+    "Block": "instruments.block",
+    "BlockStatistics": "instruments.block",
+    "block_statistics": "instruments.block",
+    "InstrumentPair": "instruments.pairs",
+    "Identity": "instruments.pairs",
+    "get_pair": "instruments.pairs",
+    "pair_names": "instruments.pairs",
     "DeltaSettings": "instruments.delta",
     "DeltaBlock": "instruments.delta",
     "Keithley6221": "instruments.k6221",
-    "Identity": "instruments.k6221",
     "VisaTransport": "instruments.transport",
     "RecordingTransport": "instruments.transport",
     "ReplayTransport": "instruments.transport",

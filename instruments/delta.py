@@ -7,17 +7,19 @@ conversions,
     Δn = (Vn − 2·Vn+1 + Vn+2) / 4 · (−1)^(n−1),
 
 which equals R·(high − low)/2 and cancels a constant thermal EMF and a linear drift (:func:`delta_readings`).
-This module imports only numpy and :mod:`contactrig.core.validation`.
+This module imports only numpy, :mod:`contactrig.core.validation` and :mod:`instruments.block`.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from contactrig.core.validation import SettingError, check_choice, check_int, check_range
+from instruments.block import BlockStatistics, block_statistics
 
 __all__ = [
     "CURRENT_RANGES_A",
@@ -39,7 +41,7 @@ _MAX_CURRENT_A = 0.105
 _OVER_RANGE = 1.05
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class DeltaSettings:
     """One Delta block's settings, validated on construction (SI units; nothing is clamped).
 
@@ -55,61 +57,50 @@ class DeltaSettings:
     line_frequency_hz: mains frequency, 50 or 60 (sets the NPLC limit and the conversion time).
     """
 
+    # The constructor is written out because ``low_a`` is optional when given (None → −high_a) but always a
+    # number once validated; a generated one would type the field as optional for every reader.
     high_a: float
-    low_a: float | None = None
-    delay_s: float = 2e-3
-    count: int = 10
-    compliance_v: float = 10.0
-    compliance_abort: bool = True
-    current_range_a: float | None = None
-    unit: str = "V"
-    nplc: float = 1.0
-    voltmeter_range_v: float | None = None
-    line_frequency_hz: float = 50.0
+    low_a: float
+    delay_s: float
+    count: int
+    compliance_v: float
+    compliance_abort: bool
+    current_range_a: float | None
+    unit: str
+    nplc: float
+    voltmeter_range_v: float | None
+    line_frequency_hz: float
 
-    def __post_init__(self) -> None:
+    def __init__(
+        self,
+        high_a: float,
+        low_a: float | None = None,
+        delay_s: float = 2e-3,
+        count: int = 10,
+        compliance_v: float = 10.0,
+        compliance_abort: bool = True,
+        current_range_a: float | None = None,
+        unit: str = "V",
+        nplc: float = 1.0,
+        voltmeter_range_v: float | None = None,
+        line_frequency_hz: float = 50.0,
+    ) -> None:
         set_ = object.__setattr__
-        set_(self, "line_frequency_hz", float(check_choice("line_frequency_hz", self.line_frequency_hz, (50, 60))))
-        high = check_range("high_a", self.high_a, -_MAX_CURRENT_A, _MAX_CURRENT_A, unit="A")
-        low = (
-            -high if self.low_a is None else check_range("low_a", self.low_a, -_MAX_CURRENT_A, _MAX_CURRENT_A, unit="A")
-        )
-        if high == low:
-            raise SettingError("low_a", low, f"must differ from high_a = {high:g} A (Delta alternates between them)")
+        line = float(check_choice("line_frequency_hz", line_frequency_hz, (50, 60)))
+        set_(self, "line_frequency_hz", line)
+        high, low = _source_levels(high_a, low_a)
         set_(self, "high_a", high)
         set_(self, "low_a", low)
-        set_(self, "delay_s", check_range("delay_s", self.delay_s, 1e-3, 9999.999, unit="s"))
-        set_(self, "count", check_int("count", self.count, 1, 65536))
-        comp = check_range("compliance_v", self.compliance_v, 0.1, 105.0, unit="V")
-        if abs(round(comp * 100) - comp * 100) > 1e-6:
-            raise SettingError("compliance_v", self.compliance_v, "the 6221 sets compliance in 10 mV steps")
-        set_(self, "compliance_v", comp)
-        if not isinstance(self.compliance_abort, (bool, np.bool_)):
-            raise SettingError("compliance_abort", self.compliance_abort, "expected True or False")
-        set_(self, "compliance_abort", bool(self.compliance_abort))
-        if self.current_range_a is not None:
-            rng = check_range("current_range_a", self.current_range_a, unit="A")
-            if not any(math.isclose(rng, r, rel_tol=1e-9) for r in CURRENT_RANGES_A):
-                raise SettingError(
-                    "current_range_a", self.current_range_a, "expected None (auto) or one of " + _fmt(CURRENT_RANGES_A)
-                )
-            limit = rng * _OVER_RANGE
-            for name, value in (("high_a", high), ("low_a", low)):
-                if abs(value) > limit * (1 + 1e-12):
-                    raise SettingError(name, value, f"exceeds the {rng:g} A range (at most ±{limit:g} A)")
-            set_(self, "current_range_a", rng)
-        set_(self, "unit", check_choice("unit", self.unit, ("V", "OHMS")))
-        nplc_max = 50.0 if self.line_frequency_hz == 50.0 else 60.0
-        set_(self, "nplc", check_range("nplc", self.nplc, 0.01, nplc_max))
-        if self.voltmeter_range_v is not None:
-            vr = check_range("voltmeter_range_v", self.voltmeter_range_v, unit="V")
-            if not any(math.isclose(vr, r, rel_tol=1e-9) for r in VOLTMETER_RANGES_V):
-                raise SettingError(
-                    "voltmeter_range_v",
-                    self.voltmeter_range_v,
-                    "expected None (auto) or one of " + _fmt(VOLTMETER_RANGES_V),
-                )
-            set_(self, "voltmeter_range_v", vr)
+        set_(self, "delay_s", check_range("delay_s", delay_s, 1e-3, 9999.999, unit="s"))
+        set_(self, "count", check_int("count", count, 1, 65536))
+        set_(self, "compliance_v", _compliance(compliance_v))
+        if not isinstance(compliance_abort, (bool, np.bool_)):
+            raise SettingError("compliance_abort", compliance_abort, "expected True or False")
+        set_(self, "compliance_abort", bool(compliance_abort))
+        set_(self, "current_range_a", _source_range(current_range_a, high, low))
+        set_(self, "unit", check_choice("unit", unit, ("V", "OHMS")))
+        set_(self, "nplc", check_range("nplc", nplc, 0.01, 50.0 if line == 50.0 else 60.0))
+        set_(self, "voltmeter_range_v", _fixed_range("voltmeter_range_v", voltmeter_range_v, VOLTMETER_RANGES_V, "V"))
 
     @property
     def delta_current_a(self) -> float:
@@ -134,15 +125,51 @@ def _fmt(values: tuple[float, ...]) -> str:
     return ", ".join(f"{v:g}" for v in values)
 
 
+def _source_levels(high_a: float, low_a: float | None) -> tuple[float, float]:
+    """The validated (high, low) source levels in A; low defaults to −high."""
+    high = check_range("high_a", high_a, -_MAX_CURRENT_A, _MAX_CURRENT_A, unit="A")
+    low = -high if low_a is None else check_range("low_a", low_a, -_MAX_CURRENT_A, _MAX_CURRENT_A, unit="A")
+    if high == low:
+        raise SettingError("low_a", low, f"must differ from high_a = {high:g} A (Delta alternates between them)")
+    return high, low
+
+
+def _compliance(compliance_v: float) -> float:
+    comp = check_range("compliance_v", compliance_v, 0.1, 105.0, unit="V")
+    if abs(round(comp * 100) - comp * 100) > 1e-6:
+        raise SettingError("compliance_v", compliance_v, "the 6221 sets compliance in 10 mV steps")
+    return comp
+
+
+def _fixed_range(field: str, value: float | None, ranges: tuple[float, ...], unit: str) -> float | None:
+    """None (auto range) or one of ``ranges``, matched to 1e-9 relative."""
+    if value is None:
+        return None
+    r = check_range(field, value, unit=unit)
+    if not any(math.isclose(r, x, rel_tol=1e-9) for x in ranges):
+        raise SettingError(field, value, "expected None (auto) or one of " + _fmt(ranges))
+    return r
+
+
+def _source_range(current_range_a: float | None, high: float, low: float) -> float | None:
+    """The fixed source range (or None); both levels must fit in it with the 6221's 5 % over-range."""
+    rng = _fixed_range("current_range_a", current_range_a, CURRENT_RANGES_A, "A")
+    if rng is not None:
+        limit = rng * _OVER_RANGE
+        for name, value in (("high_a", high), ("low_a", low)):
+            if abs(value) > limit * (1 + 1e-12):
+                raise SettingError(name, value, f"exceeds the {rng:g} A range (at most ±{limit:g} A)")
+    return rng
+
+
 @dataclass(frozen=True)
 class DeltaBlock:
     """One Delta block as read from the 6221 buffer.
 
     readings: in ``unit`` (V or Ω); invalid readings (+9.9E37) are NaN and counted in ``n_invalid``.
     timestamps_s: 6221 buffer timestamps in s, the first is 0.
-    started_at_s: the driver's clock (s) when it sent ``INIT:IMM``.
-    Statistics (``mean``, ``sd``, ``sem``, ``n``) use valid readings only; ``sd`` is the sample SD (ddof = 1),
-    ``sem = sd/√n``; they are NaN when there are too few valid readings (n = 0 for the mean, n < 2 for SD/SEM).
+    Statistics (``stats``, and ``mean``, ``sd``, ``sem``, ``n`` from it) are those of
+    :func:`instruments.block.block_statistics` over the valid readings, in ``unit``.
     """
 
     settings: DeltaSettings
@@ -150,7 +177,6 @@ class DeltaBlock:
     timestamps_s: np.ndarray
     n_invalid: int
     unit: str
-    started_at_s: float = 0.0
 
     def __post_init__(self) -> None:
         r = np.array(self.readings, dtype=float)
@@ -167,31 +193,33 @@ class DeltaBlock:
         """Boolean mask of valid readings."""
         return np.isfinite(self.readings)
 
-    @property
-    def n(self) -> int:
-        """Number of valid readings."""
-        return int(np.count_nonzero(self.valid))
-
     def resistance_ohm(self) -> np.ndarray:
         """Readings in Ω: V readings divided by ΔI = (high − low)/2; OHMS readings as they are."""
         if self.unit == "OHMS":
             return self.readings.copy()
         return self.readings / self.settings.delta_current_a
 
+    @cached_property
+    def stats(self) -> BlockStatistics:
+        """Mean, SD, SEM and counts of the valid readings, in ``unit``."""
+        return block_statistics(self.readings, self.valid)
+
+    @property
+    def n(self) -> int:
+        """Number of valid readings."""
+        return self.stats.n
+
     @property
     def mean(self) -> float:
-        v = self.readings[self.valid]
-        return float(np.mean(v)) if v.size else math.nan
+        return self.stats.mean
 
     @property
     def sd(self) -> float:
-        v = self.readings[self.valid]
-        return float(np.std(v, ddof=1)) if v.size >= 2 else math.nan
+        return self.stats.sd
 
     @property
     def sem(self) -> float:
-        n = self.n
-        return self.sd / math.sqrt(n) if n >= 2 else math.nan
+        return self.stats.sem
 
 
 def delta_readings(conversions_v: np.ndarray) -> np.ndarray:

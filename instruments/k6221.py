@@ -13,7 +13,6 @@ import math
 import time
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -28,9 +27,10 @@ from instruments.errors import (
     ReplyError,
     SweepAborted,
 )
+from instruments.pairs import Identity
 from instruments.transport import Transport, VisaTransport
 
-__all__ = ["Identity", "Keithley6221"]
+__all__ = ["Keithley6221"]
 
 #: Operation event register bits (6221 reference manual).
 SWEEP_DONE = 1 << 1
@@ -41,14 +41,6 @@ COMPLIANCE = 1 << 3
 
 _XOFF = "\x13"
 _MAX_ERRORS = 50
-
-
-@dataclass(frozen=True)
-class Identity:
-    """``*IDN?`` replies of the source and of the voltmeter (relayed through the 6221)."""
-
-    source: str
-    voltmeter: str
 
 
 def _idn_complete(text: str) -> bool:
@@ -73,8 +65,11 @@ class Keithley6221:
 
     clock/sleep: time source and sleep function (injected in tests and replays).
     poll_interval_s: longest sleep between status polls. arm_timeout_s: deadline for ``SOUR:DELT:ARM?``.
-    relay_timeout_s: deadline for a complete line from the 2182A. chunk_size: readings per ``TRAC:DATA:SEL?``;
-    ``None`` reads the whole buffer with one ``TRAC:DATA?`` (slow on large buffers; kept as a baseline).
+    relay_timeout_s: deadline for a complete line from the 2182A. chunk_size: readings per ``TRAC:DATA:SEL?``:
+    every reply stays short against the VISA timeout (a full 65536-reading buffer is ~1.8 MB, minutes over
+    RS-232), and on the simulator chunks cost no more than one ``TRAC:DATA?``
+    (tests/benchmarks/bench_delta_overhead.py).
+    Implements :class:`instruments.pairs.PairDriver` (``identify``, ``run_block``, ``close``).
     """
 
     def __init__(
@@ -86,7 +81,7 @@ class Keithley6221:
         poll_interval_s: float = 0.05,
         arm_timeout_s: float = 10.0,
         relay_timeout_s: float = 3.0,
-        chunk_size: int | None = 1000,
+        chunk_size: int = 1000,
     ) -> None:
         self.transport = transport
         self.clock = clock
@@ -94,7 +89,7 @@ class Keithley6221:
         self.poll_interval_s = check_range("poll_interval_s", poll_interval_s, 0.0, 60.0, lo_open=True, unit="s")
         self.arm_timeout_s = check_range("arm_timeout_s", arm_timeout_s, 0.0, 3600.0, lo_open=True, unit="s")
         self.relay_timeout_s = check_range("relay_timeout_s", relay_timeout_s, 0.0, 3600.0, lo_open=True, unit="s")
-        self.chunk_size = None if chunk_size is None else check_int("chunk_size", chunk_size, 1, 65536)
+        self.chunk_size = check_int("chunk_size", chunk_size, 1, 65536)
         self._closed = False
 
     # ------------------------------------------------------------------ opening and closing
@@ -313,8 +308,6 @@ class Keithley6221:
         """Read ``n`` reading,timestamp pairs: chunks of ``chunk_size`` with ``TRAC:DATA:SEL?`` (first is #0)."""
         if n == 0:
             return np.empty(0), np.empty(0)
-        if self.chunk_size is None:
-            return self._parse("TRAC:DATA?", n)
         rs, ts = [], []
         for start in range(0, n, self.chunk_size):
             size = min(self.chunk_size, n - start)
@@ -351,7 +344,6 @@ class Keithley6221:
             self.check_errors()
             self._arm()
             self.query("STAT:OPER:EVEN?")  # reading clears the event register
-            started = self.clock()
             self.write("INIT:IMM")
             bits = self._wait_done(settings)
             stored = self.query_int("TRAC:POIN:ACT?")
@@ -385,8 +377,11 @@ class Keithley6221:
             timestamps_s=stamps,
             n_invalid=n_invalid,
             unit=settings.unit,
-            started_at_s=started,
         )
+
+    def run_block(self, settings: DeltaSettings) -> DeltaBlock:
+        """One block for a bench session (:class:`instruments.pairs.PairDriver`): :meth:`run_delta`."""
+        return self.run_delta(settings)
 
     def _abort_quietly(self) -> None:
         """``SOUR:SWE:ABOR`` from a ``finally``: never masks the exception already under way."""

@@ -216,6 +216,11 @@ def _load_definition() -> dict[str, Any]:
 class _ScpiDevice(Device):
     """A pyvisa-sim Device that receives canonical SCPI commands; settings and static replies come from YAML."""
 
+    # set by pyvisa-sim's Device (untyped): the bytes received so far and the message terminators
+    _input_buffer: bytearray
+    _query_eom: bytes
+    _response_eom: bytes
+
     def __init__(self, name: str, definition: dict[str, Any]) -> None:
         super().__init__(name, b"")
         self._definition = definition
@@ -432,8 +437,9 @@ class SimulatedK6221(_ScpiDevice):
     def _form_elem(self, cmd: Command) -> str | None:
         if cmd.is_query:
             return self.static(cmd)
-        elems = [_ELEMENTS.get(p.upper()) for p in split_params(cmd.params)]
-        if not elems or None in elems or len(set(elems)) != len(elems):
+        given = split_params(cmd.params)
+        elems = [_ELEMENTS[p.upper()] for p in given if p.upper() in _ELEMENTS]
+        if not elems or len(elems) != len(given) or len(set(elems)) != len(elems):
             self.push_error(E_ILLEGAL)
             return None
         return self.static(Command(cmd.header, ",".join(elems), cmd.raw))
@@ -636,8 +642,6 @@ class BenchVisaLibrary(SimVisaLibrary):
 
     _pending: ClassVar[dict[str, SimulatedBench]] = {}
     _serial: ClassVar[int] = 0
-    #: Serve replies in chunks (False: pyvisa-sim's byte-by-byte session read, kept as a benchmark baseline).
-    chunked_reads: bool = True
 
     @classmethod
     def create(cls, bench: SimulatedBench) -> BenchVisaLibrary:
@@ -653,7 +657,7 @@ class BenchVisaLibrary(SimVisaLibrary):
         return lib
 
     def _init(self) -> None:
-        self.sessions = {}
+        self.sessions: dict[Any, Any] = {}
         bench = self._pending.get(str(self.library_path))
         if bench is None:
             raise OSError("BenchVisaLibrary must be created with BenchVisaLibrary.create(bench)")
@@ -676,7 +680,7 @@ class BenchVisaLibrary(SimVisaLibrary):
         """Read up to ``count`` bytes at once (pyvisa-sim reads byte by byte, quadratic in the reply size)."""
         sess = self.sessions.get(session)
         device = getattr(sess, "device", None)
-        if not isinstance(device, SimulatedK6221) or not self.chunked_reads:
+        if sess is None or not isinstance(device, SimulatedK6221):
             return super().read(session, count)
         attr = constants.ResourceAttribute
         timeout_ms, _ = sess.get_attribute(attr.timeout_value)

@@ -9,11 +9,9 @@ pyvisa is imported only when a VISA resource is opened.
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import asdict, dataclass
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Any, Protocol
 
 from contactrig.core.validation import check_int
@@ -26,8 +24,6 @@ __all__ = [
     "ReplayTransport",
     "Transport",
     "VisaTransport",
-    "load_exchanges",
-    "save_exchanges",
 ]
 
 
@@ -200,20 +196,3 @@ class ReplayTransport:
 
     def close(self) -> None:
         self.closed = True
-
-
-def save_exchanges(path: str | Path, exchanges: Iterable[Exchange]) -> None:
-    """Write exchanges as JSON lines (one object per exchange)."""
-    with open(path, "w", encoding="utf-8") as fh:
-        for ex in exchanges:
-            fh.write(json.dumps(asdict(ex)) + "\n")
-
-
-def load_exchanges(path: str | Path) -> list[Exchange]:
-    """Read exchanges written by :func:`save_exchanges`."""
-    out = []
-    with open(path, encoding="utf-8") as fh:
-        for line in fh:
-            if line.strip():
-                out.append(Exchange(**json.loads(line)))
-    return out

@@ -14,17 +14,24 @@ pays.
 from __future__ import annotations
 
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from analysis.studies.rows import Row
+from instruments.block import block_statistics
+
+if TYPE_CHECKING:
+    from instruments.delta import DeltaBlock
 
 REFERENCE = "the resistance set on the simulated bench (R = 5 mΩ, 100 mA Delta current)"
 _R_OHM = 5e-3
 _CURRENT_A = 0.1
 
 
-def _blocks(count: int, nplc: float, n_blocks: int, seed: int) -> tuple[list, float]:
+def _blocks(count: int, nplc: float, n_blocks: int, seed: int) -> tuple[list[DeltaBlock], float]:
+    """``n_blocks`` Delta blocks of ``count`` readings at ``nplc`` on a fresh seeded bench, and the wall time per
+    block (s)."""
     from instruments.delta import DeltaSettings
     from instruments.k6221 import Keithley6221
     from instruments.simulated import SimulatedBench, simulated_resource_manager
@@ -48,8 +55,9 @@ def run(quick: bool) -> list[Row]:
     for nplc in nplcs:
         for count in counts:
             blocks, wall = _blocks(count, nplc, n_blocks, seed=count + int(100 * nplc))
-            r = np.array([b.resistance_ohm()[b.valid].mean() for b in blocks])
-            sem = np.array([np.std(b.resistance_ohm()[b.valid], ddof=1) / np.sqrt(b.n) for b in blocks])
+            stats = [block_statistics(b.resistance_ohm(), b.valid) for b in blocks]
+            r = np.array([st.mean for st in stats])
+            sem = np.array([st.sem for st in stats])
             instrument_s = float(np.mean([b.timestamps_s[-1] - b.timestamps_s[0] for b in blocks]))
             rows.append(
                 Row(

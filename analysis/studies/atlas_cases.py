@@ -349,13 +349,14 @@ def _session_file_damaged(kind: str) -> dict[str, object]:
     import tempfile
     from pathlib import Path
 
+    from analysis.simulated_session import SimulatedRigBench
     from daq import load_session
     from daq.acquire import acquire
 
     scene = _scene_with({"session.repeats": 1, "session.weights_kg": [5.44, 7.44], "delta.count": 5})
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "s.h5"
-        acquire(scene, path, sim=True, yes=True, sim_speed=float("inf"), quiet=True, fsync=False)
+        acquire(scene, path, bench=SimulatedRigBench(float("inf")), yes=True, quiet=True, fsync=False)
         raw = path.read_bytes()
         if kind == "truncated":
             path.write_bytes(raw[: len(raw) // 3])

@@ -1,4 +1,7 @@
-"""``contactrig instruments …`` subcommands (registered by ``contactrig.cli.main``): a thin layer over the driver.
+"""``contactrig instruments …`` subcommands (registered by ``contactrig.cli.main``): a thin layer over the drivers.
+
+``identify`` works with any registered instrument pair (``--pair``, :mod:`instruments.pairs`); ``delta`` runs one
+Delta block on the Keithley 6221/2182A.
 
 Nothing heavy is imported at module level: pyvisa and numpy load only when a command runs.
 """
@@ -8,7 +11,11 @@ from __future__ import annotations
 import argparse
 import json
 import math
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from instruments.block import Block
+    from instruments.pairs import InstrumentPair, PairDriver
 
 SIM_DEFAULT_ADDRESS = "GPIB0::12::INSTR"
 
@@ -23,8 +30,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     sub = parser.add_subparsers(dest="instruments_command", metavar="ACTION")
     parser.set_defaults(handler=lambda args: _help(parser))
 
-    ident = sub.add_parser("identify", help="*IDN? of the 6221 and (relayed) the 2182A")
+    ident = sub.add_parser("identify", help="*IDN? of the 6221 and (relayed) the 2182A, or of another pair")
     _common(ident)
+    ident.add_argument("--pair", default=None, help="registered instrument pair (default: the 6221/2182A)")
     ident.set_defaults(handler=identify_command)
 
     delta = sub.add_parser("delta", help="run one Delta block and print its statistics")
@@ -51,13 +59,15 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0, help="noise seed of the simulated bench (with --sim)")
 
 
-def _open(args: argparse.Namespace) -> Any:
+def _open(args: argparse.Namespace, pair: InstrumentPair) -> PairDriver:
+    """The pair's driver at ADDRESS (or on its simulated bench with --sim), checked before anything is opened."""
+    import time
+
     from contactrig.core.validation import SettingError, check_int
+    from instruments.transport import VisaTransport
 
     check_int("--timeout-ms", args.timeout_ms, 1, 3_600_000)
     check_int("--seed", args.seed, 0, 2**63 - 1)
-    from instruments.k6221 import Keithley6221
-
     address = args.address
     rm = None
     if address is not None and "::" not in address:
@@ -65,18 +75,24 @@ def _open(args: argparse.Namespace) -> Any:
             "ADDRESS", address, "expected a VISA resource such as GPIB0::12::INSTR or TCPIP0::<ip>::1394::SOCKET"
         )
     if args.sim:
-        from instruments.simulated import SimulatedBench, simulated_resource_manager
-
         address = address or SIM_DEFAULT_ADDRESS
-        rm = simulated_resource_manager(SimulatedBench(seed=args.seed, time_scale=0.0))
+        rm = pair.simulate(seed=args.seed, time_scale=0.0).resource_manager
     elif not address:
-        raise SettingError("ADDRESS", None, "give the 6221's VISA address, or --sim for the simulated bench")
-    return Keithley6221.open(address, resource_manager=rm, timeout_ms=args.timeout_ms)
+        what = f"give the {pair.source_name}'s VISA address, or --sim for the simulated bench"
+        raise SettingError("ADDRESS", None, what)
+    transport = VisaTransport.open(address, rm, args.timeout_ms)
+    try:
+        return pair.open_driver(transport, clock=time.monotonic, sleep=time.sleep)
+    except BaseException:  # nothing was sent, but the connection must not leak
+        transport.close()
+        raise
 
 
 def identify_command(args: argparse.Namespace) -> int:
     """Print the identity of the source and of the voltmeter."""
-    with _open(args) as k:
+    from instruments.pairs import DEFAULT_PAIR, get_pair
+
+    with _open(args, get_pair(args.pair or DEFAULT_PAIR)) as k:
         ident = k.identify()
     print(f"source:    {ident.source}")
     print(f"voltmeter: {ident.voltmeter}")
@@ -87,6 +103,7 @@ def delta_command(args: argparse.Namespace) -> int:
     """Run one Delta block; print mean, SD, SEM, N and the invalid count (or JSON with --json)."""
     from contactrig.core.validation import SettingError
     from instruments.delta import DeltaSettings
+    from instruments.pairs import DEFAULT_PAIR, get_pair
 
     try:  # validated before any connection is opened
         settings = DeltaSettings(
@@ -102,8 +119,8 @@ def delta_command(args: argparse.Namespace) -> int:
         if flag is None:
             raise
         raise SettingError(f"{flag} ({exc.field})", exc.value, exc.allowed) from None
-    with _open(args) as k:
-        block = k.run_delta(settings)
+    with _open(args, get_pair(DEFAULT_PAIR)) as k:
+        block = k.run_block(settings)
     print(format_block(block, as_json=args.json))
     return 0
 
@@ -123,36 +140,32 @@ def _num(x: float) -> float | None:
     return None if not math.isfinite(x) else float(x)
 
 
-def format_block(block: Any, as_json: bool = False) -> str:
-    """Text (or JSON) summary of a :class:`instruments.delta.DeltaBlock`; NaN becomes JSON null."""
+def format_block(block: Block, as_json: bool = False) -> str:
+    """Text (or JSON) summary of a block (:class:`instruments.block.Block`); NaN becomes JSON null."""
+    from instruments.block import block_statistics
+
+    st = block_statistics(block.readings, block.valid)
     if as_json:
         return json.dumps(
             {
                 "readings": [_num(x) for x in block.readings.tolist()],
-                "mean": _num(block.mean),
-                "sd": _num(block.sd),
-                "sem": _num(block.sem),
-                "n": block.n,
-                "n_invalid": block.n_invalid,
+                "mean": _num(st.mean),
+                "sd": _num(st.sd),
+                "sem": _num(st.sem),
+                "n": st.n,
+                "n_invalid": st.n_invalid,
                 "unit": block.unit,
             }
         )
     u = block.unit
+    mean_ohm = block_statistics(block.resistance_ohm(), block.valid).mean
     return "\n".join(
         [
-            f"mean      {block.mean:.6e} {u}",
-            f"SD        {block.sd:.3e} {u}",
-            f"SEM       {block.sem:.3e} {u}",
-            f"N         {block.n}",
-            f"invalid   {block.n_invalid}",
-            f"R (mean)  {float(_mean_ohm(block)):.6e} Ω",
+            f"mean      {st.mean:.6e} {u}",
+            f"SD        {st.sd:.3e} {u}",
+            f"SEM       {st.sem:.3e} {u}",
+            f"N         {st.n}",
+            f"invalid   {st.n_invalid}",
+            f"R (mean)  {mean_ohm:.6e} Ω",
         ]
     )
-
-
-def _mean_ohm(block: Any) -> float:
-    import numpy as np
-
-    r = block.resistance_ohm()
-    r = r[np.isfinite(r)]
-    return float(r.mean()) if r.size else math.nan

@@ -80,21 +80,16 @@ def _speed(text: str) -> float:
 
 
 def acquire_command(args: argparse.Namespace) -> int:
-    from daq.acquire import DEFAULT_SIM_SPEED, acquire
+    from analysis.simulated_session import DEFAULT_SIM_SPEED, SimulatedRigBench
+    from daq.acquire import acquire
 
     if args.sim_speed is not None and not args.sim:
         raise ValueError("--sim-speed only applies to --sim")
     if args.resume and args.force:
         raise ValueError("--resume and --force contradict each other: --resume keeps the file, --force replaces it")
-    result = acquire(
-        args.scene,
-        args.output,
-        sim=args.sim,
-        yes=args.yes,
-        sim_speed=args.sim_speed if args.sim_speed is not None else DEFAULT_SIM_SPEED,
-        resume=args.resume,
-        force=args.force,
-    )
+    speed = args.sim_speed if args.sim_speed is not None else DEFAULT_SIM_SPEED
+    bench = SimulatedRigBench(speed) if args.sim else None  # None: the scene's VISA address
+    result = acquire(args.scene, args.output, bench=bench, yes=args.yes, resume=args.resume, force=args.force)
     print(
         f"{result.path}: {result.status}, {result.blocks_done} of {result.blocks_planned} blocks — {result.reason}",
         file=sys.stderr,

@@ -4,8 +4,9 @@ Run by hand:  python tests/benchmarks/bench_delta_overhead.py [--counts 10 100 1
 
 For each count it times, in one run (pair-wise against the baselines):
   chunked    driver reads the buffer with TRAC:DATA:SEL? in chunks of 1000, simulator serves replies in chunks
-  single     one TRAC:DATA? for the whole buffer (simulator still serves in chunks)
-  bytewise   chunked driver reads, but replies served by pyvisa-sim's own byte-by-byte session read
+  single     one TRAC:DATA? for the whole buffer (simulator still serves in chunks; a driver subclass below)
+  bytewise   chunked driver reads, but replies served by pyvisa-sim's own byte-by-byte session read (a library
+             subclass below)
   replay     the same block replayed from a record (driver alone: no simulator, no VISA)
 and prints time per block and per reading, plus the error of the block mean against I·R (the physics check).
 A last table times plain pyvisa-sim (unmodified Device, bytearray.pop(0) per byte) serving an N-pair reply from a
@@ -23,22 +24,41 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
+import numpy as np
+import pyvisa
+from pyvisa_sim.highlevel import SimVisaLibrary
+
 from instruments.delta import DeltaSettings
 from instruments.k6221 import Keithley6221
-from instruments.simulated import GPIB_ADDRESS, SimulatedBench, simulated_resource_manager
+from instruments.simulated import GPIB_ADDRESS, BenchVisaLibrary, SimulatedBench
 from instruments.transport import RecordingTransport, ReplayTransport, VisaTransport
 
 R_OHM = 5e-3
 I_A = 1e-3
 
 
-def run_block(count: int, chunk_size: int | None, chunked_reads: bool = True, record: bool = False):
+class SingleReadK6221(Keithley6221):
+    """Baseline driver: the whole buffer with one ``TRAC:DATA?`` instead of chunks of ``TRAC:DATA:SEL?``."""
+
+    def read_buffer(self, n: int) -> tuple[np.ndarray, np.ndarray]:
+        if n == 0:
+            return np.empty(0), np.empty(0)
+        return self._parse("TRAC:DATA?", n)
+
+
+class BytewiseLibrary(BenchVisaLibrary):
+    """Baseline library: the simulated bench's replies served by pyvisa-sim's own byte-by-byte session read."""
+
+    def read(self, session, count):
+        return SimVisaLibrary.read(self, session, count)
+
+
+def run_block(count: int, single: bool, bytewise: bool = False, record: bool = False):
     bench = SimulatedBench(resistance_ohm=R_OHM, seed=1, time_scale=0.0)
-    rm = simulated_resource_manager(bench)
-    rm.visalib.chunked_reads = chunked_reads
+    rm = pyvisa.ResourceManager((BytewiseLibrary if bytewise else BenchVisaLibrary).create(bench))
     transport = VisaTransport.open(GPIB_ADDRESS, rm, timeout_ms=60_000)
     rec = RecordingTransport(transport) if record else None
-    k = Keithley6221(rec or transport, chunk_size=chunk_size)
+    k = (SingleReadK6221 if single else Keithley6221)(rec or transport)
     settings = DeltaSettings(high_a=I_A, count=count)
     t0 = time.perf_counter()
     block = k.run_delta(settings)
@@ -87,14 +107,14 @@ def main() -> None:
     print(f"{'count':>7} {'mode':>9} {'per block':>12} {'per reading':>13} {'vs chunked':>11} {'|mean/IR - 1|':>14}")
     for count in args.counts:
         rows = {}
-        modes = [("chunked", 1000, True), ("single", None, True)]
+        modes = [("chunked", False, False), ("single", True, False)]
         if count <= args.bytewise_max:
-            modes.append(("bytewise", 1000, False))
+            modes.append(("bytewise", False, True))
         exchanges = None
-        for name, chunk, fast in modes:
+        for name, single, bytewise in modes:
             times, block = [], None
             for _ in range(args.repeats):
-                dt, block, ex = run_block(count, chunk, fast, record=(name == "chunked" and exchanges is None))
+                dt, block, ex = run_block(count, single, bytewise, record=(name == "chunked" and exchanges is None))
                 exchanges = exchanges or ex
                 times.append(dt)
             rows[name] = (statistics.median(times), block)

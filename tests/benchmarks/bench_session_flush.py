@@ -14,7 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from daq.records import BlockRecord, now_iso
+from contactrig.core.provenance import now_iso
+from daq.records import BlockRecord
 from daq.session_file import SessionFile
 from instruments.transport import Exchange
 

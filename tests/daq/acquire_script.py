@@ -1,7 +1,7 @@
 """A real acquisition process for the kill and Ctrl-C tests: ``python -m tests.daq.acquire_script OUT TIME_SCALE``.
 
 Runs ``daq.acquire.acquire`` (the code behind ``contactrig acquire``) on the simulated instruments through the
-ordinary VISA path, unattended, printing one line per block; exit code as the CLI's.
+ordinary VISA path (``VisaBench``), unattended, printing one line per block; exit code as the CLI's.
 """
 
 from __future__ import annotations
@@ -9,6 +9,7 @@ from __future__ import annotations
 import sys
 
 from daq.acquire import acquire
+from daq.link import VisaBench
 from instruments.simulated import SimulatedBench, simulated_resource_manager
 
 from .conftest import small_scene
@@ -25,7 +26,7 @@ def main(argv: list[str]) -> int:
             out,
             yes=True,
             resume=resume,
-            resource_manager=simulated_resource_manager(bench=bench),
+            bench=VisaBench(simulated_resource_manager(bench=bench)),
             stream=sys.stdout,
         )
     except Exception as exc:

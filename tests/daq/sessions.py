@@ -28,7 +28,7 @@ def write_session(plan: SessionPlan, path: Path, *, steps=None, link=None, promp
         sf.run = run if run else sf.run
         outcome = drive(
             link,
-            plan.delta,
+            plan.block_settings,
             steps if steps is not None else session_steps(plan),
             [FileWriter(sf)],
             start_record(plan),

@@ -14,7 +14,7 @@ import pytest
 
 from daq.acquire import acquire
 from daq.errors import IncompleteSessionWarning, SessionExistsError, SessionStateError
-from daq.link import UnreachableInstrument
+from daq.link import UnreachableInstrument, VisaBench
 from daq.replay import replay_session
 from daq.session_file import load_session
 from instruments.simulated import SimulatedBench, simulated_resource_manager
@@ -23,13 +23,14 @@ from .conftest import ROOT, small_scene
 from .sessions import load_quietly, written_commands
 
 
-def _rm(seed=1):
-    return simulated_resource_manager(bench=SimulatedBench(resistance_ohm=5e-3, seed=seed, time_scale=0.0))
+def _bench(seed=1):
+    """The hardware path (VisaBench) on a simulated resource manager: not a ``--sim`` session."""
+    return VisaBench(simulated_resource_manager(bench=SimulatedBench(resistance_ohm=5e-3, seed=seed, time_scale=0.0)))
 
 
 def test_acquire_writes_start_and_stop_records(tmp_path):
     path = tmp_path / "s.h5"
-    result = acquire(small_scene(), path, yes=True, resource_manager=_rm(), quiet=True)
+    result = acquire(small_scene(), path, yes=True, bench=_bench(), quiet=True)
     assert result.status == "success" and result.blocks_done == 6
     s = load_session(path)
     st = s.start
@@ -49,9 +50,9 @@ def test_existing_file_needs_force(tmp_path):
     path = tmp_path / "s.h5"
     path.write_bytes(b"precious")
     with pytest.raises(SessionExistsError, match="--force"):
-        acquire(small_scene(), path, yes=True, resource_manager=_rm(), quiet=True)
+        acquire(small_scene(), path, yes=True, bench=_bench(), quiet=True)
     assert path.read_bytes() == b"precious"
-    acquire(small_scene(), path, yes=True, resource_manager=_rm(), quiet=True, force=True)
+    acquire(small_scene(), path, yes=True, bench=_bench(), quiet=True, force=True)
     assert load_quietly(path).complete
 
 
@@ -64,7 +65,7 @@ def test_unreachable_address_leaves_no_file(tmp_path, address, what):
     path = tmp_path / "s.h5"
     scene = small_scene(address=f'address = "{address}"')
     with pytest.raises(UnreachableInstrument, match=rf"({what}).*{address[:8]}.*\[instrument\]\.address") as err:
-        acquire(scene, path, yes=True, resource_manager=_rm(), quiet=True)
+        acquire(scene, path, yes=True, bench=_bench(), quiet=True)
     assert str(err.value).count("check") == 1
     assert not path.exists()
 
@@ -75,25 +76,25 @@ def test_bad_scene_fails_before_anything_is_written(tmp_path):
 
     text = small_scene().text.replace("[session]\n", "[session]\nrepeets = 3\n")
     with pytest.raises(SettingError, match=r"\[session\] repeets"):
-        acquire(parse_scene(text), tmp_path / "s.h5", yes=True, resource_manager=_rm(), quiet=True)
+        acquire(parse_scene(text), tmp_path / "s.h5", yes=True, bench=_bench(), quiet=True)
     assert not (tmp_path / "s.h5").exists()
 
 
 def test_resume_continues_where_it_stopped(tmp_path):
     path = tmp_path / "s.h5"
     answers = iter(["go", "quit"])
-    first = acquire(small_scene(), path, prompter=lambda step: next(answers), resource_manager=_rm(1), quiet=True)
+    first = acquire(small_scene(), path, prompter=lambda step: next(answers), bench=_bench(1), quiet=True)
     assert first.status == "aborted" and first.blocks_done == 2
     with pytest.raises(SessionStateError, match="leave out the SCENE"):
-        acquire(small_scene(count="count = 9"), path, resume=True, yes=True, resource_manager=_rm(2), quiet=True)
-    second = acquire(None, path, resume=True, yes=True, resource_manager=_rm(2), quiet=True)
+        acquire(small_scene(count="count = 9"), path, resume=True, yes=True, bench=_bench(2), quiet=True)
+    second = acquire(None, path, resume=True, yes=True, bench=_bench(2), quiet=True)
     assert second.status == "success" and second.blocks_done == 6 and second.run == 1
     s = load_session(path)
     assert list(s.summary.block) == list(range(6)) and list(s.summary.run) == [0, 0, 1, 1, 1, 1]
     assert len(s.runs) == 2 and s.runs[0]["stop"]["status"] == "aborted"
     assert replay_session(path).identical
     with pytest.raises(SessionStateError, match="complete session"):
-        acquire(None, path, resume=True, yes=True, resource_manager=_rm(), quiet=True)
+        acquire(None, path, resume=True, yes=True, bench=_bench(), quiet=True)
 
 
 def _start(out, time_scale, *extra):
@@ -172,6 +173,7 @@ def test_ctrl_c_twice_in_a_real_process(tmp_path):
 FULL_DISK_SCRIPT = """
 import resource, signal, sys
 from daq.acquire import acquire
+from daq.link import VisaBench
 from instruments.simulated import SimulatedBench, simulated_resource_manager
 from tests.daq.conftest import small_scene
 
@@ -187,7 +189,7 @@ def prompter(step):
 
 rm = simulated_resource_manager(bench=SimulatedBench(resistance_ohm=5e-3, seed=1, time_scale=0.0))
 try:
-    acquire(small_scene(count="count = 2000"), path, prompter=prompter, resource_manager=rm, quiet=True)
+    acquire(small_scene(count="count = 2000"), path, prompter=prompter, bench=VisaBench(rm), quiet=True)
 except OSError as exc:
     print(type(exc).__name__, exc)
 """
@@ -205,7 +207,7 @@ def test_disk_full_mid_session_keeps_every_written_block(tmp_path):
         s = load_session(path)
     assert not s.complete and list(s.summary.weight_kg) == [5.44, 5.44]
     # with space again, the session resumes to completion and replays identically
-    done = acquire(None, path, resume=True, yes=True, resource_manager=_rm(2), quiet=True)
+    done = acquire(None, path, resume=True, yes=True, bench=_bench(2), quiet=True)
     assert done.status == "success" and done.blocks_done == 6
     assert replay_session(path).identical
 
@@ -239,7 +241,7 @@ def test_progress_bar_on_a_terminal():
 def test_replay_at_the_recorded_pace(tmp_path):
     path = tmp_path / "p.h5"
     rm = simulated_resource_manager(bench=SimulatedBench(resistance_ohm=5e-3, seed=1, time_scale=0.1))
-    acquire(small_scene(repeats="repeats = 1", count="count = 4"), path, yes=True, resource_manager=rm, quiet=True)
+    acquire(small_scene(repeats="repeats = 1", count="count = 4"), path, yes=True, bench=VisaBench(rm), quiet=True)
     s = load_quietly(path)
     span = float(s.exchanges.t_s.max() - s.exchanges.t_s.min())
     fast = replay_session(path)

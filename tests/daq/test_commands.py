@@ -120,7 +120,7 @@ def test_simulated_repeats_scatter_by_a_seeded_lognormal_contact_factor(tmp_path
     import tomllib
 
     sigma, seed = 0.3, tomllib.loads(sim_scene_text())["session"]["sim_seed"]
-    z = np.random.default_rng([seed, 0x5EA7]).standard_normal(6)  # the generator daq.simulated documents
+    z = np.random.default_rng([seed, 0x5EA7]).standard_normal(6)  # the generator analysis.simulated_session documents
     expected = r_s + np.repeat(contact, 2) * np.exp(sigma * z - sigma**2 / 2)
     np.testing.assert_allclose(s.summary.mean_ohm.to_numpy(), expected, rtol=1e-3)
     np.testing.assert_allclose(s.start["simulation"]["block_resistance_ohm"], expected, rtol=1e-12)
@@ -196,3 +196,37 @@ def test_file_errors_are_one_plain_line(tmp_path, capsys, argv, message):
     assert message.format(tmp=tmp_path) in err and "[Errno" not in err and "Traceback" not in err
     assert len(err.strip().splitlines()) == 1
     assert not (tmp_path / "o.h5").exists()
+
+
+def test_simulated_session_resumes_with_sim_and_only_with_sim(tmp_path, capsys):
+    """A --sim session stopped after its first weight resumes with `acquire --sim --resume` to the same blocks an
+    uninterrupted one has (the bench's R_b is indexed by block number), replays identically, and refuses to be
+    resumed on the real bench."""
+    import math
+    import tomllib
+
+    from analysis.simulated_session import SimulatedRigBench
+    from daq.acquire import acquire
+    from daq.errors import SessionStateError
+    from daq.link import VisaBench
+
+    scene, out = _scene(tmp_path, 0.3), tmp_path / "resume.h5"
+    answers = iter(["go", "quit"])
+    first = acquire(scene, out, bench=SimulatedRigBench(math.inf), prompter=lambda step: next(answers), quiet=True)
+    assert first.status == "aborted" and first.blocks_done == 2
+    with pytest.raises(SessionStateError, match="recorded with --sim"):
+        acquire(None, out, resume=True, yes=True, quiet=True, bench=VisaBench())
+    code = main(["acquire", "--sim", "--yes", "--resume", "--sim-speed", "inf", "-o", str(out)])
+    assert code == 0, capsys.readouterr().err
+    s = load_session(out)
+    assert s.complete and list(s.summary.block) == list(range(6)) and list(s.summary.run) == [0, 0, 1, 1, 1, 1]
+    sim = s.start["simulation"]
+    sigma, seed = 0.3, tomllib.loads(sim_scene_text())["session"]["sim_seed"]
+    z = np.random.default_rng([seed, 0x5EA7]).standard_normal(6)
+    c = sim["circuit"]
+    contact = c["resistivity_ohm_m"] * c["contact_height_m"] / np.array(sim["contact_area_m2"])
+    expected = c["series_resistance_ohm"] + np.repeat(contact, 2) * np.exp(sigma * z - sigma**2 / 2)
+    np.testing.assert_allclose(s.summary.mean_ohm.to_numpy(), expected, rtol=1e-3)
+    capsys.readouterr()
+    assert main(["replay", str(out), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["identical"] is True

@@ -150,7 +150,7 @@ def test_invalid_readings_are_counted_not_averaged(plan, tmp_path):
     out, _ = write_session(plan, tmp_path / "o.h5", link=link)
     s = load_quietly(tmp_path / "o.h5")
     assert out.stop.status == "success"
-    assert (s.summary.n_invalid == 2).all() and (s.summary.n == plan.delta.count - 2).all()
+    assert (s.summary.n_invalid == 2).all() and (s.summary.n == plan.block_settings.count - 2).all()
     assert (~s.readings.valid).sum() == 2 * plan.blocks_planned
 
 
@@ -202,7 +202,7 @@ def test_every_exit_path_leaves_the_source_idle(plan, where):
         return "go"
 
     try:
-        out = drive(link, plan.delta, session_steps(plan), [FailingWriter(where)], start_record(plan), "",
+        out = drive(link, plan.block_settings, session_steps(plan), [FailingWriter(where)], start_record(plan), "",
                     prompter=prompter)  # fmt: skip
     except OSError:
         assert where == "start"  # the start record could not be written: drive raises after closing the link
@@ -216,11 +216,13 @@ def test_acquire_closes_the_link_when_setting_up_the_run_fails(plan, tmp_path, m
     """A failure between opening the bench and starting the run (reopening the file, building the live display)
     still leaves the source idle and removes the file it created."""
     from daq import acquire as acquire_module
+    from daq import link as link_module
     from daq.acquire import acquire
+    from daq.link import VisaBench
     from daq.session_file import SessionFile
 
     links = []
-    real_open = acquire_module.open_visa_link
+    real_open = link_module.open_visa_link
 
     def spy(*args, **kwargs):
         links.append(real_open(*args, **kwargs))
@@ -229,7 +231,7 @@ def test_acquire_closes_the_link_when_setting_up_the_run_fails(plan, tmp_path, m
     def fail(*args, **kwargs):
         raise OSError(5, "disk gone")
 
-    monkeypatch.setattr(acquire_module, "open_visa_link", spy)
+    monkeypatch.setattr(link_module, "open_visa_link", spy)
     if what == "reopen":
         monkeypatch.setattr(SessionFile, "open_for_resume", classmethod(lambda cls, *a, **k: fail()))
     else:
@@ -238,6 +240,6 @@ def test_acquire_closes_the_link_when_setting_up_the_run_fails(plan, tmp_path, m
 
     rm = simulated_resource_manager(bench=SimulatedBench(seed=1))
     with pytest.raises(OSError, match="disk gone"):
-        acquire(plan.scene, tmp_path / "x.h5", yes=True, resource_manager=rm, quiet=True)
+        acquire(plan.scene, tmp_path / "x.h5", yes=True, bench=VisaBench(rm), quiet=True)
     assert links and links[0].driver._closed and links[0].recorder.exchanges[-1].message == "SOUR:SWE:ABOR"
     assert not (tmp_path / "x.h5").exists()  # it held nothing

@@ -19,7 +19,7 @@ def test_default_scene_plan_matches_tab1_layout():
     assert plan.session.weights_kg[0] == 5.44 and plan.session.weights_kg[-1] == 25.966
     assert len(plan.session.weights_kg) == 8 and plan.session.repeats == 6
     assert plan.blocks_planned == 48
-    assert plan.delta.low_a == -plan.delta.high_a
+    assert plan.block_settings.low_a == -plan.block_settings.high_a
 
 
 @pytest.mark.parametrize("table", ["instrument", "delta", "session"])

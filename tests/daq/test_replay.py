@@ -21,7 +21,7 @@ def test_replay_reproduces_a_session_exactly(plan, tmp_path):
     report = replay_session(path)
     assert report.identical, report.differences
     assert report.blocks_replayed == plan.blocks_planned == report.blocks_recorded
-    assert report.readings_replayed == plan.blocks_planned * plan.delta.count
+    assert report.readings_replayed == plan.blocks_planned * plan.block_settings.count
     assert report.as_dict()["identical"] is True
 
 
@@ -109,7 +109,7 @@ def test_replay_of_a_killed_session(plan, tmp_path):
     writer.stop = lambda stop: None  # the process "dies" before the stop record
     link = make_link(plan)
     steps = list(session_steps(plan))[:5]  # two blocks of weight 1, one of weight 2
-    drive(link, plan.delta, steps, [writer], start_record(plan), plan.scene.text)
+    drive(link, plan.block_settings, steps, [writer], start_record(plan), plan.scene.text)
     # drop the close exchanges, as a kill never gets there
     with h5py.File(path, "a") as h5:
         ex = h5["entry/exchanges"]

@@ -49,7 +49,7 @@ def test_roundtrip_contract(session_path, plan):
         "block", "run", "weight_kg", "repeat", "mean_ohm", "sd_ohm", "sem_ohm", "n", "n_invalid",
     ]  # fmt: skip
     assert len(s.summary) == plan.blocks_planned
-    assert len(s.readings) == plan.blocks_planned * plan.delta.count
+    assert len(s.readings) == plan.blocks_planned * plan.block_settings.count
     assert set(s.readings.columns) >= {"weight_kg", "repeat", "index", "time_s", "resistance_ohm", "valid"}
     # summary statistics recomputed independently with pandas from the readings
     g = s.readings[s.readings.valid].groupby("block").resistance_ohm

@@ -88,3 +88,13 @@ def test_no_visa_library_is_one_clear_error(capsys, monkeypatch):
     assert main(["instruments", "identify", "GPIB0::12::INSTR"]) == 2
     err = capsys.readouterr().err
     assert "no VISA library" in err and "GPIB0::12::INSTR" in err and len(err.strip().splitlines()) == 1
+
+
+def test_identify_through_the_pair_registry(capsys):
+    assert main(["instruments", "identify", "--sim", "--pair", "k6221_2182a"]) == 0
+    assert "MODEL 6221" in capsys.readouterr().out
+    assert main(["instruments", "identify", "--sim", "--pair", "four_wire_smu"]) == 2
+    err = capsys.readouterr().err
+    assert (
+        "[instrument] pair = 'four_wire_smu'" in err and "'k6221_2182a'" in err and len(err.strip().splitlines()) == 1
+    )

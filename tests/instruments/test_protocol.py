@@ -110,12 +110,12 @@ def test_fixed_ranges_ohms_and_single_read(clock):
         ("INIT:IMM", None),
         ("STAT:OPER:EVEN?", "2"),
         ("TRAC:POIN:ACT?", "2"),
-        ("TRAC:DATA?", "5.0E-03,0,5.1E-03,0.1"),
+        ("TRAC:DATA:SEL? 0,2", "5.0E-03,0,5.1E-03,0.1"),
         ("SYST:ERR?", NO_ERROR),
         ("SOUR:SWE:ABOR", None),
     ]
     t = ScriptedTransport(script)
-    block = Keithley6221(t, clock=clock, sleep=clock.sleep, chunk_size=None).run_delta(s)
+    block = Keithley6221(t, clock=clock, sleep=clock.sleep).run_delta(s)
     assert t.pairs == []
     np.testing.assert_allclose(block.resistance_ohm(), [5.0e-3, 5.1e-3])
 

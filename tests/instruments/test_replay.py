@@ -9,14 +9,7 @@ from instruments.delta import DeltaSettings
 from instruments.errors import InstrumentTimeout, ReplayMismatch
 from instruments.k6221 import Keithley6221
 from instruments.simulated import GPIB_ADDRESS, SimulatedBench, simulated_resource_manager
-from instruments.transport import (
-    Exchange,
-    RecordingTransport,
-    ReplayTransport,
-    VisaTransport,
-    load_exchanges,
-    save_exchanges,
-)
+from instruments.transport import Exchange, RecordingTransport, ReplayTransport, VisaTransport
 
 from .conftest import FakeClock
 
@@ -32,14 +25,10 @@ def record(settings, bench=None):
 
 
 @pytest.mark.filterwarnings("ignore::instruments.errors.InvalidReadingsWarning")  # expected: overflow injected
-def test_round_trip_identical_block(tmp_path):
+def test_round_trip_identical_block():
     s = DeltaSettings(high_a=1e-3, count=10)
     exchanges, ident, block = record(s)
-    path = tmp_path / "session.jsonl"
-    save_exchanges(path, exchanges)
-    loaded = load_exchanges(path)
-    assert loaded == exchanges
-    replay = ReplayTransport(loaded)
+    replay = ReplayTransport(exchanges)
     clock = FakeClock()
     with Keithley6221(replay, clock=clock, sleep=clock.sleep, chunk_size=4) as k:
         assert k.identify() == ident

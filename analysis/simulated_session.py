@@ -1,12 +1,12 @@
-"""Simulated sessions (``--sim``): the simulated 6221/2182A bench with the rig simulation behind it.
+"""Simulated sessions (``contactrig acquire --sim``): the instrument pair's simulated bench with the rig behind it.
 
 For block b (repeat k at weight W) the bench's sample resistance is the measured resistance of seed eq. 23 with a
 series term, and a re-seating factor on the contact term,
 
     R_b = R_s + f_b · ζ · h_R / A(W),     f_b = exp(σ·z_b − σ²/2),  z_b ~ N(0, 1)
 
-(``analysis.circuit.CircuitSettings``: ζ, h_R and R_s from the scene's ``[circuit]``), with A(W) the real contact
-area the rig simulation (``sims.rig.sweep``) finds at that weight for the one model ``[session].sim_model``.
+(:class:`analysis.circuit.CircuitSettings`: ζ, h_R and R_s from the scene's ``[circuit]``), with A(W) the real
+contact area the rig simulation (``sims.rig.sweep``) finds at that weight for the one model ``[session].sim_model``.
 
 Why f_b: on the real bench the contact is made again for every repeat (the weight is lifted and re-placed, the
 piston re-seats, oxide and contamination films differ), so repeats at one weight scatter far more than the
@@ -16,23 +16,29 @@ fixed. f_b is log-normal (a resistance factor, always > 0) with mean 1, so E[R_b
 of the session recovers ζ without bias; σ = ``[session].sim_repeat_sd`` (0 switches it off). The factors are drawn
 from their own generator seeded by ``[session].sim_seed`` and indexed by block number (position in the full plan),
 so a resumed or partly skipped session gets the same factor for the same block. Noise, thermal EMF and drift
-come from the simulated 2182A. Only the requested model is built.
+come from the simulated instruments. Only the requested model is built.
 
-Replay serves the recorded instrument replies, so it reproduces a simulated session exactly whatever f_b was.
+:class:`SimulatedRigBench` is the :class:`daq.link.Bench` that ``daq.acquire.acquire`` runs ``--sim`` sessions on
+(this composition lives here, above ``daq``, because it needs the rig and the circuit). Replay serves the
+recorded instrument replies, so it reproduces a simulated session exactly whatever f_b was.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from daq.link import InstrumentLink, open_visa_link
+from contactrig.core.validation import SettingError
+from daq.link import OpenedBench, open_visa_link
 from daq.plan import SessionPlan
 
-__all__ = ["open_sim_link", "repeat_factors", "simulated_resistances"]
+__all__ = ["DEFAULT_SIM_SPEED", "SimulatedRigBench", "repeat_factors", "simulated_resistances"]
 
+#: Default ``--sim-speed``: the simulated instruments run this many times faster than real ones.
+DEFAULT_SIM_SPEED = 1000.0
 #: Second word of the seed of the re-seating factors' generator (the bench's noise uses ``sim_seed`` alone).
 _FACTOR_STREAM = 0x5EA7
 
@@ -52,8 +58,9 @@ def repeat_factors(n_blocks: int, sd: float, seed: int) -> np.ndarray:
 def simulated_resistances(plan: SessionPlan) -> dict[str, Any]:
     """Contact area (m²) per weight and bench resistance (Ω) per planned block, for ``[session].sim_model``.
 
-    Per weight: ``contact_area_m2``, ``contact_resistance_ohm`` (ζh/A) and ``resistance_ohm`` (R_s + ζh/A, the
-    expected value). Per block (position in the plan): ``contact_factor`` f_b and ``block_resistance_ohm`` R_b.
+    Per weight: ``contact_area_m2``, ``contact_resistance_ohm`` (ζh/A, seed eq. 23) and ``resistance_ohm``
+    (R_s + ζh/A, the expected value). Per block (position in the plan): ``contact_factor`` f_b and
+    ``block_resistance_ohm`` R_b. Recorded as the start record's ``simulation``.
     """
     from analysis.circuit import CircuitSettings
     from sims.rig import sweep
@@ -61,8 +68,7 @@ def simulated_resistances(plan: SessionPlan) -> dict[str, Any]:
     model = plan.session.sim_model
     weights = list(plan.session.weights_kg)
     result = sweep(plan.scene, models=[model], weights_kg=weights)
-    curve = result.models[model]
-    area = np.asarray(curve.contact_area_m2, dtype=float)
+    area = np.asarray(result.models[model].contact_area_m2, dtype=float)
     if area.shape != (len(weights),) or not np.all(np.isfinite(area)) or np.any(area <= 0):
         raise RuntimeError(
             f"the rig simulation gave no positive contact area for every weight with model {model!r} "
@@ -87,33 +93,47 @@ def simulated_resistances(plan: SessionPlan) -> dict[str, Any]:
             "contact_height_m": circuit.contact_height_m,
             "series_resistance_ohm": circuit.series_resistance_ohm,
         },
-        "rig_warnings": list(getattr(result, "warnings", [])),
+        "rig_warnings": list(result.warnings),
     }
 
 
-def open_sim_link(
-    plan: SessionPlan, *, sim_speed: float = 1000.0, link_wrapper: Any = None
-) -> tuple[InstrumentLink, dict[str, Any]]:
-    """An :class:`InstrumentLink` to a simulated bench whose resistance follows the weight and the repeat.
+@dataclass(frozen=True)
+class SimulatedRigBench:
+    """The ``--sim`` bench (a :class:`daq.link.Bench`): the plan's instrument pair simulated, its sample resistance
+    set before every block to R_b of :func:`simulated_resistances`.
 
     ``sim_speed``: instrument time runs this many times faster than real time (1 = real pace; ``inf`` = instant).
-    ``link_wrapper(transport) -> transport`` wraps the VISA transport (fault injection in tests).
-    Returns the link and the simulation details recorded in the start record.
     """
-    from instruments.simulated import SimulatedBench, simulated_resource_manager
 
-    info = simulated_resistances(plan)
-    by_block = info["block_resistance_ohm"]
-    time_scale = 0.0 if math.isinf(sim_speed) else 1.0 / float(sim_speed)
-    bench = SimulatedBench(resistance_ohm=by_block[0], seed=plan.session.sim_seed, time_scale=time_scale)
+    sim_speed: float = DEFAULT_SIM_SPEED
 
-    def prepare(block: int) -> None:  # the contact as it was made for this repeat
-        bench.resistance_ohm = by_block[block]
+    def __post_init__(self) -> None:
+        if not (self.sim_speed > 0):  # NaN fails too
+            raise SettingError("--sim-speed", self.sim_speed, "expected a number > 0 (1 = real pace, inf)")
 
-    rm = simulated_resource_manager(bench=bench)
-    link = open_visa_link(plan.instrument.address, plan.instrument.timeout_ms, rm, prepare_block=prepare)
-    if link_wrapper is not None:
-        link = InstrumentLink(link_wrapper(link.recorder.inner), address=link.address, prepare_block=prepare)
-    info = {**info, "sim_speed": float(sim_speed), "time_scale": time_scale, "seed": plan.session.sim_seed}
-    link.bench = bench  # type: ignore[attr-defined]  # tests inject faults through it
-    return link, info
+    @property
+    def simulated(self) -> bool:
+        return True
+
+    @property
+    def time_scale(self) -> float:
+        """Real seconds per instrument second."""
+        return 0.0 if math.isinf(self.sim_speed) else 1.0 / float(self.sim_speed)
+
+    def open(self, plan: SessionPlan) -> OpenedBench:
+        """Simulate the rig for the plan's weights, build the simulated pair and open the plan's address on it."""
+        info = simulated_resistances(plan)
+        by_block = info["block_resistance_ohm"]
+        sim = plan.pair.simulate(resistance_ohm=by_block[0], seed=plan.session.sim_seed, time_scale=self.time_scale)
+
+        def prepare(block: int) -> None:  # the contact as it was made for this repeat
+            sim.bench.resistance_ohm = by_block[block]
+
+        link = open_visa_link(
+            plan.instrument.address, plan.instrument.timeout_ms, sim.resource_manager, pair=plan.pair,
+            prepare_block=prepare,
+        )  # fmt: skip
+        record = {**info, "sim_speed": float(self.sim_speed), "time_scale": self.time_scale}
+        record["seed"] = plan.session.sim_seed
+        notes = tuple(f"rig simulation: {w}" for w in info["rig_warnings"])
+        return OpenedBench(link, simulation=record, notes=notes)

@@ -1,4 +1,6 @@
-"""The simulated session's re-seating factors: mean-one log-normal, seeded, indexed by block number."""
+"""The simulated session (``--sim``): re-seating factors mean-one log-normal, seeded, indexed by block number;
+the bench's speed setting. The whole simulated session (R = R_s + f·ζh/A from the rig) is checked end to end
+through the CLI in tests/daq/test_commands.py."""
 
 from __future__ import annotations
 
@@ -8,8 +10,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from analysis.simulated_session import SimulatedRigBench, repeat_factors
+from contactrig.core.validation import SettingError
 from daq.plan import DEFAULT_SIM_REPEAT_SD
-from daq.simulated import repeat_factors
 from daq.table_import import tab1_path
 
 
@@ -43,3 +46,15 @@ def test_default_scatter_is_that_of_tab1_independent_repeats():
     rel = v.std(axis=1, ddof=1) / v.mean(axis=1)
     log_sd = math.sqrt(np.mean(np.log(v).var(axis=1, ddof=1)))
     assert abs(np.median(rel) - DEFAULT_SIM_REPEAT_SD) < 0.02 and abs(log_sd - DEFAULT_SIM_REPEAT_SD) < 0.02
+
+
+@pytest.mark.parametrize("speed", [0.0, -1.0, float("nan")])
+def test_sim_speed_must_be_positive(speed):
+    with pytest.raises(SettingError, match="--sim-speed"):
+        SimulatedRigBench(speed)
+
+
+def test_sim_speed_sets_the_time_scale():
+    assert SimulatedRigBench(4.0).time_scale == 0.25
+    assert SimulatedRigBench(math.inf).time_scale == 0.0
+    assert SimulatedRigBench().simulated
