@@ -59,7 +59,7 @@ def run_demo(
     from daq import load_session
     from daq.acquire import acquire
     from daq.replay import replay_session
-    from sims.rig import save_sweep
+    from daq.sweep_file import save_sweep
 
     check_int("bootstrap", n_boot, 0, 1_000_000)
     out = output_directory(directory)
@@ -73,10 +73,8 @@ def run_demo(
 
     print(f"contactrig demo → {out.resolve()}", file=say, flush=True)
     scene = load_scene(None)
-    weights = scene.table("rig").get("weights_kg")
-
     t0 = time.perf_counter()
-    sweep_result, database = simulate(scene, weights)
+    sweep_result, database = simulate(scene, None)
     sim_path = save_sweep(sweep_result, out / "sim.h5")
     step(f"simulate {len(sweep_result.models)} models", t0)
 

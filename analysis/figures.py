@@ -4,53 +4,61 @@ Every function takes plain data (arrays, :class:`~analysis.measured.MeasuredCurv
 :mod:`analysis.fit`) and returns a :class:`matplotlib.figure.Figure` built without pyplot (so no GUI backend is
 involved and figures can be drawn from threads); :func:`save_figure` writes it as PNG and a vector format.
 matplotlib is imported only inside these functions. Units are on every axis; a model has the same colour and
-name in every figure.
+name in every figure: label and style come from the contact-model registry (:mod:`sims.models`), see
+:func:`model_style`.
+
+The figures of an analysis are a registry of :class:`FigureSpec` (key, title, draw function, caption, report
+section, file name): :func:`register` adds one, :func:`write_figures` draws every registered figure (``contactrig
+figures``) and :mod:`analysis.report` places each in its section. Seed Fig. 2 of a contact database alone:
+:func:`figure_database`, or :func:`write_database_figure` to a file (``contactrig database --plot``).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+import zlib
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from analysis.fit import regressor_label
 from analysis.measured import MeasuredCurve
+from contactrig.core.registry import Registry
 from contactrig.core.validation import SettingError, check_choice
+from sims.models import get_model, model_label, model_names, models
 
 __all__ = [
-    "MODEL_LABELS",
+    "FigureSpec",
     "figure_database",
     "figure_error_vs_time",
     "figure_fit",
     "figure_measured",
     "figure_normalised",
     "figure_simulated_area",
-    "model_colour",
-    "model_label",
+    "figure_specs",
+    "get_figure",
     "model_style",
+    "register",
     "save_figure",
+    "save_figure_file",
+    "unregister",
+    "write_database_figure",
+    "write_figures",
 ]
 
-MODEL_LABELS = {
-    "greenwood_tripp": "Greenwood–Tripp",
-    "hertz": "Hertz",
-    "lagemann": "Lagemann",
-    "pasaribu_schipper": "Pasaribu–Schipper",
-    "jackson_green": "Jackson–Green",
-}
-_MODEL_COLOURS = {
-    "greenwood_tripp": "#1f77b4",
-    "hertz": "#d62728",
-    "lagemann": "#2ca02c",
-    "pasaribu_schipper": "#9467bd",
-    "jackson_green": "#ff7f0e",
-}
-_EXTRA_COLOURS = ("#8c564b", "#e377c2", "#17becf", "#bcbd22", "#7f7f7f")
+# Colours, line styles and markers for models whose registration (sims.models) gives no style: matplotlib's
+# "tab10" cycle, minus the colours that registered styles take.
+_COLOUR_CYCLE = (
+    "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf",
+)  # fmt: skip
+_LINESTYLE_CYCLE = ("-", "--", "-.", ":")
+_MARKER_CYCLE = ("o", "s", "^", "v", "D", "x", "P", "*")
 MEASURED_COLOUR = "#222222"
 
-_RC = {
+_RC: dict[Any, Any] = {
     "font.size": 9.0,
     "axes.titlesize": 10.0,
     "axes.labelsize": 9.0,
@@ -68,31 +76,41 @@ _RC = {
 }
 
 
-def model_label(name: str) -> str:
-    """Display name of a contact model."""
-    return MODEL_LABELS.get(name, name.replace("_", " "))
+def model_style(key: str) -> dict[str, Any]:
+    """Colour, line style, marker and label of contact model ``key``, the same in every figure.
+
+    Label and style come from the model registry (:func:`sims.models.get_model`: ``.label``, ``.style``); what a
+    registration leaves out comes from a cycle indexed by the model's place among the registered models without a
+    style (a key that is not registered: by a stable hash of the key), so models that coincide stay visible.
+    """
+    try:
+        registered = dict(get_model(key).style)
+    except KeyError:
+        registered = {}
+    i = _cycle_index(key)
+    used = _styled_colours()
+    free = [c for c in _COLOUR_CYCLE if c not in used] or list(_COLOUR_CYCLE)
+    style = {
+        "color": free[i % len(free)],
+        "linestyle": _LINESTYLE_CYCLE[i % len(_LINESTYLE_CYCLE)],
+        "marker": _MARKER_CYCLE[i % len(_MARKER_CYCLE)],
+    }
+    style.update(registered)
+    style["label"] = model_label(key)
+    return style
 
 
-_MODEL_STYLES = {
-    "greenwood_tripp": ("-", "o"),
-    "hertz": ("--", "s"),
-    "lagemann": ("-.", "^"),
-    "pasaribu_schipper": (":", "v"),
-    "jackson_green": ((0, (6, 2, 1, 2, 1, 2)), "D"),
-}
+def _cycle_index(key: str) -> int:
+    unstyled = [m.key for m in models() if not m.style]
+    if key in unstyled:
+        return unstyled.index(key)
+    if key in model_names():
+        return 0
+    return len(unstyled) + zlib.crc32(key.encode("utf-8"))
 
 
-def model_style(name: str) -> dict[str, Any]:
-    """Colour, line style and marker of a model, the same in every figure (models that coincide stay visible)."""
-    ls, marker = _MODEL_STYLES.get(name, ("-", "x"))
-    return {"color": model_colour(name), "linestyle": ls, "marker": marker, "label": model_label(name)}
-
-
-def model_colour(name: str) -> str:
-    """The colour a model has in every figure."""
-    if name in _MODEL_COLOURS:
-        return _MODEL_COLOURS[name]
-    return _EXTRA_COLOURS[sum(map(ord, name)) % len(_EXTRA_COLOURS)]
+def _styled_colours() -> set[str]:
+    return {str(m.style["color"]) for m in models() if "color" in m.style}
 
 
 def _figure(ncols: int = 1, nrows: int = 1, size: tuple[float, float] = (6.0, 4.0), **kw: Any):
@@ -111,13 +129,21 @@ def save_figure(fig: Any, directory: str | Path, stem: str, formats: Sequence[st
     if out.exists() and not out.is_dir():
         raise SettingError("output", str(out), "expected a directory; a file of that name exists")
     out.mkdir(parents=True, exist_ok=True)
-    paths = []
     for fmt in formats:
-        check_choice("format", fmt, ("png", "svg", "pdf"))
-        path = out / f"{stem}.{fmt}"
-        fig.savefig(path, format=fmt, metadata=_metadata(fmt))
-        paths.append(path)
-    return paths
+        check_choice("format", fmt, _FORMATS)
+    return [save_figure_file(fig, out / f"{stem}.{fmt}") for fmt in formats]
+
+
+def save_figure_file(fig: Any, path: str | Path) -> Path:
+    """Write ``fig`` to ``path``, the format from its suffix (.png, .svg or .pdf); returns the path."""
+    path = Path(path)
+    fmt = path.suffix[1:].lower()
+    check_choice("format", fmt, _FORMATS)
+    fig.savefig(path, format=fmt, metadata=_metadata(fmt))
+    return path
+
+
+_FORMATS = ("png", "svg", "pdf")
 
 
 def _metadata(fmt: str) -> dict[str, Any]:
@@ -153,6 +179,12 @@ def figure_database(curves: Mapping[str, Any], sigma_m: float | None = None) -> 
     ax[0, 0].legend()
     fig.suptitle("Contact database (seed Fig. 2)")
     return fig
+
+
+def write_database_figure(curves: Mapping[str, Any], path: str | Path, sigma_m: float | None = None) -> Path:
+    """Seed Fig. 2 of a contact database (``sims.database.ContactDatabase`` or any name → curve mapping) drawn by
+    :func:`figure_database` and written to ``path`` (.png, .svg or .pdf); returns the path."""
+    return save_figure_file(figure_database(curves, sigma_m=sigma_m), path)
 
 
 # ---- seed Fig. 9: measured R against weight ------------------------------------------------------------------
@@ -225,7 +257,7 @@ def figure_fit(comparison: Any, title: str = "") -> Any:
     R [mΩ] against weight [kg] (top); residuals (measured − fitted)/σ, dimensionless, per model (bottom)."""
     fig, axes = _figure(1, 2, size=(6.0, 5.6), sharex=True, height_ratios=[2.2, 1.0])
     top, bottom = axes[0, 0], axes[1, 0]
-    first = next(iter(comparison.fits.values()))
+    first = next(iter(comparison.fits.values())).points
     w = first.weight_kg
     top.errorbar(
         w, first.measured_ohm * 1e3, yerr=first.sigma_ohm * 1e3, fmt="s", color=MEASURED_COLOUR, capsize=3,
@@ -236,8 +268,9 @@ def figure_fit(comparison: Any, title: str = "") -> Any:
     for i, name in enumerate(comparison.ranking):
         f = comparison.fits[name]
         label = f"{model_label(name)}: ΔAIC {comparison.delta_aic[name]:.1f}"
-        top.plot(w, f.fitted_ohm * 1e3, mfc="none", **{**model_style(name), "label": label})
-        bottom.bar(w + (i - (n - 1) / 2) * width, f.normalised_residuals, width, color=model_colour(name))
+        style = {**model_style(name), "label": label}
+        top.plot(w, f.points.fitted_ohm * 1e3, mfc="none", **style)
+        bottom.bar(w + (i - (n - 1) / 2) * width, f.points.normalised_residuals, width, color=style["color"])
     bottom.axhline(0.0, color="k", lw=0.8)
     for y in (-2.0, 2.0):
         bottom.axhline(y, color="k", lw=0.6, ls=":")
@@ -267,6 +300,7 @@ def figure_error_vs_time(
     if not table:
         raise SettingError("rows", study or "[]", "expected at least one row to plot")
     studies = list(dict.fromkeys(r["study"] for r in table))
+    known = set(model_names())
     ncols = min(len(studies), 3)
     nrows = math.ceil(len(studies) / ncols)
     fig, axes = _figure(ncols, nrows, size=(4.2 * ncols, 3.4 * nrows))
@@ -280,7 +314,7 @@ def figure_error_vs_time(
             pts = sorted((r for r in drawable if r["method"] == method), key=lambda r: r["seconds"])
             if not pts:
                 continue
-            colour = model_colour(method) if method in _MODEL_COLOURS else f"C{j % 10}"
+            colour = model_style(method)["color"] if method in known else f"C{j % 10}"
             ax.plot([r["seconds"] for r in pts], [r["error"] for r in pts], "o-", color=colour, label=method)
             for r in pts:
                 ax.annotate(str(r["setting"]), (r["seconds"], r["error"]), xytext=(3, 3),
@@ -302,3 +336,134 @@ def _positive(x: Any) -> bool:
     except (TypeError, ValueError):
         return False
     return math.isfinite(v) and v > 0
+
+
+# ---- the figure registry ---------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class FigureSpec:
+    """One figure of an analysis, declared once: ``contactrig figures`` draws every registered spec and the report
+    shows each in its ``section``.
+
+    ``key``: the name printed by ``contactrig figures`` and the file stem unless ``filename`` is given. ``title``:
+    what the figure shows (the report's alt text). ``draw(analysis) -> Figure | None``: the figure of one
+    :class:`~analysis.pipeline.Analysis`, None when the analysis lacks its data (``missing`` says why).
+    ``caption``: text under the figure in the report. ``section``: the report section it belongs to
+    (``"measured"``, ``"area"``, ``"normalised"``, ``"fit"``; any other value, or none, puts it under "Further
+    figures").
+    """
+
+    key: str
+    title: str
+    draw: Callable[[Any], Any]
+    caption: str = ""
+    section: str = ""
+    filename: str = ""
+    missing: str = ""
+
+    @property
+    def stem(self) -> str:
+        """File name without the format suffix."""
+        return self.filename or self.key
+
+
+_FIGURES: Registry[FigureSpec] = Registry("figure")
+
+
+def register(spec: FigureSpec, *, replace: bool = False) -> FigureSpec:
+    """Add ``spec`` to the figure registry (a second spec with the same key is an error unless ``replace``)."""
+    return _FIGURES.register(spec, replace=replace)
+
+
+def unregister(key: str) -> None:
+    """Remove a figure (tests use it to clean up a toy figure)."""
+    _FIGURES.unregister(key)
+
+
+def figure_specs() -> tuple[FigureSpec, ...]:
+    """Every registered figure, in registration order."""
+    return tuple(_FIGURES)
+
+
+def get_figure(key: str) -> FigureSpec:
+    """The figure ``key``; an unknown key is a :class:`KeyError` naming the known ones."""
+    return _FIGURES.get(key)
+
+
+def write_figures(
+    analysis: Any, directory: str | Path, prefix: str = "", formats: Sequence[str] = ("png", "svg")
+) -> dict[str, list[Path]]:
+    """Draw every registered figure of ``analysis`` into ``directory`` as ``[prefix-]stem.<fmt>``; returns key →
+    written paths. A figure whose ``draw`` returns None (data missing) is left out of the result."""
+    out: dict[str, list[Path]] = {}
+    pre = f"{prefix}-" if prefix else ""
+    for spec in figure_specs():
+        fig = spec.draw(analysis)
+        if fig is not None:
+            out[spec.key] = save_figure(fig, directory, f"{pre}{spec.stem}", formats)
+    return out
+
+
+def _draw_measured(a: Any) -> Any:
+    return figure_measured(a.curve, title=f"{a.title}: measured resistance (seed Fig. 9)")
+
+
+def _draw_area(a: Any) -> Any:
+    return figure_simulated_area({n: (a.curve.weight_kg, area) for n, area in a.areas_m2.items()})
+
+
+def _draw_database(a: Any) -> Any:
+    if a.database is None:
+        return None
+    return figure_database({name: a.database[name] for name in a.areas_m2})
+
+
+def _draw_normalised(a: Any) -> Any:
+    n_min = int(np.min(a.curve.n))
+    fig = figure_normalised(
+        a.measured_norm, a.simulated_norm, title=f"{a.title}: normalised (seed Fig. 12)",
+        dof=n_min - 1 if n_min >= 2 else math.inf,
+    )  # fmt: skip
+    ax = fig.axes[0]
+    best = a.comparison.ranking[0]
+    ax.plot(
+        a.curve.weight_kg, a.fitted_norm()[best], color="k", lw=1.0, ls=(0, (2, 2)),
+        label=f"best fit incl. R_s ({model_label(best)})",
+    )  # fmt: skip
+    ax.legend()
+    return fig
+
+
+def _draw_fit(a: Any) -> Any:
+    return figure_fit(a.comparison, title=f"{a.title}: R = R_s + s·x(A), x = {regressor_label(a.conversion)}")
+
+
+for _spec in (
+    FigureSpec("fig09_measured", "Measured resistance against weight", _draw_measured, section="measured"),
+    FigureSpec("fig11_area", "Simulated contact area", _draw_area, section="area"),
+    FigureSpec(
+        "fig02_database",
+        "Contact database",
+        _draw_database,
+        section="area",
+        caption="Seed Fig. 2: nominal contact pressure p(h) and real-area fraction A/A₀(h) of every model.",
+        missing="the contact database is built only when the rig is simulated now; omit --sim",
+    ),
+    FigureSpec(
+        "fig12_normalised",
+        "Normalised resistance",
+        _draw_normalised,
+        section="normalised",
+        caption="Coloured: each model's R_T/R_T₀ by the conversion (ζ and h cancel); black dotted: the best fit's "
+        "R/R₀ including the series resistance R_s, which is what a measurement normalises. Error bars: the repeats' "
+        "uncertainty of R/R₀ (R₀/R₀ = 1 exactly).",
+    ),
+    FigureSpec(
+        "fit_residuals",
+        "Fit and residuals",
+        _draw_fit,
+        section="fit",
+        caption="Top: measured mean ± σ and each model's fit; bottom: residuals (measured − fitted)/σ.",
+    ),
+):
+    register(_spec)
+del _spec

@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, is_dataclass
 from typing import Any
 
 import numpy as np
@@ -57,12 +57,20 @@ from contactrig.core.validation import SettingError, check_choice, check_int, ch
 
 __all__ = [
     "WEIGHTINGS",
+    "BootstrapIntervals",
+    "Diagnostics",
+    "Estimate",
+    "FitPoints",
+    "GoodnessOfFit",
+    "Intervals",
     "ModelComparison",
     "ModelFit",
+    "TIntervals",
     "area_at_weights",
     "compare_models",
     "fit_model",
     "regressor",
+    "regressor_label",
 ]
 
 WEIGHTINGS = ("relative", "repeats", "pooled", "blocks")
@@ -82,6 +90,12 @@ def regressor(area_m2: np.ndarray, height_m: float, conversion: str = "bulk") ->
         h = check_range("height_m", height_m, 0.0, None, lo_open=True, unit="m")
         return h / a
     return math.sqrt(math.pi) / (2.0 * np.sqrt(a))
+
+
+def regressor_label(conversion: str) -> str:
+    """How x(A) reads in titles and tables: "h/A (eq. 23)" or "√π/(2√A) (Holm)"."""
+    check_choice("conversion", conversion, CONVERSIONS)
+    return "h/A (eq. 23)" if conversion == "bulk" else "√π/(2√A) (Holm)"
 
 
 def area_at_weights(weight_sim_kg: np.ndarray, area_sim_m2: np.ndarray, weight_kg: np.ndarray) -> np.ndarray:
@@ -227,109 +241,159 @@ def _bootstrap_ci(
     return boot, ci
 
 
-@dataclass(frozen=True)
-class ModelFit:
-    """One model's fit R = R_s + s·x(A(W)) (module docstring). SI units: Ω, Ω·m, 1/m.
+def _export(obj: Any) -> Any:
+    """JSON-ready copy of a result: dataclass fields (recursively) as dicts, arrays and tuples as lists, non-finite
+    floats as None. A field with ``metadata={"export": False}`` is left out, ``metadata={"key": ...}`` renames it."""
+    if is_dataclass(obj) and not isinstance(obj, type):
+        return {
+            f.metadata.get("key", f.name): _export(getattr(obj, f.name))
+            for f in fields(obj)
+            if f.metadata.get("export", True)
+        }
+    if isinstance(obj, Mapping):
+        return {str(k): _export(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_export(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _export(obj.tolist())
+    if isinstance(obj, np.generic):
+        return _export(obj.item())
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
 
-    Estimates ``R_series_ohm``, ``scale`` (effective resistivity s [Ω·m]) with standard errors, covariance
-    ``cov`` (order R_s, s; series correlation included when paired, see :func:`_parameter_covariance`), ``cov_ls``
-    the solver's (JᵀJ)⁻¹, Student-t intervals ``*_ci`` with ``ci_dof`` degrees of freedom and bootstrap
-    intervals ``*_boot_ci`` at ``ci_level`` (``boot_interval``: studentized by default; percentile intervals run
-    narrow with few repeats, see the module docstring); per weight: ``fitted_ohm``, ``residuals_ohm``
-    (measured − fitted), ``sigma_ohm`` and ``normalised_residuals``; goodness of fit ``chi2``, ``dof``,
-    ``reduced_chi2``, ``p_value`` (tail probability of ``gof_reference``: F(dof, ν) when σ is pooled, else
-    χ²(dof)), ``aic``, ``bic``, ``rmse_ohm`` (unweighted); solver diagnostics ``nfev``, ``njev``, ``status``,
-    ``message``, ``cost``, ``optimality``, ``success``; ``linear_check`` the largest relative difference from the
-    closed-form weighted least-squares solution.
-    """
 
-    model: str
-    conversion: str
-    weighting: str
-    weight_kg: np.ndarray
-    area_m2: np.ndarray
-    regressor_per_m: np.ndarray
-    measured_ohm: np.ndarray
-    sigma_ohm: np.ndarray
+class _Result:
+    """Base of the result objects: :meth:`as_dict` is generated from the fields (see :func:`_export`)."""
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready nested dict of every field (floats, lists, strings; NaN and ±inf as None)."""
+        out: dict[str, Any] = _export(self)
+        return out
+
+
+@dataclass(frozen=True, eq=False)
+class Estimate(_Result):
+    """The parameters of R = R_s + s·x: ``R_series_ohm`` R_s [Ω] and ``scale`` s [Ω·m] (an effective resistivity),
+    their standard errors and covariance ``cov`` (order R_s, s; series correlation included when paired, see
+    :func:`_parameter_covariance`), and the correlation coefficient of the two estimates."""
+
     R_series_ohm: float
     R_series_se: float
     scale: float
     scale_se: float
     cov: np.ndarray
-    ci_level: float
-    ci_dof: tuple[float, float]
-    cov_ls: np.ndarray
-    R_series_ci: tuple[float, float]
-    scale_ci: tuple[float, float]
-    R_series_boot_ci: tuple[float, float]
-    scale_boot_ci: tuple[float, float]
+    correlation: float
+    scale_units: str = "ohm*m"
+
+    @property
+    def params(self) -> np.ndarray:
+        """(R_s, s) as an array, the order of ``cov``."""
+        return np.array([self.R_series_ohm, self.scale])
+
+
+@dataclass(frozen=True)
+class TIntervals(_Result):
+    """Student-t intervals p̂ ± t_ν·SE per parameter, ν = ``dof`` (one per parameter; inf: normal quantile)."""
+
+    R_series_ohm: tuple[float, float]
+    scale: tuple[float, float]
+    dof: tuple[float, float]
+    method: str = "student-t"
+
+
+@dataclass(frozen=True)
+class BootstrapIntervals(_Result):
+    """Bootstrap intervals per parameter (NaN when ``n_boot`` = 0). ``method``: "studentized" (bootstrap-t) or
+    "percentile"; ``resampling``: the repeats resampled as whole "series" or "within" each weight."""
+
+    R_series_ohm: tuple[float, float]
+    scale: tuple[float, float]
+    method: str
     n_boot: int
-    bootstrap: str
-    boot_interval: str
-    fitted_ohm: np.ndarray
-    residuals_ohm: np.ndarray
-    normalised_residuals: np.ndarray
+    resampling: str
+
+
+@dataclass(frozen=True)
+class Intervals(_Result):
+    """Confidence intervals at ``level`` by both methods: ``t`` (:class:`TIntervals`) and ``bootstrap``
+    (:class:`BootstrapIntervals`)."""
+
+    level: float
+    t: TIntervals
+    bootstrap: BootstrapIntervals
+
+
+@dataclass(frozen=True)
+class GoodnessOfFit(_Result):
+    """χ² with ``dof`` = weights − 2 degrees of freedom, ``reduced_chi2`` = χ²/dof, ``p_value`` the tail
+    probability of ``reference`` (F(dof, ν) when σ is pooled over ν degrees of freedom, else χ²(dof)); ``aic`` =
+    χ² + 2k, ``bic`` = χ² + k ln n (k = ``n_parameters``); ``rmse_ohm`` the unweighted RMS residual [Ω]."""
+
     chi2: float
     dof: int
     reduced_chi2: float
     p_value: float
-    gof_reference: str
+    reference: str
     aic: float
     bic: float
     rmse_ohm: float
+    n_parameters: int = 2
+
+
+@dataclass(frozen=True, eq=False)
+class Diagnostics(_Result):
+    """What :func:`scipy.optimize.least_squares` reported (``nfev``, ``njev``, ``status``, ``message``, ``success``,
+    ``cost``, ``optimality``; ``cov_ls`` its (JᵀJ)⁻¹), ``linear_check`` the largest relative difference from the
+    closed-form weighted least-squares solution, and ``warnings`` about the fit in words."""
+
     nfev: int
     njev: int
     status: int
     message: str
+    success: bool
     cost: float
     optimality: float
-    success: bool
+    cov_ls: np.ndarray
     linear_check: float
-    notes: tuple[str, ...] = ()
-    boot_params: np.ndarray = field(default=None, repr=False, compare=False)  # type: ignore[assignment]
+    warnings: tuple[str, ...] = ()
 
-    @property
-    def correlation(self) -> float:
-        """Correlation coefficient of the estimates of R_s and s."""
-        return float(self.cov[0, 1] / math.sqrt(self.cov[0, 0] * self.cov[1, 1]))
 
-    def as_dict(self) -> dict[str, Any]:
-        """JSON-ready summary (floats, lists, strings)."""
-        return {
-            "R_series_ohm": self.R_series_ohm,
-            "R_series_se": self.R_series_se,
-            "R_series_ci": list(self.R_series_ci),
-            "R_series_boot_ci": list(self.R_series_boot_ci),
-            "scale": self.scale,
-            "scale_se": self.scale_se,
-            "scale_units": "ohm*m",
-            "scale_ci": list(self.scale_ci),
-            "scale_boot_ci": list(self.scale_boot_ci),
-            "correlation": self.correlation,
-            "ci_level": self.ci_level,
-            "ci_dof": list(self.ci_dof),
-            "chi2": self.chi2,
-            "dof": self.dof,
-            "reduced_chi2": self.reduced_chi2,
-            "p_value": self.p_value,
-            "aic": self.aic,
-            "bic": self.bic,
-            "rmse_ohm": self.rmse_ohm,
-            "residuals_ohm": self.residuals_ohm.tolist(),
-            "normalised_residuals": self.normalised_residuals.tolist(),
-            "conversion": self.conversion,
-            "weighting": self.weighting,
-            "bootstrap": self.bootstrap,
-            "boot_interval": self.boot_interval,
-            "gof_reference": self.gof_reference,
-            "n_boot": self.n_boot,
-            "nfev": self.nfev,
-            "status": self.status,
-            "message": self.message,
-            "cost": self.cost,
-            "success": self.success,
-            "notes": list(self.notes),
-        }
+@dataclass(frozen=True, eq=False)
+class FitPoints(_Result):
+    """Per weight: ``weight_kg``, the model's ``area_m2``, ``regressor_per_m`` x(A), the ``measured_ohm`` means,
+    their ``sigma_ohm`` (the weighting's σ), ``fitted_ohm``, ``residuals_ohm`` (measured − fitted) and
+    ``normalised_residuals`` (residual/σ)."""
+
+    weight_kg: np.ndarray
+    area_m2: np.ndarray
+    regressor_per_m: np.ndarray
+    measured_ohm: np.ndarray
+    sigma_ohm: np.ndarray
+    fitted_ohm: np.ndarray
+    residuals_ohm: np.ndarray
+    normalised_residuals: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class ModelFit(_Result):
+    """One model's fit R = R_s + s·x(A(W)) (module docstring). SI units: Ω, Ω·m, 1/m.
+
+    ``model``, ``conversion`` (x = h/A or the Holm form), ``weighting`` (σ per weight); ``estimate``
+    (:class:`Estimate`), ``intervals`` (:class:`Intervals`: t and bootstrap), ``goodness`` (:class:`GoodnessOfFit`),
+    ``diagnostics`` (:class:`Diagnostics`), ``points`` (:class:`FitPoints`, per weight). ``boot_params`` (B, 2) the
+    bootstrap estimates (None without bootstrap; not exported by :meth:`as_dict`).
+    """
+
+    model: str
+    conversion: str
+    weighting: str
+    estimate: Estimate
+    intervals: Intervals
+    goodness: GoodnessOfFit
+    diagnostics: Diagnostics
+    points: FitPoints
+    boot_params: np.ndarray | None = field(default=None, repr=False, metadata={"export": False})
 
 
 def _t_quantile(level: float, dof: float) -> float:
@@ -369,6 +433,111 @@ def _parameter_covariance(
     return cov, dof
 
 
+def _solve(x: np.ndarray, y: np.ndarray, sigma: np.ndarray) -> tuple[Any, np.ndarray]:
+    """least_squares ('lm') on the weighted residuals, and the closed-form WLS matrix M (p = M ȳ, shape (2, m))."""
+    from scipy.optimize import least_squares
+
+    def residuals(p: np.ndarray) -> np.ndarray:
+        return (p[0] + p[1] * x - y) / sigma
+
+    jac_const = np.column_stack((1.0 / sigma, x / sigma))
+    # A deliberately crude start (line through the end points); the optimum does not depend on it.
+    slope0 = (y[-1] - y[0]) / (x[-1] - x[0]) if x[-1] != x[0] else y.mean() / x.mean()
+    p0 = np.array([y[0] - slope0 * x[0], slope0])
+    res = least_squares(
+        residuals, p0, jac=lambda p: jac_const, method="lm", x_scale="jac", ftol=1e-14, xtol=1e-14, gtol=1e-14
+    )
+    # Closed-form weighted least squares: the same estimator, p = M ȳ; a check on the solver, and what the
+    # covariance, the per-series estimates and the bootstrap are built on.
+    wls = np.linalg.solve(jac_const.T @ jac_const, jac_const.T / sigma)
+    return res, wls
+
+
+def _goodness(curve: MeasuredCurve, resid: np.ndarray, sigma: np.ndarray, weighting: str) -> GoodnessOfFit:
+    from scipy.special import chdtrc, fdtrc
+
+    m = resid.size
+    k = 2
+    chi2 = float(np.sum((resid / sigma) ** 2))
+    dof = m - k
+    nu = float(np.sum(curve.n - 1))
+    if dof <= 0:
+        p_value, reference = math.nan, "none (dof = 0)"
+    elif weighting in ("relative", "pooled"):
+        p_value, reference = float(fdtrc(dof, nu, chi2 / dof)), f"F({dof}, {nu:g})"
+    else:
+        p_value, reference = float(chdtrc(dof, chi2)), f"chi2({dof})"
+    return GoodnessOfFit(
+        chi2=chi2,
+        dof=dof,
+        reduced_chi2=chi2 / dof if dof > 0 else math.nan,
+        p_value=p_value,
+        reference=reference,
+        aic=chi2 + 2 * k,
+        bic=chi2 + k * math.log(m),
+        rmse_ohm=float(np.sqrt(np.mean(resid**2))),
+        n_parameters=k,
+    )
+
+
+def _warnings(
+    curve: MeasuredCurve, est: Estimate, t_hi_r: float, gof: GoodnessOfFit, weighting: str, level: float
+) -> tuple[str, ...]:
+    """The fit's caveats in words (excess scatter, narrow intervals, unphysical parameters)."""
+    notes = []
+    if gof.dof > 0 and gof.reduced_chi2 > 1.5:
+        notes.append(
+            f"χ²/dof = {gof.reduced_chi2:.3g}: the scatter about the fit exceeds the repeat scatter; standard errors "
+            f"scaled by √(χ²/dof) would be {math.sqrt(gof.reduced_chi2):.3g}× larger"
+        )
+    if weighting == "repeats" and int(np.min(curve.n)) < 30:
+        notes.append(
+            f"weights from each weight's own {int(np.min(curve.n))}+ repeats: intervals run narrow and χ² high "
+            "(module docstring); weighting 'relative' or 'pooled' holds the stated level"
+        )
+    if t_hi_r < 0:
+        notes.append(
+            f"negative series resistance ({est.R_series_ohm:.3g} Ω, {level:.0%} upper limit {t_hi_r:.3g} Ω): the "
+            "model's shape does not follow the data"
+        )
+    if est.scale <= 0:
+        notes.append(f"non-positive scale ({est.scale:.3g} Ω·m): resistance does not fall as the model's area grows")
+    return tuple(notes)
+
+
+def _intervals(
+    curve: MeasuredCurve,
+    wls: np.ndarray,
+    est: Estimate,
+    dof_eff: np.ndarray,
+    resamples: _Resamples | None,
+    *,
+    bootstrap: str,
+    ci_level: float,
+    boot_interval: str,
+) -> tuple[Intervals, np.ndarray | None]:
+    """t and bootstrap intervals of both parameters, and the bootstrap estimates (None without resamples)."""
+    p, se = est.params, np.array([est.R_series_se, est.scale_se])
+    half = np.array([_t_quantile(ci_level, nu) for nu in dof_eff]) * se
+    t = TIntervals(
+        R_series_ohm=(float(p[0] - half[0]), float(p[0] + half[0])),
+        scale=(float(p[1] - half[1]), float(p[1] + half[1])),
+        dof=(float(dof_eff[0]), float(dof_eff[1])),
+    )
+    boot: np.ndarray | None = None
+    ci = np.full((2, 2), math.nan)
+    if resamples is not None:
+        boot, ci = _bootstrap_ci(curve, wls, p, resamples, ci_level, boot_interval)
+    b = BootstrapIntervals(
+        R_series_ohm=(float(ci[0, 0]), float(ci[1, 0])),
+        scale=(float(ci[0, 1]), float(ci[1, 1])),
+        method=boot_interval,
+        n_boot=0 if boot is None else int(boot.shape[0]),
+        resampling=bootstrap,
+    )
+    return Intervals(level=ci_level, t=t, bootstrap=b), boot
+
+
 def _fit_arrays(
     model: str,
     curve: MeasuredCurve,
@@ -383,122 +552,60 @@ def _fit_arrays(
     ci_level: float,
     boot_interval: str = "studentized",
 ) -> ModelFit:
-    from scipy.optimize import least_squares
-    from scipy.special import chdtrc, fdtrc
-
     y = curve.mean_ohm
-    m = y.size
     if np.ptp(x) <= 1e-12 * np.max(np.abs(x)):
         raise SettingError(f"{model} contact area", area.tolist(), "expected an area that changes with weight")
-
-    def residuals(p: np.ndarray) -> np.ndarray:
-        return (p[0] + p[1] * x - y) / sigma
-
-    jac_const = np.column_stack((1.0 / sigma, x / sigma))
-    # A deliberately crude start (line through the end points); the optimum does not depend on it.
-    slope0 = (y[-1] - y[0]) / (x[-1] - x[0]) if x[-1] != x[0] else y.mean() / x.mean()
-    p0 = np.array([y[0] - slope0 * x[0], slope0])
-    res = least_squares(
-        residuals, p0, jac=lambda p: jac_const, method="lm", x_scale="jac", ftol=1e-14, xtol=1e-14, gtol=1e-14
-    )
+    res, wls = _solve(x, y, sigma)
     p = res.x
-    cov_ls = np.linalg.inv(res.jac.T @ res.jac)
-
-    # Closed-form weighted least squares: the same estimator, p = M ȳ; a check on the solver, and what the
-    # covariance, the per-series estimates and the bootstrap are built on.
-    wls = np.linalg.solve(jac_const.T @ jac_const, jac_const.T / sigma)  # M, shape (2, m)
     p_lin = wls @ y
     paired = bootstrap == "series" and curve.values_ohm.shape[1] >= 2 and weighting != "blocks"
     cov, dof_eff = _parameter_covariance(curve, wls, sigma, paired=paired, weighting=weighting)
     se = np.sqrt(np.diag(cov))
-    linear_check = float(np.max(np.abs(p - p_lin) / np.maximum(np.abs(p_lin), se * 1e-6)))
-
-    fitted = p[0] + p[1] * x
-    resid = y - fitted
-    norm_resid = resid / sigma
-    chi2 = float(np.sum(norm_resid**2))
-    dof = m - 2
-    k = 2
-    t_q = [_t_quantile(ci_level, nu) for nu in dof_eff]
-    if resamples is not None:
-        boot, ci = _bootstrap_ci(curve, wls, p, resamples, ci_level, boot_interval)
-        r_ci = (float(ci[0, 0]), float(ci[1, 0]))
-        s_ci = (float(ci[0, 1]), float(ci[1, 1]))
-        n_boot = boot.shape[0]
-    else:
-        boot = None
-        r_ci = s_ci = (math.nan, math.nan)
-        n_boot = 0
-    nu = float(np.sum(curve.n - 1))
-    if dof <= 0:
-        p_value, gof = math.nan, "none (dof = 0)"
-    elif weighting in ("relative", "pooled"):
-        p_value, gof = float(fdtrc(dof, nu, chi2 / dof)), f"F({dof}, {nu:g})"
-    else:
-        p_value, gof = float(chdtrc(dof, chi2)), f"chi2({dof})"
-    notes = []
-    if dof > 0 and chi2 / dof > 1.5:
-        notes.append(
-            f"χ²/dof = {chi2 / dof:.3g}: the scatter about the fit exceeds the repeat scatter; standard errors "
-            f"scaled by √(χ²/dof) would be {math.sqrt(chi2 / dof):.3g}× larger"
-        )
-    if weighting == "repeats" and int(np.min(curve.n)) < 30:
-        notes.append(
-            f"weights from each weight's own {int(np.min(curve.n))}+ repeats: intervals run narrow and χ² high "
-            "(module docstring); weighting 'relative' or 'pooled' holds the stated level"
-        )
-    r_hi = p[0] + t_q[0] * se[0]
-    if r_hi < 0:
-        notes.append(
-            f"negative series resistance ({p[0]:.3g} Ω, {ci_level:.0%} upper limit {r_hi:.3g} Ω): the model's shape "
-            "does not follow the data"
-        )
-    if p[1] <= 0:
-        notes.append(f"non-positive scale ({p[1]:.3g} Ω·m): resistance does not fall as the model's area grows")
-    return ModelFit(
-        model=model,
-        conversion=conversion,
-        weighting=weighting,
-        weight_kg=curve.weight_kg.copy(),
-        area_m2=area,
-        regressor_per_m=x,
-        measured_ohm=y,
-        sigma_ohm=sigma,
+    est = Estimate(
         R_series_ohm=float(p[0]),
         R_series_se=float(se[0]),
         scale=float(p[1]),
         scale_se=float(se[1]),
         cov=cov,
-        ci_level=ci_level,
-        R_series_ci=(float(p[0] - t_q[0] * se[0]), float(p[0] + t_q[0] * se[0])),
-        scale_ci=(float(p[1] - t_q[1] * se[1]), float(p[1] + t_q[1] * se[1])),
-        ci_dof=(float(dof_eff[0]), float(dof_eff[1])),
-        cov_ls=cov_ls,
-        R_series_boot_ci=r_ci,  # type: ignore[arg-type]
-        scale_boot_ci=s_ci,  # type: ignore[arg-type]
-        n_boot=n_boot,
-        bootstrap=bootstrap,
-        boot_interval=boot_interval,
-        fitted_ohm=fitted,
-        residuals_ohm=resid,
-        normalised_residuals=norm_resid,
-        chi2=chi2,
-        dof=dof,
-        reduced_chi2=chi2 / dof if dof > 0 else math.nan,
-        p_value=p_value,
-        gof_reference=gof,
-        aic=chi2 + 2 * k,
-        bic=chi2 + k * math.log(m),
-        rmse_ohm=float(np.sqrt(np.mean(resid**2))),
+        correlation=float(cov[0, 1] / math.sqrt(cov[0, 0] * cov[1, 1])),
+    )
+    intervals, boot = _intervals(
+        curve, wls, est, dof_eff, resamples, bootstrap=bootstrap, ci_level=ci_level, boot_interval=boot_interval
+    )
+    fitted = p[0] + p[1] * x
+    resid = y - fitted
+    gof = _goodness(curve, resid, sigma, weighting)
+    diagnostics = Diagnostics(
         nfev=int(res.nfev),
         njev=int(res.njev or 0),
         status=int(res.status),
         message=str(res.message),
+        success=bool(res.success),
         cost=float(res.cost),
         optimality=float(res.optimality),
-        success=bool(res.success),
-        linear_check=linear_check,
-        notes=tuple(notes),
+        cov_ls=np.linalg.inv(res.jac.T @ res.jac),
+        linear_check=float(np.max(np.abs(p - p_lin) / np.maximum(np.abs(p_lin), se * 1e-6))),
+        warnings=_warnings(curve, est, intervals.t.R_series_ohm[1], gof, weighting, ci_level),
+    )
+    points = FitPoints(
+        weight_kg=curve.weight_kg.copy(),
+        area_m2=area,
+        regressor_per_m=x,
+        measured_ohm=y,
+        sigma_ohm=sigma,
+        fitted_ohm=fitted,
+        residuals_ohm=resid,
+        normalised_residuals=resid / sigma,
+    )
+    return ModelFit(
+        model=model,
+        conversion=conversion,
+        weighting=weighting,
+        estimate=est,
+        intervals=intervals,
+        goodness=gof,
+        diagnostics=diagnostics,
+        points=points,
         boot_params=boot,
     )
 
@@ -560,18 +667,19 @@ def fit_model(
     return comparison.fits[model]
 
 
-@dataclass(frozen=True)
-class ModelComparison:
+@dataclass(frozen=True, eq=False)
+class ModelComparison(_Result):
     """Fits of every model to the same data, ranked by AIC, with a plain statement of what the data can tell.
 
-    ``delta_aic[name]`` AIC − min AIC; ``akaike_weights`` exp(−Δ/2) normalised; ``first_fraction[name]`` the
-    share of bootstrap resamples in which the model has the lowest χ² (weights held fixed); ``decisive_fraction``
-    the share in which the overall best model is first by Δχ² ≥ 2; ``discriminates`` true when the runner-up is at
-    ΔAIC ≥ 2, the best model is first by ≥ 2 in ≥ 95 % of the resamples *and* it fits within the repeat scatter
-    (χ² tail probability ≥ 0.01); otherwise the statement says which condition failed.
+    ``fits[name]`` each model's :class:`ModelFit` (``"models"`` in :meth:`as_dict`); ``delta_aic[name]`` AIC − min
+    AIC; ``akaike_weights`` exp(−Δ/2) normalised; ``first_fraction[name]`` the share of bootstrap resamples in which
+    the model has the lowest χ² (weights held fixed); ``decisive_fraction`` the share in which the overall best model
+    is first by Δχ² ≥ 2; ``discriminates`` true when the runner-up is at ΔAIC ≥ 2, the best model is first by ≥ 2 in
+    ≥ 95 % of the resamples *and* it fits within the repeat scatter (χ² tail probability ≥ 0.01); otherwise the
+    statement says which condition failed.
     """
 
-    fits: dict[str, ModelFit]
+    fits: dict[str, ModelFit] = field(metadata={"key": "models"})
     ranking: tuple[str, ...]
     delta_aic: dict[str, float]
     akaike_weights: dict[str, float]
@@ -583,38 +691,10 @@ class ModelComparison:
     n_repeats: int
     source: str = ""
 
-    def as_dict(self) -> dict[str, Any]:
-        """``{"models": {name: {...}}, "ranking": [...], "statement": ..., ...}`` (JSON-ready)."""
-        models = {}
-        for name, fit in self.fits.items():
-            d = fit.as_dict()
-            d["delta_aic"] = self.delta_aic[name]
-            d["akaike_weight"] = self.akaike_weights[name]
-            d["first_fraction"] = self.first_fraction.get(name, math.nan)
-            models[name] = d
-        out = {
-            "models": models,
-            "ranking": list(self.ranking),
-            "discriminates": self.discriminates,
-            "decisive_fraction": self.decisive_fraction,
-            "statement": self.statement,
-            "n_weights": self.n_weights,
-            "n_repeats": self.n_repeats,
-            "source": self.source,
-        }
-        return _json_clean(out)
-
-
-def _json_clean(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {k: _json_clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_json_clean(v) for v in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    if isinstance(obj, np.generic):
-        return _json_clean(obj.item())
-    return obj
+    @property
+    def best(self) -> ModelFit:
+        """The fit of the model with the lowest AIC."""
+        return self.fits[self.ranking[0]]
 
 
 def compare_models(
@@ -651,9 +731,9 @@ def compare_models(
             ci_level=ci_level, boot_interval=boot_interval,
         )  # fmt: skip
     names = list(fits)
-    ranking = tuple(sorted(names, key=lambda n: fits[n].aic))
+    ranking = tuple(sorted(names, key=lambda n: fits[n].goodness.aic))
     best = ranking[0]
-    delta = {n: fits[n].aic - fits[best].aic for n in names}
+    delta = {n: fits[n].goodness.aic - fits[best].goodness.aic for n in names}
     raw = {n: math.exp(-0.5 * delta[n]) for n in names}
     total = sum(raw.values())
     weights = {n: raw[n] / total for n in names}
@@ -663,7 +743,8 @@ def compare_models(
         chi2s = []
         for n in names:
             f = fits[n]
-            design = np.column_stack((np.ones_like(f.regressor_per_m), f.regressor_per_m))
+            assert f.boot_params is not None
+            design = np.column_stack((np.ones_like(f.points.regressor_per_m), f.points.regressor_per_m))
             pred = f.boot_params @ design.T  # (B, m)
             chi2s.append(np.sum(((boot - pred) / sigma) ** 2, axis=1))
         table = np.vstack(chi2s)  # (models, B)
@@ -703,7 +784,7 @@ def _statement(
     n_boot: int,
 ) -> tuple[bool, str]:
     best = ranking[0]
-    fb = fits[best]
+    fb = fits[best].goodness
     parts = []
     close: list[str] = []
     if len(ranking) == 1:

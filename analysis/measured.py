@@ -1,8 +1,10 @@
 """Measured resistance against weight with every repeat kept: the input of normalisation, fits and figures.
 
 A :class:`MeasuredCurve` holds a weights × repeats matrix of block means [Ω] (NaN where a repeat is missing).
-It is built from a session's summary table (``daq.load_session(...).summary``), from the seed paper's Tab. 1
-(``daq/data/tab1.csv``, series M1…M6 in mΩ) or from plain arrays. Repeat ``k`` at two weights belongs to the same
+It is built from a session's summary table (``daq.load_session(...).summary``), from a table of resistance per
+weight read by :func:`daq.table_import.read_table` — the one reader of such tables, shared with ``contactrig
+import``, with its rules for headers, units and plausible values — such as the seed paper's Tab. 1
+(``daq/data/tab1.csv``, series M1…M6 in mΩ), or from plain arrays. Repeat ``k`` at two weights belongs to the same
 measurement series when ``paired`` is true (Tab. 1's columns are series; a session's repeats are paired when every
 weight has the same set of repeat numbers), and then the scatter between series is correlated across weights.
 """
@@ -17,8 +19,9 @@ from typing import Any
 import numpy as np
 
 from contactrig.core.validation import SettingError
+from daq.table_import import ResistanceTable, read_table, tab1_path
 
-__all__ = ["TAB1_RESOURCE", "MeasuredCurve", "load_tab1"]
+__all__ = ["TAB1_RESOURCE", "MeasuredCurve", "load_tab1", "load_table"]
 
 #: Where Tab. 1 of the seed paper ships (package ``daq``).
 TAB1_RESOURCE = ("daq", "data/tab1.csv")
@@ -43,29 +46,10 @@ class MeasuredCurve:
     provenance: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        w = np.asarray(self.weight_kg, dtype=float).reshape(-1)
-        v = np.asarray(self.values_ohm, dtype=float)
-        if v.ndim == 1:
-            v = v[:, None]
-        if v.ndim != 2 or v.shape[0] != w.size:
-            raise SettingError("values_ohm", f"array of shape {v.shape}", f"expected shape ({w.size}, repeats)")
-        if w.size < 1 or not np.all(np.isfinite(w)) or np.any(w < 0):
-            raise SettingError("weight_kg", w.tolist(), "expected finite weights >= 0 kg")
-        if w.size > 1 and np.any(np.diff(w) <= 0):
-            raise SettingError("weight_kg", w.tolist(), "expected strictly increasing weights (one row per weight)")
-        if np.any(np.isinf(v)) or np.any(v[np.isfinite(v)] <= 0):
-            raise SettingError("values_ohm", "values <= 0 or inf", "expected resistances > 0 Ω (NaN marks missing)")
-        n = np.sum(np.isfinite(v), axis=1)
-        if np.any(n == 0):
-            raise SettingError("values_ohm", f"no valid repeat at {w[n == 0][0]:g} kg", "expected >= 1 per weight")
-        labels = tuple(self.repeat_labels) or tuple(str(k + 1) for k in range(v.shape[1]))
-        if len(labels) != v.shape[1]:
-            raise SettingError("repeat_labels", labels, f"expected {v.shape[1]} labels")
-        sem = self.block_sem_ohm
-        if sem is not None:
-            sem = np.asarray(sem, dtype=float)
-            if sem.shape != v.shape:
-                raise SettingError("block_sem_ohm", f"array of shape {sem.shape}", f"expected shape {v.shape}")
+        w = _weights(self.weight_kg)
+        v = _values(self.values_ohm, w)
+        labels = _labels(self.repeat_labels, v.shape[1])
+        sem = _block_sem(self.block_sem_ohm, v.shape)
         for name, value in (("weight_kg", w), ("values_ohm", v), ("block_sem_ohm", sem)):
             if value is not None:
                 value = value.copy()
@@ -136,31 +120,71 @@ class MeasuredCurve:
         )
 
     @classmethod
-    def from_tab1(cls, table: Any, *, source: str = "seed paper Tab. 1") -> MeasuredCurve:
-        """From Tab. 1 as a DataFrame: weight_kg and series columns M1…Mn in mΩ (an ``Avg`` column is ignored)."""
-        if "weight_kg" not in table.columns:
-            raise SettingError("tab1", list(table.columns), "expected a column 'weight_kg'")
-        series = [c for c in table.columns if str(c).upper().startswith("M") and str(c)[1:].isdigit()]
-        if not series:
-            raise SettingError("tab1", list(table.columns), "expected series columns M1, M2, …")
+    def from_table(cls, table: ResistanceTable, *, source: str = "") -> MeasuredCurve:
+        """From a table read by :func:`daq.table_import.read_table` (the one table reader): rows sorted by weight,
+        columns are series (``paired``; a table with missing repeats is not)."""
+        order = np.argsort(table.weight_kg, kind="stable")
         return cls(
-            weight_kg=table["weight_kg"].astype(float).to_numpy(),
-            values_ohm=table[series].astype(float).to_numpy() * 1e-3,
-            repeat_labels=tuple(series),
+            weight_kg=table.weight_kg[order],
+            values_ohm=table.resistance_ohm[order],
+            repeat_labels=table.columns,
             paired=True,
-            source=source,
+            source=source or table.path,
+            provenance={"table": {k: v for k, v in table.source_info().items() if k != "text"}},
         )
 
 
-def load_tab1(path: str | Path | None = None) -> MeasuredCurve:
-    """The seed paper's Tab. 1 (shipped as ``daq/data/tab1.csv``, or the CSV at ``path``)."""
-    import pandas as pd
+def load_table(path: str | Path, unit: str | None = None, **options: Any) -> MeasuredCurve:
+    """The table at ``path`` read by :func:`daq.table_import.read_table` (``unit`` and ``options``: delimiter,
+    decimal, allow_missing), as a curve."""
+    return MeasuredCurve.from_table(read_table(path, unit, **options), source=str(path))
 
+
+def load_tab1(path: str | Path | None = None) -> MeasuredCurve:
+    """The seed paper's Tab. 1 (shipped as ``daq/data/tab1.csv``, or a table like it at ``path``), in mΩ."""
     if path is None:
         ref = resources.files(TAB1_RESOURCE[0]).joinpath(TAB1_RESOURCE[1])
         if not ref.is_file():
             raise FileNotFoundError(f"{TAB1_RESOURCE[0]}/{TAB1_RESOURCE[1]} is not installed")
-        with ref.open("r", encoding="utf-8") as fh:
-            table = pd.read_csv(fh, comment="#")
-        return MeasuredCurve.from_tab1(table)
-    return MeasuredCurve.from_tab1(pd.read_csv(path, comment="#"), source=str(path))
+        return MeasuredCurve.from_table(read_table(tab1_path(), "mohm"), source="seed paper Tab. 1")
+    return load_table(path, "mohm")
+
+
+# ---- the checks of MeasuredCurve, one step each ----------------------------------------------------------------
+def _weights(weight_kg: Any) -> np.ndarray:
+    w = np.asarray(weight_kg, dtype=float).reshape(-1)
+    if w.size < 1 or not np.all(np.isfinite(w)) or np.any(w < 0):
+        raise SettingError("weight_kg", w.tolist(), "expected finite weights >= 0 kg")
+    if w.size > 1 and np.any(np.diff(w) <= 0):
+        raise SettingError("weight_kg", w.tolist(), "expected strictly increasing weights (one row per weight)")
+    return w
+
+
+def _values(values_ohm: Any, w: np.ndarray) -> np.ndarray:
+    v = np.asarray(values_ohm, dtype=float)
+    if v.ndim == 1:
+        v = v[:, None]
+    if v.ndim != 2 or v.shape[0] != w.size:
+        raise SettingError("values_ohm", f"array of shape {v.shape}", f"expected shape ({w.size}, repeats)")
+    if np.any(np.isinf(v)) or np.any(v[np.isfinite(v)] <= 0):
+        raise SettingError("values_ohm", "values <= 0 or inf", "expected resistances > 0 Ω (NaN marks missing)")
+    n = np.sum(np.isfinite(v), axis=1)
+    if np.any(n == 0):
+        raise SettingError("values_ohm", f"no valid repeat at {w[n == 0][0]:g} kg", "expected >= 1 per weight")
+    return v
+
+
+def _labels(repeat_labels: Any, r: int) -> tuple[str, ...]:
+    labels = tuple(repeat_labels) or tuple(str(k + 1) for k in range(r))
+    if len(labels) != r:
+        raise SettingError("repeat_labels", labels, f"expected {r} labels")
+    return labels
+
+
+def _block_sem(block_sem_ohm: Any, shape: tuple[int, ...]) -> np.ndarray | None:
+    if block_sem_ohm is None:
+        return None
+    sem = np.asarray(block_sem_ohm, dtype=float)
+    if sem.shape != shape:
+        raise SettingError("block_sem_ohm", f"array of shape {sem.shape}", f"expected shape {shape}")
+    return sem

@@ -51,16 +51,20 @@ class Analysis:
 
     def fitted_norm(self) -> dict[str, np.ndarray]:
         """Each model's fitted R(W)/R(W₀), series resistance included."""
-        return {n: f.fitted_ohm / f.fitted_ohm[0] for n, f in self.comparison.fits.items()}
+        return {n: f.points.fitted_ohm / f.points.fitted_ohm[0] for n, f in self.comparison.fits.items()}
 
 
 def simulate(scene: Any, weights_kg: Any, models: list[str] | None = None) -> tuple[Any, Any]:
-    """Build the contact database once and sweep the rig at ``weights_kg``; returns (sweep result, database)."""
+    """Build the contact database once and sweep the rig at ``weights_kg`` (None: the scene's ``[rig]`` weights);
+    returns (sweep result, database). ``models``: registered model keys (None: the scene's ``[database] models``)."""
+    from sims.config import SimConfig
     from sims.database import build_database
     from sims.rig import sweep
 
-    database = build_database(scene, models=models)
-    result = sweep(scene, models=models, weights_kg=[float(w) for w in weights_kg], database=database)
+    config = SimConfig.from_scene(scene)
+    database = build_database(config, models)
+    weights = None if weights_kg is None else [float(w) for w in weights_kg]
+    result = sweep(config, models=models, weights_kg=weights, database=database)
     return result, database
 
 
@@ -126,7 +130,7 @@ def _scene_for(session: Any) -> Any:
 
 def _load_sim(sim_path: str | Path | None, scene: Any, weights: np.ndarray, models: list[str] | None):
     if sim_path is not None:
-        from sims.rig import load_sweep
+        from daq.sweep_file import load_sweep
 
         result = load_sweep(sim_path)
         if models:
@@ -192,9 +196,11 @@ def analyse_tab1(
     models: list[str] | None = None,
     database: Any = None,
     sim_info: dict[str, Any] | None = None,
+    sim_path: str | Path | None = None,
     **kw: Any,
 ) -> Analysis:
-    """The seed paper's Tab. 1 against the simulated models (simulated now with ``scene`` when not given).
+    """The seed paper's Tab. 1 against the simulated models: ``sweep_result``, else the sweep file ``sim_path``,
+    else simulated now with ``scene`` (the packaged default scene when None).
 
     ``series`` selects columns (e.g. ``["M1", "M2", "M3"]``, the ones that are not copies of others).
     """
@@ -213,7 +219,7 @@ def analyse_tab1(
         )  # fmt: skip
     scene = scene if scene is not None else load_scene(None)
     if sweep_result is None:
-        sweep_result, database, sim_info = _load_sim(None, scene, curve.weight_kg, models)
+        sweep_result, database, sim_info = _load_sim(sim_path, scene, curve.weight_kg, models)
     measured_info = {
         "kind": "table",
         "path": "daq/data/tab1.csv",

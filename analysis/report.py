@@ -7,28 +7,21 @@ without a stop record gets an **INCOMPLETE SESSION** banner at the top of the fi
 
 from __future__ import annotations
 
-import json
 import math
 import platform
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from analysis.figures import (
-    figure_database,
-    figure_fit,
-    figure_measured,
-    figure_normalised,
-    figure_simulated_area,
-    model_label,
-    save_figure,
-)
-from contactrig.core.provenance import software_version
+from analysis.figures import FigureSpec, figure_specs, write_figures
+from analysis.fit import regressor_label
+from contactrig.core.provenance import software_version, to_json
+from sims.models import model_label
 
-__all__ = ["output_directory", "render_markdown", "write_figures", "write_report"]
+__all__ = ["output_directory", "render_markdown", "write_report"]
 
 
 def output_directory(directory: str | Path) -> Path:
@@ -47,49 +40,6 @@ def _slug(text: str) -> str:
     while "--" in out:
         out = out.replace("--", "-")
     return out.strip("-") or "analysis"
-
-
-def write_figures(
-    analysis: Any, directory: str | Path, prefix: str = "", formats: Sequence[str] = ("png", "svg")
-) -> dict[str, list[Path]]:
-    """Draw every figure of ``analysis`` into ``directory``; returns name → written paths.
-
-    Seed Fig. 2 (database) only when the analysis holds the contact database (simulated in this run).
-    """
-    out: dict[str, list[Path]] = {}
-    pre = f"{prefix}-" if prefix else ""
-    title = analysis.title
-    if analysis.database is not None:
-        curves = {name: analysis.database[name] for name in analysis.areas_m2}
-        out["fig02_database"] = save_figure(figure_database(curves), directory, f"{pre}fig02_database", formats)
-    out["fig09_measured"] = save_figure(
-        figure_measured(analysis.curve, title=f"{title}: measured resistance (seed Fig. 9)"),
-        directory, f"{pre}fig09_measured", formats,
-    )  # fmt: skip
-    area = {n: (analysis.curve.weight_kg, a) for n, a in analysis.areas_m2.items()}
-    out["fig11_area"] = save_figure(figure_simulated_area(area), directory, f"{pre}fig11_area", formats)
-    n_min = int(np.min(analysis.curve.n))
-    fig12 = figure_normalised(
-        analysis.measured_norm, analysis.simulated_norm, title=f"{title}: normalised (seed Fig. 12)",
-        dof=n_min - 1 if n_min >= 2 else math.inf,
-    )  # fmt: skip
-    ax = fig12.axes[0]
-    best = analysis.comparison.ranking[0]
-    ax.plot(
-        analysis.curve.weight_kg, analysis.fitted_norm()[best], color="k", lw=1.0, ls=(0, (2, 2)),
-        label=f"best fit incl. R_s ({model_label(best)})",
-    )  # fmt: skip
-    ax.legend()
-    out["fig12_normalised"] = save_figure(fig12, directory, f"{pre}fig12_normalised", formats)
-    out["fit_residuals"] = save_figure(
-        figure_fit(analysis.comparison, title=f"{title}: R = R_s + s·x(A), x = {_x_name(analysis.conversion)}"),
-        directory, f"{pre}fit_residuals", formats,
-    )  # fmt: skip
-    return out
-
-
-def _x_name(conversion: str) -> str:
-    return "h/A (eq. 23)" if conversion == "bulk" else "√π/(2√A) (Holm)"
 
 
 def _table(headers: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
@@ -147,30 +97,36 @@ def _area_section(a: Any) -> str:
     return _table(["weight [kg]"] + [f"{model_label(n)} A [mm²]" for n in names], rows) + "\n"
 
 
+def _interval(ci: tuple[float, float], factor: float = 1.0) -> str:
+    return f"[{_g(ci[0] * factor, 3)}, {_g(ci[1] * factor, 3)}]"
+
+
+def _fit_row(cmp: Any, name: str) -> list[str]:
+    f = cmp.fits[name]
+    est, t, boot, gof = f.estimate, f.intervals.t, f.intervals.bootstrap, f.goodness
+    return [
+        model_label(name),
+        f"{est.R_series_ohm * 1e3:.4g} ± {est.R_series_se * 1e3:.2g}",
+        _interval(t.R_series_ohm, 1e3),
+        _interval(boot.R_series_ohm, 1e3),
+        f"{est.scale:.4g} ± {est.scale_se:.2g}",
+        _interval(boot.scale),
+        f"{gof.chi2:.3g}",
+        f"{gof.reduced_chi2:.3g}",
+        _g(gof.p_value, 2),
+        f"{gof.aic:.2f}",
+        f"{cmp.delta_aic[name]:.3g}",
+        f"{cmp.akaike_weights[name]:.2f}",
+        f"{cmp.first_fraction.get(name, math.nan):.0%}" if cmp.first_fraction else "–",
+        f"{gof.rmse_ohm * 1e3:.3g}",
+    ]
+
+
 def _fit_section(a: Any) -> str:
     cmp = a.comparison
-    rows = []
-    lvl = round(next(iter(cmp.fits.values())).ci_level * 100)
-    for name in cmp.ranking:
-        f = cmp.fits[name]
-        rows.append(
-            [
-                model_label(name),
-                f"{f.R_series_ohm * 1e3:.4g} ± {f.R_series_se * 1e3:.2g}",
-                f"[{_g(f.R_series_ci[0] * 1e3, 3)}, {_g(f.R_series_ci[1] * 1e3, 3)}]",
-                f"[{_g(f.R_series_boot_ci[0] * 1e3, 3)}, {_g(f.R_series_boot_ci[1] * 1e3, 3)}]",
-                f"{f.scale:.4g} ± {f.scale_se:.2g}",
-                f"[{_g(f.scale_boot_ci[0], 3)}, {_g(f.scale_boot_ci[1], 3)}]",
-                f"{f.chi2:.3g}",
-                f"{f.reduced_chi2:.3g}",
-                _g(f.p_value, 2),
-                f"{f.aic:.2f}",
-                f"{cmp.delta_aic[name]:.3g}",
-                f"{cmp.akaike_weights[name]:.2f}",
-                f"{cmp.first_fraction.get(name, math.nan):.0%}" if cmp.first_fraction else "–",
-                f"{f.rmse_ohm * 1e3:.3g}",
-            ]
-        )
+    first = next(iter(cmp.fits.values()))
+    lvl = round(first.intervals.level * 100)
+    rows = [_fit_row(cmp, name) for name in cmp.ranking]
     headers = [
         "model",
         "R_s ± SE [mΩ]",
@@ -187,22 +143,19 @@ def _fit_section(a: Any) -> str:
         "first in bootstrap",
         "RMSE [mΩ]",
     ]
-    first = next(iter(cmp.fits.values()))
+    boot = first.intervals.bootstrap
     text = _table(headers, rows)
     text += (
-        f"\n\nModel: R = R_s + s·x(A(W)), x = {_x_name(a.conversion)}, h = {a.circuit.contact_height_m:g} m; "
-        f"weights 1/σ² with σ {_WEIGHTING_TEXT.get(first.weighting, first.weighting)}; {first.n_boot} bootstrap "
-        f"resamples of the repeats ({_BOOTSTRAP_TEXT.get(first.bootstrap, first.bootstrap)}), "
-        f"{first.boot_interval} intervals; t-intervals with {first.ci_dof[0]:.3g} degrees of freedom; p: "
-        f"goodness of fit against {first.gof_reference}. k = 2 for every model, so ΔAIC = ΔBIC = Δχ².\n\n"
+        f"\n\nModel: R = R_s + s·x(A(W)), x = {regressor_label(a.conversion)}, "
+        f"h = {a.circuit.contact_height_m:g} m; weights 1/σ² with σ "
+        f"{_WEIGHTING_TEXT.get(first.weighting, first.weighting)}; {boot.n_boot} bootstrap resamples of the repeats "
+        f"({_BOOTSTRAP_TEXT.get(boot.resampling, boot.resampling)}), {boot.method} intervals; t-intervals with "
+        f"{first.intervals.t.dof[0]:.3g} degrees of freedom; p: goodness of fit against "
+        f"{first.goodness.reference}. k = 2 for every model, so ΔAIC = ΔBIC = Δχ².\n\n"
         f"**{cmp.statement}**\n"
     )
-    notes = [f"- {model_label(n)}: {note}" for n in cmp.ranking for note in cmp.fits[n].notes]
-    diag = [
-        f"- {model_label(n)}: nfev = {cmp.fits[n].nfev}, status = {cmp.fits[n].status} ({cmp.fits[n].message}), "
-        f"cost = {cmp.fits[n].cost:.4g}, closed-form check {cmp.fits[n].linear_check:.1e}"
-        for n in cmp.ranking
-    ]
+    notes = [f"- {model_label(n)}: {note}" for n in cmp.ranking for note in cmp.fits[n].diagnostics.warnings]
+    diag = [_diagnostics_line(n, cmp.fits[n].diagnostics) for n in cmp.ranking]
     if notes:
         text += "\nNotes:\n\n" + "\n".join(notes) + "\n"
     text += "\nSolver diagnostics (scipy.optimize.least_squares):\n\n" + "\n".join(diag) + "\n"
@@ -210,6 +163,13 @@ def _fit_section(a: Any) -> str:
     if truth:
         text += "\n" + truth
     return text
+
+
+def _diagnostics_line(name: str, d: Any) -> str:
+    return (
+        f"- {model_label(name)}: nfev = {d.nfev}, status = {d.status} ({d.message}), cost = {d.cost:.4g}, "
+        f"closed-form check {d.linear_check:.1e}"
+    )
 
 
 _WEIGHTING_TEXT = {
@@ -239,10 +199,10 @@ def _simulated_truth(a: Any) -> str:
         + f", R_s = {c.series_resistance_ohm * 1e3:g} mΩ and ζ = {c.resistivity_ohm_m:g} Ω·m (scene [circuit])."
     ]
     if model and model in a.comparison.fits and a.conversion == "bulk":
-        f = a.comparison.fits[model]
+        e = a.comparison.fits[model].estimate
         lines.append(
-            f" Its fit recovers R_s = {f.R_series_ohm * 1e3:.4g} ± {f.R_series_se * 1e3:.2g} mΩ and "
-            f"s = {f.scale:.4g} ± {f.scale_se:.2g} Ω·m."
+            f" Its fit recovers R_s = {e.R_series_ohm * 1e3:.4g} ± {e.R_series_se * 1e3:.2g} mΩ and "
+            f"s = {e.scale:.4g} ± {e.scale_se:.2g} Ω·m."
         )
     return "".join(lines) + "\n"
 
@@ -257,10 +217,10 @@ def _provenance(a: Any) -> str:
             lines.append(f"- session {k}: {start[k]}")
     for k in sorted(start):
         if k in ("software", "versions") or "ident" in k:
-            lines.append(f"- session {k}: `{json.dumps(start[k], default=str)[:400]}`")
+            lines.append(f"- session {k}: `{to_json(start[k])}`")
     stop = info.get("stop")
     if stop:
-        lines.append(f"- stop record: `{json.dumps(stop, default=str)[:300]}`")
+        lines.append(f"- stop record: `{to_json(stop)}`")
     lines.append(f"- scene: {getattr(a.scene, 'name', '?')} ({getattr(a.scene, 'source', '?')})")
     lines.append(f"- simulation: {a.sim_info.get('source', '?')}")
     prov = a.sim_info.get("provenance") or {}
@@ -297,32 +257,46 @@ def render_markdown(
         if banner:
             parts.append(banner)
         parts.append("### Provenance\n\n" + _provenance(a))
-        parts.append("### Measured resistance\n\n" + _measured_section(a))
-        parts.append(_img(figs, "fig09_measured", "Measured resistance against weight", directory))
-        parts.append("### Simulated real contact area\n\n" + _area_section(a))
-        parts.append(_img(figs, "fig11_area", "Simulated contact area", directory))
-        if "fig02_database" in figs:
-            parts.append(_img(figs, "fig02_database", "Contact database", directory))
-        parts.append(
-            "### Normalised curves (seed Fig. 12)\n\nColoured: each model's R_T/R_T₀ by the conversion (ζ and h "
-            "cancel); black dotted: the best fit's R/R₀ including the series resistance R_s, which is what a "
-            "measurement normalises. Error bars: the repeats' uncertainty of R/R₀ (R₀/R₀ = 1 exactly).\n"
-        )
-        parts.append(_img(figs, "fig12_normalised", "Normalised resistance", directory))
-        parts.append("### Fit and model comparison\n\n" + _fit_section(a))
-        parts.append(_img(figs, "fit_residuals", "Fit and residuals", directory))
+        parts += _sections(a, figs, directory)
     return "\n".join(parts)
 
 
-def _img(figs: dict[str, list[Path]], key: str, alt: str, directory: Path) -> str:
-    paths = figs.get(key)
-    if not paths:
-        return ""
+# The report's sections after the provenance: key (what a FigureSpec names as its ``section``), heading, text.
+_SECTIONS: tuple[tuple[str, str, Callable[[Any], str] | None], ...] = (
+    ("measured", "Measured resistance", _measured_section),
+    ("area", "Simulated real contact area", _area_section),
+    ("normalised", "Normalised curves (seed Fig. 12)", None),
+    ("fit", "Fit and model comparison", _fit_section),
+)
+
+
+def _sections(a: Any, figs: dict[str, list[Path]], directory: Path) -> list[str]:
+    """Each section's text followed by the registered figures that belong to it (in registration order); figures
+    of any other section go under "Further figures"."""
+    specs = [s for s in figure_specs() if s.key in figs]
+    known = {key for key, _, _ in _SECTIONS}
+    out = []
+    for key, heading, text in _SECTIONS:
+        images = [_img(figs, s, directory) for s in specs if s.section == key]
+        if text is None and not images:
+            continue
+        out.append(f"### {heading}\n" + (f"\n{text(a)}" if text is not None else ""))
+        out += images
+    further = [_img(figs, s, directory) for s in specs if s.section not in known]
+    if further:
+        out.append("### Further figures\n")
+        out += further
+    return out
+
+
+def _img(figs: dict[str, list[Path]], spec: FigureSpec, directory: Path) -> str:
+    paths = figs[spec.key]
     png = next((p for p in paths if p.suffix == ".png"), paths[0])
     vector = [p for p in paths if p.suffix in (".svg", ".pdf")]
     rel = png.relative_to(directory).as_posix()
     extra = f" ([{vector[0].suffix[1:].upper()}]({vector[0].relative_to(directory).as_posix()}))" if vector else ""
-    return f"![{alt}]({rel}){extra}\n"
+    caption = f"\n{spec.caption}\n" if spec.caption else ""
+    return f"![{spec.title}]({rel}){extra}\n{caption}"
 
 
 def write_report(

@@ -63,11 +63,12 @@ def simulated_resistances(plan: SessionPlan) -> dict[str, Any]:
     ``block_resistance_ohm`` R_b. Recorded as the start record's ``simulation``.
     """
     from analysis.circuit import CircuitSettings
+    from sims.config import SimConfig
     from sims.rig import sweep
 
     model = plan.session.sim_model
     weights = list(plan.session.weights_kg)
-    result = sweep(plan.scene, models=[model], weights_kg=weights)
+    result = sweep(SimConfig.from_scene(plan.scene), models=[model], weights_kg=weights)
     area = np.asarray(result.models[model].contact_area_m2, dtype=float)
     if area.shape != (len(weights),) or not np.all(np.isfinite(area)) or np.any(area <= 0):
         raise RuntimeError(
@@ -84,7 +85,7 @@ def simulated_resistances(plan: SessionPlan) -> dict[str, Any]:
         "weights_kg": weights,
         "contact_area_m2": area.tolist(),
         "contact_resistance_ohm": contact.tolist(),
-        "resistance_ohm": (circuit.series_resistance_ohm + contact).tolist(),
+        "resistance_ohm": np.asarray(circuit.measured_resistance_ohm(area), dtype=float).tolist(),
         "repeat_sd": sd,
         "contact_factor": factors.tolist(),
         "block_resistance_ohm": (circuit.series_resistance_ohm + factors * per_block_contact).tolist(),

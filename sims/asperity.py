@@ -26,13 +26,19 @@ the real contact ``area(delta)`` (m²). Vectorised: ``delta`` and ``R`` broadcas
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from contactrig.core.validation import SettingError, check_choice, check_range
 from sims.materials import HARDNESS_TO_YIELD
+
+if TYPE_CHECKING:
+    from sims.database import BuildContext, ContactCurve
 
 __all__ = [
     "MODELS",
@@ -42,8 +48,6 @@ __all__ = [
     "PasaribuSchipper",
     "model",
 ]
-
-MODELS = ("hertz", "lagemann", "pasaribu_schipper", "jackson_green")
 
 _STACHOWIAK_CONSTANT = 1.0397  # seed eq. 5, Stachowiak & Batchelor's rounding of (9/8)^(1/3)
 
@@ -282,6 +286,34 @@ class JacksonGreen:
         return np.where(x < 1.9, elastic, plastic)
 
 
+def _make_hertz(E_star: float, R: NDArray[np.float64] | float, H: float | None, sy: float | None, nu: float) -> Any:
+    return Hertz(E_star, R)
+
+
+def _make_lagemann(E_star: float, R: NDArray[np.float64] | float, H: float | None, sy: float | None, nu: float) -> Any:
+    return Lagemann(E_star, R)
+
+
+def _make_ps(E_star: float, R: NDArray[np.float64] | float, H: float | None, sy: float | None, nu: float) -> Any:
+    return PasaribuSchipper(E_star, R, _check_H(H, E_star))
+
+
+def _make_jg(E_star: float, R: NDArray[np.float64] | float, H: float | None, sy: float | None, nu: float) -> Any:
+    H = _check_H(H, E_star)
+    sy = H / HARDNESS_TO_YIELD if sy is None else check_range("yield_strength", sy, 0.0, 1e12, lo_open=True, unit="Pa")
+    return JacksonGreen(E_star, R, sy, check_range("nu", nu, 0.0, 0.5, hi_open=True))
+
+
+# The one table of single-asperity models: key → factory(E*, R, H, S_y, ν).
+_FACTORIES: dict[str, Callable[..., Any]] = {
+    "hertz": _make_hertz,
+    "lagemann": _make_lagemann,
+    "pasaribu_schipper": _make_ps,
+    "jackson_green": _make_jg,
+}
+MODELS = tuple(_FACTORIES)
+
+
 def model(
     name: str,
     *,
@@ -296,19 +328,83 @@ def model(
     ``yield_strength`` (Pa, default H/2.84) and the softer body's Poisson ratio ``nu``."""
     check_choice("model", name, MODELS)
     E_star = _check_E(E_star)
-    R = _check_R(R)
-    R_val: NDArray[np.float64] | float = float(R) if R.ndim == 0 else R
-    if name == "hertz":
-        return Hertz(E_star, R_val)
-    if name == "lagemann":
-        return Lagemann(E_star, R_val)
-    H = _check_H(H, E_star)
-    if name == "pasaribu_schipper":
-        return PasaribuSchipper(E_star, R_val, H)
-    sy = (
-        H / HARDNESS_TO_YIELD
-        if yield_strength is None
-        else check_range("yield_strength", yield_strength, 0.0, 1e12, lo_open=True, unit="Pa")
+    Rc = _check_R(R)
+    R_val: NDArray[np.float64] | float = float(Rc) if Rc.ndim == 0 else Rc
+    made: Hertz | Lagemann | PasaribuSchipper | JacksonGreen = _FACTORIES[name](E_star, R_val, H, yield_strength, nu)
+    return made
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Registration: each model summed over the composite surface's summits (sims.database.BuildContext.summed_curve).
+
+_JG_FIT_LIMIT = 110.0  # Jackson & Green (2005) fitted ω/ω_c up to about this
+
+
+def _summed(key: str, ctx: BuildContext) -> tuple[Any, ContactCurve]:
+    soft = ctx.materials.softer
+    assert ctx.summits is not None  # needs_surface=True guarantees it
+    m = model(key, E_star=ctx.E_star, R=ctx.summits.radius_m, H=ctx.materials.H,
+              yield_strength=soft.yield_strength_pa, nu=soft.nu)
+    extra = {"yield_pa": soft.yield_strength_pa, "nu": soft.nu} if key == "jackson_green" else {}
+    return m, ctx.summed_curve(key, m, extra)
+
+
+def _summed_curve(key: str, ctx: BuildContext) -> ContactCurve:
+    return _summed(key, ctx)[1]
+
+
+def _build_jackson_green(ctx: BuildContext) -> ContactCurve:
+    m, curve = _summed("jackson_green", ctx)
+    assert ctx.summits is not None
+    # J&G fitted their FEM results up to ω/ω_c ≈ 110; deeper, the fit is an extrapolation
+    reach = float(np.max((ctx.summits.height_m - ctx.summits.separation_m[0]) / m.omega_c))
+    curve.parameters["max_interference_over_omega_c"] = reach
+    if reach > _JG_FIT_LIMIT:
+        ctx.warn(
+            f"jackson_green: summits reach ω/ω_c = {reach:.3g} at the deepest separation, beyond the "
+            f"range of Jackson & Green's fit (≤ {_JG_FIT_LIMIT:g}): extrapolated there"
+        )
+    return curve
+
+
+def _register() -> None:
+    from sims.models import ContactModel, register
+
+    # key, label, source, elastic only, figure style (the same in every figure; coinciding models stay visible)
+    specs: tuple[tuple[str, str, str, bool, dict[str, Any]], ...] = (
+        ("hertz", "Hertz", "seed eq. 5–7", True, {"color": "#d62728", "linestyle": "--", "marker": "s"}),
+        ("lagemann", "Lagemann", "seed eq. 9–12", True, {"color": "#2ca02c", "linestyle": "-.", "marker": "^"}),
+        (
+            "pasaribu_schipper",
+            "Pasaribu–Schipper",
+            "seed eq. 13–21",
+            False,
+            {"color": "#9467bd", "linestyle": ":", "marker": "v"},
+        ),
     )
-    nu = check_range("nu", nu, 0.0, 0.5, hi_open=True)
-    return JacksonGreen(E_star, R_val, sy, nu)
+    for key, label, eqs, elastic, style in specs:
+        register(
+            ContactModel(
+                key,
+                label,
+                build=partial(_summed_curve, key),
+                equations=eqs,
+                elastic_only=elastic,
+                style=style,
+            ),
+            replace=True,
+        )
+    jg_style = {"color": "#ff7f0e", "linestyle": (0, (6, 2, 1, 2, 1, 2)), "marker": "D"}
+    register(
+        ContactModel(
+            "jackson_green",
+            "Jackson–Green",
+            build=_build_jackson_green,
+            equations="Jackson & Green (2005)",
+            style=jg_style,
+        ),
+        replace=True,
+    )
+
+
+_register()

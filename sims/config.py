@@ -16,7 +16,7 @@ if TYPE_CHECKING:
     from contactrig.core.scene import Scene
     from sims.database import DatabaseSettings
     from sims.materials import ContactMaterials
-    from sims.rig_settings import RigSettings
+    from sims.rig.settings import RigSettings
     from sims.surface import SurfaceSpec
 
 __all__ = ["SimConfig"]
@@ -40,7 +40,7 @@ class SimConfig:
         """Parse the simulation tables of ``scene`` (each table once; errors name the scene key)."""
         from sims.database import DatabaseSettings
         from sims.materials import materials_from_scene
-        from sims.rig_settings import RigSettings
+        from sims.rig.settings import RigSettings
         from sims.surface import surfaces_from_scene
 
         liner, piston = surfaces_from_scene(scene)

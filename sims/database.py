@@ -29,53 +29,52 @@ warns).
 Scene table ``[database]``: ``models`` (list), ``n_separations`` (16…100000), ``h_min_sigma`` (deepest separation
 / σ, −3…3), ``h_max_sigma`` (GT's largest separation / σ, 1…10), ``gt_heights`` ("summits" | "seed").
 
-Warnings: Jackson & Green's fit used beyond ω/ω_c = 110 (its fitted range) is a ``RuntimeWarning`` at build time,
-also listed in ``provenance["warnings"]``.
+Models come from the registry (:mod:`sims.models`): each registered :class:`~sims.models.ContactModel` builds its
+curve from a :class:`BuildContext` — ``ctx.greenwood_tripp_curve`` for statistics-only models, ``ctx.summed_curve``
+for summation over the composite surface's summits. Model-validity warnings (e.g. Jackson & Green's fit used beyond
+ω/ω_c = 110, its fitted range) are ``RuntimeWarning``s at build time, also listed in ``provenance["warnings"]``.
 
-HDF5 layout (:func:`save_database`): one group per model with datasets ``separation_m`` (units "m"),
-``pressure_pa`` ("Pa") and ``area_fraction`` ("1"); group attributes hold the model's parameters; the root
-attribute ``provenance`` holds the JSON provenance (scene name and text, materials, surface statistics, software
-version).
+Physics only: the HDF5 file of a database is written and read by :mod:`daq.database_file`.
 """
 
 from __future__ import annotations
 
-import json
 import math
 import time
 import warnings
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.interpolate import CubicHermiteSpline, PchipInterpolator, PPoly
 
-from contactrig.core.provenance import json_default, software_version
+from contactrig.core.provenance import software_version
 from contactrig.core.validation import SettingError, check_choice, check_int, check_keys, check_range
-from sims.materials import ContactMaterials, materials_from_scene
+
+if TYPE_CHECKING:
+    from contactrig.core.scene import Scene
+    from sims.config import SimConfig
+    from sims.materials import ContactMaterials
 
 __all__ = [
     "DATABASE_KEYS",
     "GT_HEIGHTS",
-    "KNOWN_MODELS",
+    "BuildContext",
     "ContactCurve",
     "ContactDatabase",
     "DatabaseSettings",
     "MissingModelError",
+    "Summits",
+    "asperity_sums",
     "build_database",
+    "check_models",
     "greenwood_tripp_parameters",
-    "load_database",
-    "save_database",
 ]
 
-KNOWN_MODELS = ("greenwood_tripp", "hertz", "lagemann", "pasaribu_schipper", "jackson_green")
 DATABASE_KEYS = ("models", "n_separations", "h_min_sigma", "h_max_sigma", "gt_heights")
 GT_HEIGHTS = ("summits", "seed")
-ASPERITY_MODELS = KNOWN_MODELS[1:]
-
-_JG_FIT_LIMIT = 110.0  # Jackson & Green (2005) fitted ω/ω_c up to about this
 _ONSET_EXPONENT_P = 1.5  # a single Hertzian summit: F ∝ δ^(3/2)
 _ONSET_EXPONENT_A = 1.0  # ... and A ∝ δ
 
@@ -92,42 +91,25 @@ class MissingModelError(KeyError, ValueError):
 
 
 def _pchip_slopes(x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Fritsch–Carlson/Butland node slopes (shape preserving, as SciPy's PCHIP)."""
-    h = np.diff(x)
-    s = np.diff(y) / h
-    d = np.zeros_like(y)
+    """Node slopes of SciPy's shape-preserving PCHIP (Fritsch–Carlson/Butland) through (x, y)."""
     if y.size == 2:
-        d[:] = s[0]
-        return d
-    w1 = 2.0 * h[1:] + h[:-1]
-    w2 = h[1:] + 2.0 * h[:-1]
-    same = (s[:-1] * s[1:]) > 0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        hm = (w1 + w2) / (w1 / s[:-1] + w2 / s[1:])
-    d[1:-1] = np.where(same, hm, 0.0)
-
-    def edge(h0: float, h1: float, s0: float, s1: float) -> float:
-        e = ((2.0 * h0 + h1) * s0 - h0 * s1) / (h0 + h1)
-        if np.sign(e) != np.sign(s0):
-            return 0.0
-        if np.sign(s0) != np.sign(s1) and abs(e) > abs(3.0 * s0):
-            return 3.0 * s0
-        return e
-
-    d[0] = edge(h[0], h[1], s[0], s[1])
-    d[-1] = edge(h[-1], h[-2], s[-1], s[-2])
-    return d
+        return np.full(2, (y[1] - y[0]) / (x[1] - x[0]))
+    return np.asarray(PchipInterpolator(x, y).derivative()(x), dtype=float)
 
 
 @dataclass(frozen=True)
 class _LogCurve:
-    """ln y(x) by monotone cubic Hermite on [x0, x_last]; log-linear beyond; optional power-law onset at x_top."""
+    """ln y(x) by SciPy's monotone cubic Hermite on [x0, x_last]; log-linear beyond; optional power-law onset at
+    x_top. The spline's node slopes are PCHIP's except the last one when an onset law follows (see ``build``)."""
 
-    x: NDArray[np.float64]
-    ly: NDArray[np.float64]
-    d: NDArray[np.float64]
+    spline: CubicHermiteSpline
+    slope: PPoly
     x_top: float | None  # y(x_top) = 0 (contact onset); None: y > 0 everywhere (log-linear above)
     exponent: float
+
+    @property
+    def x(self) -> NDArray[np.float64]:
+        return np.asarray(self.spline.x, dtype=float)
 
     @classmethod
     def build(cls, x: NDArray[np.float64], y: NDArray[np.float64], onset: bool, exponent: float) -> _LogCurve:
@@ -145,51 +127,46 @@ class _LogCurve:
             # the onset law (x_top − x)^m meets the cubic with a continuous slope; m >= 1 keeps dp/dh finite
             exponent = max(-d[-1] * (x_top - xs[-1]), 1.0)
             d[-1] = -exponent / (x_top - xs[-1])
-        return cls(xs, ly, d, x_top, exponent)
+        spline = CubicHermiteSpline(xs, ly, d, extrapolate=False)
+        return cls(spline, spline.derivative(), x_top, exponent)
+
+    def _below(self, xq: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        # Linear in y (tangent at the first node): finite for every h, where a log-linear tail would overflow.
+        x0 = float(self.spline.x[0])
+        y0 = math.exp(float(self.spline(x0)))
+        d0 = float(self.slope(x0))
+        return y0 * (1.0 + d0 * (xq - x0)), np.full_like(xq, d0 * y0)
+
+    def _above(self, xq: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        x1 = float(self.spline.x[-1])
+        l1, d1 = float(self.spline(x1)), float(self.slope(x1))
+        if self.x_top is None:
+            with np.errstate(under="ignore"):
+                v = np.exp(l1 + d1 * (xq - x1))
+            return v, d1 * v
+        span = self.x_top - x1
+        r = np.clip((self.x_top - xq) / span, 0.0, None)
+        v = math.exp(l1) * r**self.exponent
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dv = np.where(r > 0, -self.exponent * v / (r * span), 0.0)
+        return v, dv
 
     def __call__(self, xq: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(y, dy/dx) at ``xq``."""
-        x, ly, d = self.x, self.ly, self.d
+        x = self.spline.x
         y = np.zeros_like(xq)
         dy = np.zeros_like(xq)
         lo = xq < x[0]
-        mid = (xq >= x[0]) & (xq <= x[-1])
         hi = xq > x[-1]
+        mid = ~(lo | hi)
         if lo.any():
-            # Linear in y (tangent at the first node): finite for every h, where a log-linear tail would overflow.
-            y0 = math.exp(ly[0])
-            y[lo] = y0 * (1.0 + d[0] * (xq[lo] - x[0]))
-            dy[lo] = d[0] * y0
+            y[lo], dy[lo] = self._below(xq[lo])
         if mid.any():
-            xm = xq[mid]
-            i = np.clip(np.searchsorted(x, xm, side="right") - 1, 0, x.size - 2)
-            hh = x[i + 1] - x[i]
-            u = (xm - x[i]) / hh
-            y0, y1, d0, d1 = ly[i], ly[i + 1], d[i] * hh, d[i + 1] * hh
-            h00 = (1 + 2 * u) * (1 - u) ** 2
-            h10 = u * (u - 1) ** 2
-            h01 = u * u * (3 - 2 * u)
-            h11 = u * u * (u - 1)
-            l_val = h00 * y0 + h10 * d0 + h01 * y1 + h11 * d1
-            dl = (6 * u * u - 6 * u) * (y0 - y1) / hh + (3 * u * u - 4 * u + 1) * d[i] + (3 * u * u - 2 * u) * d[i + 1]
-            v = np.exp(l_val)
+            v = np.exp(self.spline(xq[mid]))
             y[mid] = v
-            dy[mid] = dl * v
+            dy[mid] = self.slope(xq[mid]) * v
         if hi.any():
-            xh = xq[hi]
-            if self.x_top is None:
-                with np.errstate(under="ignore"):
-                    v = np.exp(ly[-1] + d[-1] * (xh - x[-1]))
-                y[hi] = v
-                dy[hi] = d[-1] * v
-            else:
-                span = self.x_top - x[-1]
-                r = np.clip((self.x_top - xh) / span, 0.0, None)
-                v = math.exp(ly[-1]) * r**self.exponent
-                y[hi] = v
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    dv = np.where(r > 0, -self.exponent * v / (r * span), 0.0)
-                dy[hi] = dv
+            y[hi], dy[hi] = self._above(xq[hi])
         return y, dy
 
 
@@ -282,11 +259,6 @@ class ContactCurve:
         """
         return np.minimum(self._eval(self._a, h)[0], 1.0)
 
-    def darea_fraction_dh(self, h: ArrayLike) -> NDArray[np.float64]:
-        """Slope of :meth:`area_fraction_at`, 1/m (<= 0; 0 where the bound 1 acts)."""
-        y, dy = self._eval(self._a, h)
-        return np.where(y < 1.0, dy, 0.0)
-
 
 @dataclass(frozen=True)
 class ContactDatabase(Mapping[str, ContactCurve]):
@@ -313,43 +285,56 @@ class ContactDatabase(Mapping[str, ContactCurve]):
 # Settings.
 
 
+def _default_models() -> tuple[str, ...]:
+    from sims.models import model_names
+
+    return model_names(builtin_only=True)
+
+
 @dataclass(frozen=True)
 class DatabaseSettings:
-    """The ``[database]`` table."""
+    """The ``[database]`` table: which registered models to build, and the separation grid."""
 
-    models: tuple[str, ...] = KNOWN_MODELS
+    models: tuple[str, ...] = field(default_factory=_default_models)
     n_separations: int = 256
     h_min_sigma: float = -0.25
     h_max_sigma: float = 6.0
     gt_heights: str = "summits"
 
     def __post_init__(self) -> None:
-        models = _check_models("database.models", self.models)
+        models = check_models("database.models", self.models)
         object.__setattr__(self, "models", models)
         check_int("database.n_separations", self.n_separations, 16, 100_000)
         check_range("database.h_min_sigma", self.h_min_sigma, -3.0, 3.0)
         check_range("database.h_max_sigma", self.h_max_sigma, 1.0, 10.0)
         if self.h_max_sigma <= self.h_min_sigma:
-            raise SettingError("database.h_max_sigma", self.h_max_sigma, f"expected > h_min_sigma = {self.h_min_sigma}")
+            raise SettingError(
+                "database.h_max_sigma", self.h_max_sigma, f"expected > h_min_sigma = {self.h_min_sigma}"
+            )
         check_choice("database.gt_heights", self.gt_heights, GT_HEIGHTS)
 
     @classmethod
-    def from_scene(cls, scene: Any) -> DatabaseSettings:
+    def from_scene(cls, scene: Scene) -> DatabaseSettings:
         table = scene.table("database")
         check_keys("database", table, DATABASE_KEYS)
         kwargs = {k: table[k] for k in DATABASE_KEYS if k in table}
-        if "models" in kwargs:
-            kwargs["models"] = _check_models("database.models", kwargs["models"])
         return cls(**kwargs)
 
 
-def _check_models(field_name: str, models: Any) -> tuple[str, ...]:
-    if isinstance(models, str) or not isinstance(models, Sequence) or len(models) == 0:
-        raise SettingError(field_name, models, "expected a non-empty list of: " + ", ".join(KNOWN_MODELS))
-    out = []
+def check_models(field_name: str, models: object) -> tuple[str, ...]:
+    """``models`` as a tuple of registered model keys (duplicates dropped, order kept); a SettingError naming
+    ``field_name`` otherwise. Accepts a list or a comma-separated string (the CLI's ``--models a,b``)."""
+    from sims.models import model_names
+
+    known = model_names()
+    if isinstance(models, str):
+        models = [m.strip() for m in models.split(",") if m.strip()]
+    if not isinstance(models, Sequence) or len(models) == 0:
+        raise SettingError(field_name, models, "expected a non-empty list of: " + ", ".join(known))
+    out: list[str] = []
     for m in models:
-        if m not in KNOWN_MODELS:
-            raise SettingError(field_name, m, "unknown model; expected one of " + ", ".join(KNOWN_MODELS))
+        if m not in known:
+            raise SettingError(field_name, m, "unknown model; expected one of " + ", ".join(known))
         if m not in out:
             out.append(m)
     return tuple(out)
@@ -374,7 +359,7 @@ def greenwood_tripp_parameters(
     """
     from sims.surface import combined_sigma
 
-    check_choice("gt_heights", heights, GT_HEIGHTS)
+    check_choice("database.gt_heights", heights, GT_HEIGHTS)
     b1, b2 = liner.beta, piston.beta
     out: dict[str, Any] = {
         "heights": heights,
@@ -386,30 +371,13 @@ def greenwood_tripp_parameters(
     if heights == "summits":
         offset = liner.mean_height + piston.mean_height
         if not math.isfinite(offset):
-            raise SettingError("gt_heights", heights, "needs the mean summit height of both surfaces")
+            raise SettingError("database.gt_heights", heights, "needs the mean summit height of both surfaces")
         out["sigma_summits_m"] = math.hypot(liner.sigma_s, piston.sigma_s)
         out["offset_m"] = offset
     else:
         out["sigma_summits_m"] = out["sigma_m"]
         out["offset_m"] = 0.0
     return out
-
-
-def _gt_curve(g: dict[str, Any], E_star: float, settings: DatabaseSettings) -> ContactCurve:
-    from sims import greenwood_tripp as gt
-
-    sigma = g["sigma_m"]
-    h = np.linspace(settings.h_min_sigma * sigma, settings.h_max_sigma * sigma, settings.n_separations)
-    hs = h - g["offset_m"]
-    s, eta = g["sigma_summits_m"], g["eta_per_m2"]
-    p = gt.pressure(hs, sigma=s, eta=eta, beta=g["beta_pressure_m"], E_star=E_star)
-    try:
-        a = gt.area_fraction(hs, sigma=s, eta=eta, beta=g["beta_m"])
-    except SettingError as exc:
-        raise SettingError(
-            "database.h_min_sigma", settings.h_min_sigma, f"Greenwood–Tripp: {exc.allowed}; raise h_min_sigma"
-        ) from None
-    return ContactCurve("greenwood_tripp", h, p, a, {**g, "E_star_pa": E_star})
 
 
 def asperity_sums(
@@ -426,7 +394,7 @@ def asperity_sums(
     cols = np.arange(rows.size) - np.repeat(starts, n_contact)  # 0 … n_contact[k]−1 for each row k
     delta = heights_m[cols] - h[rows]
     R = np.asarray(asp_model.R, dtype=float)
-    sub = _with_radius(asp_model, R[cols] if R.ndim else R)
+    sub = replace(asp_model, R=R[cols] if R.ndim else R)
     f = sub.force(delta)
     a = sub.area(delta)
     p = np.bincount(rows, weights=f, minlength=h.size) / area_m2
@@ -434,44 +402,168 @@ def asperity_sums(
     return p, af
 
 
-def _with_radius(asp_model: Any, R: Any) -> Any:
-    return replace(asp_model, R=R)
+@dataclass(frozen=True)
+class Summits:
+    """Summits of the composite surface z_liner + z_piston, highest first: heights (m) and mean-curvature radii
+    (m, seed eq. 8), the map's nominal area A0 (m²), and the separation grid the summation models share (m)."""
+
+    height_m: NDArray[np.float64]
+    radius_m: NDArray[np.float64]
+    area_m2: float
+    separation_m: NDArray[np.float64]
+
+
+@dataclass
+class BuildContext:
+    """What a registered model's ``build`` gets: settings, materials, Greenwood–Tripp parameters of the pair and,
+    for models that need a surface (``ContactModel.needs_surface``), the composite surface's summits. ``warn``
+    records a model-validity warning in the database's provenance (and raises it as a RuntimeWarning)."""
+
+    settings: DatabaseSettings
+    materials: ContactMaterials
+    greenwood_tripp: dict[str, Any]
+    summits: Summits | None = None
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def E_star(self) -> float:
+        """Composite modulus E* (Pa, seed eq. 4)."""
+        return self.materials.E_star
+
+    @property
+    def sigma_m(self) -> float:
+        """Combined RMS roughness σ = √(Sq1² + Sq2²) (m, seed eq. 3): the unit of the separation grid."""
+        return float(self.greenwood_tripp["sigma_m"])
+
+    def warn(self, message: str) -> None:
+        self.warnings.append(message)
+        warnings.warn(message, RuntimeWarning, stacklevel=3)
+
+    def greenwood_tripp_curve(self, key: str) -> ContactCurve:
+        """Seed eq. 1–3 on h = h_min_sigma·σ … h_max_sigma·σ, from the statistics only (no surface)."""
+        from sims import greenwood_tripp as gt
+
+        g, st = self.greenwood_tripp, self.settings
+        h = np.linspace(st.h_min_sigma * self.sigma_m, st.h_max_sigma * self.sigma_m, st.n_separations)
+        hs = h - g["offset_m"]
+        s, eta = g["sigma_summits_m"], g["eta_per_m2"]
+        p = gt.pressure(hs, sigma=s, eta=eta, beta=g["beta_pressure_m"], E_star=self.E_star)
+        try:
+            a = gt.area_fraction(hs, sigma=s, eta=eta, beta=g["beta_m"])
+        except SettingError as exc:
+            raise SettingError(
+                "database.h_min_sigma", st.h_min_sigma, f"Greenwood–Tripp: {exc.allowed}; raise h_min_sigma"
+            ) from None
+        return ContactCurve(key, h, p, a, {**g, "E_star_pa": self.E_star})
+
+    def summed_curve(self, key: str, asperity: Any, parameters: dict[str, Any] | None = None) -> ContactCurve:
+        """Deterministic summation of the single-asperity model ``asperity`` (its ``R`` one radius per summit,
+        highest summit first) over the composite surface's summits: p = ΣF(δ_i)/A0, A/A0 = ΣA(δ_i)/A0."""
+        if self.summits is None:
+            raise RuntimeError(f"model {key!r} needs a surface, but none was generated (needs_surface is False)")
+        sm = self.summits
+        p, af = asperity_sums(asperity, sm.height_m, sm.separation_m, sm.area_m2)
+        p[-1] = 0.0
+        af[-1] = 0.0
+        if af.max() > 1.0:
+            raise SettingError(
+                "database.h_min_sigma",
+                self.settings.h_min_sigma,
+                f"model {key!r}: real-area fraction {af.max():.3g} > 1 at the deepest separation "
+                "(independent-asperity models fail there); raise h_min_sigma",
+            )
+        params = {"E_star_pa": self.E_star, "H_pa": self.materials.H, "n_summits": int(sm.height_m.size)}
+        params.update(area_m2=sm.area_m2, **(parameters or {}))
+        try:
+            return ContactCurve(key, sm.separation_m, p, af, params)
+        except SettingError as exc:
+            raise RuntimeError(f"model {key!r}: the summed curve is not monotone ({exc})") from None
+
+
+def _surface_statistics(config: SimConfig, heights: dict[str, NDArray[np.float64]], prov: dict[str, Any]) -> Any:
+    """McCool statistics of each surface (from the generated map when there is one) → GT parameters."""
+    from sims.surface import mccool, spectral_moments
+
+    sq, stats = {}, {}
+    for body, spec in (("liner", config.liner), ("piston", config.piston)):
+        mom = spectral_moments(heights[body], spec.pixel_m) if spec.kind == "file" else spec.moments()
+        st = mccool(mom)
+        sq[body], stats[body] = math.sqrt(mom.m0), st
+        prov["surfaces"][body].update(mccool=st.as_dict(), sq_m=sq[body])
+    return greenwood_tripp_parameters(
+        stats["liner"], stats["piston"], sq["liner"], sq["piston"], config.database.gt_heights
+    )
+
+
+def _composite_summits(
+    config: SimConfig, heights: dict[str, NDArray[np.float64]], sigma_m: float, prov: dict[str, Any]
+) -> Summits:
+    from sims.surface import statistics_of, summit_data
+
+    liner, piston = config.liner, config.piston
+    z1, z2 = heights["liner"], heights["piston"]
+    if z1.shape != z2.shape or not math.isclose(liner.pixel_m, piston.pixel_m, rel_tol=1e-9):
+        raise SettingError(
+            "surfaces.piston",
+            f"{z2.shape} at {piston.pixel_m:g} m",
+            f"the asperity models need both surfaces on one grid: liner is {z1.shape} at {liner.pixel_m:g} m",
+        )
+    composite = z1 + z2
+    data = summit_data(composite, liner.pixel_m, periodic=liner.periodic and piston.periodic)
+    if data.height_m.size < 2:
+        raise SettingError("surfaces", data.height_m.size, "the composite surface has fewer than 2 summits")
+    order = np.argsort(-data.height_m, kind="stable")
+    zs = data.height_m[order]
+    prov["composite_surface"] = {
+        "sq_m": float(np.std(composite)),
+        "summits": statistics_of(data).as_dict(),
+        "highest_summit_m": float(zs[0]),
+        "area_m2": data.area_m2,
+    }
+    st = config.database
+    h_lo = st.h_min_sigma * sigma_m
+    if float(zs[0]) <= h_lo:
+        raise SettingError("database.h_min_sigma", st.h_min_sigma, "is above the highest summit")
+    h = np.linspace(h_lo, float(zs[0]), st.n_separations)
+    return Summits(zs, data.radius_m[order], data.area_m2, h)
+
+
+def _with_overrides(
+    settings: DatabaseSettings, models: Sequence[str] | str | None, n_separations: int | None, gt_heights: str | None
+) -> DatabaseSettings:
+    if models is not None:
+        settings = replace(settings, models=check_models("--models", models))
+    if n_separations is not None:
+        settings = replace(settings, n_separations=check_int("--n-separations", n_separations, 16, 100_000))
+    if gt_heights is not None:
+        settings = replace(settings, gt_heights=check_choice("--gt-heights", gt_heights, GT_HEIGHTS))
+    return settings
 
 
 def build_database(
-    scene: Any,
-    models: Sequence[str] | None = None,
+    config: SimConfig,
+    models: Sequence[str] | str | None = None,
     *,
     n_separations: int | None = None,
     gt_heights: str | None = None,
 ) -> ContactDatabase:
-    """Build the curves of ``models`` (default: the scene's ``[database].models``) for ``scene``.
+    """Build the curves of ``models`` (registered keys; default: the scene's ``[database] models``).
 
-    Only the models asked for are built; surfaces are generated (or loaded) only when an asperity model is asked
-    for. ``n_separations`` and ``gt_heights`` (``"summits"`` | ``"seed"``) override the scene's. Raises
-    :class:`~contactrig.core.validation.SettingError` (a ValueError) naming the scene key on bad settings.
+    Only the models asked for are built (each by its registered ``build``); surfaces are generated only when a
+    model that needs one is asked for, or a surface is a measured map. ``n_separations`` and ``gt_heights``
+    (``"summits"`` | ``"seed"``) override the scene's. Raises :class:`~contactrig.core.validation.SettingError`
+    (a ValueError) naming the scene key on bad settings.
     """
-    from sims import asperity
-    from sims.surface import mccool, statistics_of, summit_data, surfaces_from_scene
+    from sims.models import get_model
 
     t_start = time.perf_counter()
-    settings = DatabaseSettings.from_scene(scene)
-    if models is not None:
-        settings = replace(settings, models=_check_models("models", list(models)))
-    if n_separations is not None:
-        settings = replace(settings, n_separations=check_int("n_separations", n_separations, 16, 100_000))
-    if gt_heights is not None:
-        settings = replace(settings, gt_heights=check_choice("gt_heights", gt_heights, GT_HEIGHTS))
-    mats: ContactMaterials = materials_from_scene(scene)
-    liner, piston = surfaces_from_scene(scene)
-    E_star = mats.E_star
-
+    settings = _with_overrides(config.database, models, n_separations, gt_heights)
+    config = config.with_changes(database=settings)
+    mats = config.materials
     prov: dict[str, Any] = {
         "software": "contactrig",
         "software_version": software_version(),
-        "scene_name": getattr(scene, "name", ""),
-        "scene_source": getattr(scene, "source", ""),
-        "scene_text": getattr(scene, "text", ""),
+        **config.provenance(),
         "models": list(settings.models),
         "settings": {
             "n_separations": settings.n_separations,
@@ -480,155 +572,22 @@ def build_database(
             "gt_heights": settings.gt_heights,
         },
         "materials": mats.as_dict(),
-        "surfaces": {"liner": liner.as_dict(), "piston": piston.as_dict()},
+        "surfaces": {"liner": config.liner.as_dict(), "piston": config.piston.as_dict()},
     }
-    curves: dict[str, ContactCurve] = {}
-
-    want_asperity = [m for m in settings.models if m in ASPERITY_MODELS]
-    heights = {}
-    if want_asperity or liner.kind == "file" or piston.kind == "file":
-        heights = {"liner": liner.heights(), "piston": piston.heights()}
-    sq = {}
-    stats = {}
-    for body, spec in (("liner", liner), ("piston", piston)):
-        mom = spec.moments() if body not in heights else _moments_of(heights[body], spec)
-        st = mccool(mom)
-        sq[body] = math.sqrt(mom.m0)
-        stats[body] = st
-        prov["surfaces"][body]["mccool"] = st.as_dict()
-        prov["surfaces"][body]["sq_m"] = sq[body]
-    g = greenwood_tripp_parameters(stats["liner"], stats["piston"], sq["liner"], sq["piston"], settings.gt_heights)
-    sigma = g["sigma_m"]
+    specs = [get_model(m) for m in settings.models]
+    need_surface = any(s.needs_surface for s in specs)
+    heights: dict[str, NDArray[np.float64]] = {}
+    if need_surface or config.liner.kind == "file" or config.piston.kind == "file":
+        heights = {"liner": config.liner.heights(), "piston": config.piston.heights()}
+    g = _surface_statistics(config, heights, prov)
     prov["greenwood_tripp"] = g
     # Greenwood & Williamson's plasticity index (E*/H) √(σ/β), σ = √(Sq1² + Sq2²), β = √(β1 β2)
-    prov["plasticity_index"] = (E_star / mats.H) * math.sqrt(sigma / g["beta_m"])
-
-    if "greenwood_tripp" in settings.models:
-        curves["greenwood_tripp"] = _gt_curve(g, E_star, settings)
-
-    if want_asperity:
-        z1, z2 = heights["liner"], heights["piston"]
-        if z1.shape != z2.shape or not math.isclose(liner.pixel_m, piston.pixel_m, rel_tol=1e-9):
-            raise SettingError(
-                "surfaces.piston",
-                f"{z2.shape} at {piston.pixel_m:g} m",
-                f"the asperity models need both surfaces on one grid: liner is {z1.shape} at {liner.pixel_m:g} m",
-            )
-        periodic = liner.periodic and piston.periodic
-        composite = z1 + z2
-        data = summit_data(composite, liner.pixel_m, periodic=periodic)
-        if data.height_m.size < 2:
-            raise SettingError("surfaces", data.height_m.size, "the composite surface has fewer than 2 summits")
-        order = np.argsort(-data.height_m, kind="stable")
-        zs = data.height_m[order]
-        Rs = data.radius_m[order]
-        comp_stats = statistics_of(data)
-        prov["composite_surface"] = {
-            "sq_m": float(np.std(composite)),
-            "summits": comp_stats.as_dict(),
-            "highest_summit_m": float(zs[0]),
-            "area_m2": data.area_m2,
-        }
-        h_lo = settings.h_min_sigma * sigma
-        h_top = float(zs[0])
-        if h_top <= h_lo:
-            raise SettingError("database.h_min_sigma", settings.h_min_sigma, "is above the highest summit")
-        h = np.linspace(h_lo, h_top, settings.n_separations)
-        soft = mats.softer
-        for name in want_asperity:
-            m = asperity.model(name, E_star=E_star, R=Rs, H=mats.H, yield_strength=soft.yield_strength_pa, nu=soft.nu)
-            p, af = asperity_sums(m, zs, h, data.area_m2)
-            p[-1] = 0.0
-            af[-1] = 0.0
-            if af.max() > 1.0:
-                raise SettingError(
-                    "database.h_min_sigma",
-                    settings.h_min_sigma,
-                    f"model {name!r}: real-area fraction {af.max():.3g} > 1 at the deepest separation "
-                    "(independent-asperity models fail there); raise h_min_sigma",
-                )
-            params = {"E_star_pa": E_star, "H_pa": mats.H, "n_summits": int(zs.size), "area_m2": data.area_m2}
-            if name == "jackson_green":
-                params.update(yield_pa=soft.yield_strength_pa, nu=soft.nu)
-                # J&G fitted their FEM results up to ω/ω_c ≈ 110; deeper, the fit is an extrapolation
-                reach = float(np.max((zs - h[0]) / m.omega_c))
-                params["max_interference_over_omega_c"] = reach
-                if reach > _JG_FIT_LIMIT:
-                    msg = (
-                        f"jackson_green: summits reach ω/ω_c = {reach:.3g} at the deepest separation, beyond the "
-                        f"range of Jackson & Green's fit (≤ {_JG_FIT_LIMIT:g}): extrapolated there"
-                    )
-                    prov.setdefault("warnings", []).append(msg)
-                    warnings.warn(msg, RuntimeWarning, stacklevel=2)
-            try:
-                curves[name] = ContactCurve(name, h, p, af, params)
-            except SettingError as exc:
-                raise RuntimeError(f"model {name!r}: the summed curve is not monotone ({exc})") from None
+    prov["plasticity_index"] = (mats.E_star / mats.H) * math.sqrt(g["sigma_m"] / g["beta_m"])
+    ctx = BuildContext(settings, mats, g)
+    if need_surface:
+        ctx.summits = _composite_summits(config, heights, g["sigma_m"], prov)
+    curves = {spec.key: spec.build(ctx) for spec in specs}
+    if ctx.warnings:
+        prov["warnings"] = list(ctx.warnings)
     prov["build_time_s"] = time.perf_counter() - t_start
-    # order the curves as asked
-    ordered = {m: curves[m] for m in settings.models}
-    return ContactDatabase(ordered, prov)
-
-
-def _moments_of(z: NDArray[np.float64], spec: Any) -> Any:
-    from sims.surface import spectral_moments
-
-    if spec.kind == "file":
-        return spectral_moments(z, spec.pixel_m)
-    return spec.moments()
-
-
-# ---------------------------------------------------------------------------------------------------------------
-# HDF5.
-
-_UNITS = {"separation_m": "m", "pressure_pa": "Pa", "area_fraction": "1"}
-
-
-def save_database(db: ContactDatabase, path: str | Path) -> Path:
-    """Write ``db`` to HDF5 at ``path`` (see the module docstring for the layout); returns the path."""
-    import h5py
-
-    p = Path(path)
-    tmp = p.with_name(p.name + ".part")
-    with h5py.File(tmp, "w") as f:
-        f.attrs["format"] = "contactrig-contact-database"
-        f.attrs["format_version"] = 1
-        f.attrs["provenance"] = json.dumps(db.provenance, default=json_default)
-        for name, curve in db.curves.items():
-            g = f.create_group(name)
-            for key in ("separation_m", "pressure_pa", "area_fraction"):
-                ds = g.create_dataset(key, data=np.asarray(getattr(curve, key)))
-                ds.attrs["units"] = _UNITS[key]
-            g.attrs["parameters"] = json.dumps(curve.parameters, default=json_default)
-    tmp.replace(p)
-    return p
-
-
-def load_database(path: str | Path) -> ContactDatabase:
-    """Read a database written by :func:`save_database`."""
-    import h5py
-
-    p = Path(path)
-    if not p.exists():
-        raise SettingError("database", str(p), "file not found")
-    try:
-        f = h5py.File(p, "r")
-    except OSError as exc:
-        raise SettingError("database", str(p), f"not a readable HDF5 file ({exc})") from None
-    with f:
-        if f.attrs.get("format") != "contactrig-contact-database":
-            raise SettingError("database", str(p), "not a contactrig contact database")
-        prov = json.loads(f.attrs.get("provenance", "{}"))
-        curves = {}
-        for name in f:
-            g = f[name]
-            params = json.loads(g.attrs.get("parameters", "{}"))
-            curves[name] = ContactCurve(
-                name,
-                np.asarray(g["separation_m"][()], dtype=float),
-                np.asarray(g["pressure_pa"][()], dtype=float),
-                np.asarray(g["area_fraction"][()], dtype=float),
-                params,
-            )
-    order = [m for m in prov.get("models", []) if m in curves] + [m for m in curves if m not in prov.get("models", [])]
-    return ContactDatabase({m: curves[m] for m in order}, prov)
+    return ContactDatabase(curves, prov)

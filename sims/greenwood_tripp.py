@@ -401,7 +401,7 @@ def paper_table(decimals: int | None = None) -> tuple[NDArray[np.float64], NDArr
 def paper_coefficients(decimals: int | None = None) -> NDArray[np.float64]:
     """Coefficients (highest power first, as ``np.polyval``) of the degree-8 polynomial through the nine nodes."""
     x, y = paper_table(decimals)
-    coef = np.linalg.solve(np.vander(x, 9), y)  # interpolation: 9 nodes, degree 8
+    coef = np.linalg.solve(np.vander(x, 9), y).astype(np.float64, copy=False)  # interpolation: 9 nodes, degree 8
     coef.setflags(write=False)
     return coef
 
@@ -421,7 +421,7 @@ def paper_polynomial(t: ArrayLike, *, decimals: int | None = None) -> NDArray[np
     if tt.size and (tt.min() < 0.0 or tt.max() > 4.0):
         bad = float(tt.min()) if tt.min() < 0.0 else float(tt.max())
         raise SettingError("t", bad, "the paper's polynomial is defined on [0, 4] (its table); use method='table'")
-    val = np.polyval(paper_coefficients(decimals), tt)
+    val: NDArray[np.float64] = np.asarray(np.polyval(paper_coefficients(decimals), tt), dtype=np.float64)
     neg = val < 0.0
     if neg.any():
         warnings.warn(
@@ -504,3 +504,28 @@ def area_fraction(h: ArrayLike, *, sigma: float, eta: float, beta: float) -> NDA
     if a.size and a.max() > 1.0:
         raise SettingError("h", float(hh.min()), "Greenwood–Tripp real-area fraction exceeds 1 (separation too deep)")
     return a
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Registration as a contact model of the database (sims.models): statistics only, no surface is generated.
+
+
+def _register() -> None:
+    from sims.models import ContactModel, register
+
+    register(
+        ContactModel(
+            "greenwood_tripp",
+            "Greenwood–Tripp",
+            build=lambda ctx: ctx.greenwood_tripp_curve("greenwood_tripp"),
+            equations="seed eq. 1–3",
+            description="Greenwood & Tripp (1970) from McCool's summit statistics of each surface",
+            elastic_only=True,
+            needs_surface=False,
+            style={"color": "#1f77b4", "linestyle": "-", "marker": "o"},
+        ),
+        replace=True,
+    )
+
+
+_register()

@@ -171,7 +171,7 @@ def conformal_line_contact(
     The domain is ``±extent·b`` (Johnson's ``b``) of arc length, at most a quarter of the circumference; ``x`` is
     arc length along the liner. The half-plane kernel assumes ``b ≪ R``: results with ``b`` near ``R`` are rough.
     """
-    from sims.rig_geometry import effective_radius_m, gap_m
+    from sims.rig.geometry import effective_radius_m, gap_m
 
     r_eff = effective_radius_m(liner_radius_m, clearance_m)
     b, _ = hertz_line_contact(load_per_length_n_per_m, r_eff, composite_modulus_pa)

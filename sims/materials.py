@@ -6,7 +6,8 @@ once, in :mod:`sims.asperity`.
 
 Scene tables ``[materials.liner]`` and ``[materials.piston]`` (all SI):
 
-``E_pa``      Young's modulus, Pa, in [1e3, 1e13]
+``E_pa``      Young's modulus, Pa, in [1e3, 1e13] and at least 2 ``H_pa`` (H/E is 1e-3…0.1 for real solids; a smaller
+              E is a unit slip such as MPa typed for Pa, and would put H above E*, seed eq. 4)
 ``nu``        Poisson's ratio, in [0, 0.5)
 ``H_pa``      indentation hardness, Pa, in [1e3, 1e12]; the softer body's H drives the plastic asperity models
 ``yield_pa``  optional yield strength, Pa (Jackson–Green); default ``H_pa / 2.84`` (Jackson & Green's H/S_y limit)
@@ -23,6 +24,7 @@ from contactrig.core.validation import SettingError, check_keys, check_range
 
 __all__ = [
     "MATERIAL_KEYS",
+    "MAX_HARDNESS_TO_MODULUS",
     "ContactMaterials",
     "Material",
     "composite_modulus",
@@ -33,6 +35,10 @@ MATERIAL_KEYS = ("E_pa", "nu", "H_pa", "yield_pa", "name")
 
 #: Jackson & Green (2005): hardness/yield-strength ratio at full plasticity (their H_G/S_y → 2.84).
 HARDNESS_TO_YIELD = 2.84
+
+#: Largest H/E a body may have. Real solids have 1e-3…0.1 (diamond ≈ 0.1). With H ≤ E/2 on both bodies the softer
+#: hardness never exceeds E* ≥ min(E1, E2)/2, which the plastic asperity models require.
+MAX_HARDNESS_TO_MODULUS = 0.5
 
 
 @dataclass(frozen=True)
@@ -51,6 +57,14 @@ class Material:
         check_range("H_pa", self.H_pa, 1e3, 1e12, unit="Pa")
         if self.yield_pa is not None:
             check_range("yield_pa", self.yield_pa, 1e3, 1e12, unit="Pa")
+        if self.H_pa > MAX_HARDNESS_TO_MODULUS * self.E_pa:
+            lo = self.H_pa / MAX_HARDNESS_TO_MODULUS
+            raise SettingError(
+                "E_pa",
+                self.E_pa,
+                f"expected a value >= {lo:g} Pa, twice the hardness H_pa = {self.H_pa:g} Pa (H/E is 1e-3..0.1 for "
+                "real solids): is it in Pa?",
+            )
 
     @property
     def yield_strength_pa(self) -> float:

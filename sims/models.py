@@ -12,10 +12,14 @@ database generates one — models from statistics alone never do).
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+from contactrig.core.registry import Registry
+
+if TYPE_CHECKING:
+    from sims.database import BuildContext, ContactCurve
 
 __all__ = [
     "BUILTIN_MODULES",
@@ -37,14 +41,14 @@ class ContactModel:
     """One contact model as the rest of contactrig sees it.
 
     ``key``: the name in scenes, files and the CLI (``"hertz"``). ``label``: display name (``"Hertz"``).
-    ``equations``: where it comes from (``"seed eq. 5–7"``). ``build(context) -> ContactCurve``: the curve on the
-    database grid (see :mod:`sims.database`). ``style``: optional matplotlib keywords (colour, linestyle, marker)
-    so the model looks the same in every figure; models without one get a colour from a cycle.
+    ``equations``: where it comes from (``"seed eq. 5–7"``). ``build(ctx) -> ContactCurve``: the curve on the
+    database grid from a :class:`sims.database.BuildContext`. ``style``: optional matplotlib keywords (colour,
+    linestyle, marker) so the model looks the same in every figure; models without one get a colour from a cycle.
     """
 
     key: str
     label: str
-    build: Callable[..., Any]
+    build: Callable[[BuildContext], ContactCurve]
     equations: str = ""
     description: str = ""
     elastic_only: bool = False
@@ -52,54 +56,36 @@ class ContactModel:
     style: dict[str, Any] = field(default_factory=dict)
 
 
-_REGISTRY: dict[str, ContactModel] = {}
-_loaded = False
-
-
-def _load_builtins() -> None:
-    global _loaded
-    if not _loaded:
-        _loaded = True
-        for name in BUILTIN_MODULES:
-            importlib.import_module(name)
+_REGISTRY: Registry[ContactModel] = Registry("contact model", BUILTIN_MODULES)
 
 
 def register(model: ContactModel, *, replace: bool = False) -> ContactModel:
     """Add ``model`` to the registry (a second model with the same key is an error unless ``replace``)."""
-    if not replace and model.key in _REGISTRY and _REGISTRY[model.key] is not model:
-        raise ValueError(f"a contact model {model.key!r} is registered already")
-    _REGISTRY[model.key] = model
-    return model
+    return _REGISTRY.register(model, replace=replace)
 
 
 def unregister(key: str) -> None:
     """Remove a model (tests use it to clean up a toy model)."""
-    _REGISTRY.pop(key, None)
+    _REGISTRY.unregister(key)
 
 
 def models() -> Iterator[ContactModel]:
     """Every registered model, in registration order (built-ins first)."""
-    _load_builtins()
-    return iter(list(_REGISTRY.values()))
+    return iter(_REGISTRY)
 
 
-def model_names() -> tuple[str, ...]:
-    """The keys of every registered model, in registration order."""
-    _load_builtins()
-    return tuple(_REGISTRY)
+def model_names(*, builtin_only: bool = False) -> tuple[str, ...]:
+    """The keys of every registered model, in registration order (``builtin_only``: those contactrig ships, the
+    default of a scene's ``[database] models``; a model registered by a notebook or a test is built on request)."""
+    return _REGISTRY.names(builtin_only=builtin_only)
 
 
 def get_model(key: str) -> ContactModel:
     """The model ``key``; an unknown key is a :class:`KeyError` naming the known ones."""
-    _load_builtins()
-    try:
-        return _REGISTRY[key]
-    except KeyError:
-        raise KeyError(f"unknown contact model {key!r}; known: {', '.join(_REGISTRY)}") from None
+    return _REGISTRY.get(key)
 
 
 def model_label(key: str) -> str:
     """Display name of model ``key`` (the key itself, made readable, for a model that is not registered)."""
-    _load_builtins()
-    m = _REGISTRY.get(key)
+    m = _REGISTRY.find(key)
     return m.label if m is not None else key.replace("_", " ")

@@ -6,25 +6,30 @@ Heights ``z`` are n×m arrays in metres on a square grid of pitch ``pixel_m``; g
 * :func:`self_affine` — power spectrum ∝ q^−2(1+H) between a roll-off and a short-wavelength cut-off, exact Sq.
   Both use deterministic spectral amplitudes with random phases, so the spectral moments of a realisation are
   those of the prescribed spectrum (:func:`expected_spectral_moments`), not a random draw around them.
-* :func:`load_height_map` — a plain-text/CSV grid of heights with its pixel size (mean plane removed).
+* :func:`level_height_map` — a measured grid of heights (an array: files are read by ``contactrig.core.scene``),
+  converted to metres, its mean plane removed.
 * :func:`rms_roughness` (Sq), :func:`combined_sigma` (seed eq. 3), :func:`summits` (8-neighbour),
   :func:`radius_of_curvature` (seed eq. 8, per point, x and y, negative at peaks), :func:`summit_statistics`
   (η, β, σ_s from the summits) and :func:`mccool` (the same from spectral moments, McCool 1986 after Nayak 1971).
 
-Scene tables ``[surfaces.liner]`` and ``[surfaces.piston]``: see :class:`SurfaceSpec`.
+Scene tables ``[surfaces.liner]`` and ``[surfaces.piston]``: see :class:`SurfaceSpec`. Physics only, no file I/O:
+a measured height map (``kind = "file"``) is read when the scene is loaded (``Scene.height_maps``) and reaches
+:meth:`SurfaceSpec.from_table` as an array; in a notebook pass one directly (:meth:`SurfaceSpec.from_heights`).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
-from pathlib import Path
-from typing import Any
+from dataclasses import asdict, dataclass, field, fields, replace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from contactrig.core.validation import SettingError, check_choice, check_int, check_keys, check_range, read_text_file
+from contactrig.core.validation import SettingError, check_choice, check_int, check_keys, check_range
+
+if TYPE_CHECKING:
+    from contactrig.core.scene import Scene
 
 __all__ = [
     "SURFACE_KINDS",
@@ -36,10 +41,11 @@ __all__ = [
     "curvature",
     "expected_spectral_moments",
     "gaussian",
-    "load_height_map",
+    "level_height_map",
     "mccool",
     "radius_of_curvature",
     "rms_roughness",
+    "rms_slope",
     "self_affine",
     "spectral_moments",
     "statistics_of",
@@ -51,6 +57,10 @@ __all__ = [
 
 SURFACE_KINDS = ("gaussian", "self_affine", "file")
 
+#: Largest RMS slope |∇z| a surface may have: the contact models (and their small-slope geometry) assume gentle
+#: asperities; real engineering surfaces have 0.01–0.3. A larger value is almost always a unit slip (mm or µm for m).
+MAX_RMS_SLOPE = 1.0
+
 
 # ---------------------------------------------------------------------------------------------------------------
 # Generation.
@@ -58,8 +68,8 @@ SURFACE_KINDS = ("gaussian", "self_affine", "file")
 
 def _wavenumbers(n: int, pixel_m: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """q_x (full axis) and q_y (half axis, rfft layout), rad/m."""
-    qx = 2.0 * np.pi * np.fft.fftfreq(n, d=pixel_m)
-    qy = 2.0 * np.pi * np.fft.rfftfreq(n, d=pixel_m)
+    qx = np.asarray(2.0 * np.pi * np.fft.fftfreq(n, d=pixel_m), dtype=np.float64)
+    qy = np.asarray(2.0 * np.pi * np.fft.rfftfreq(n, d=pixel_m), dtype=np.float64)
     return qx, qy
 
 
@@ -152,38 +162,42 @@ def self_affine(
     return _synthesise(_self_affine_psd(q2, hurst, q_roll, q_cut), n, sq_m, check_int("seed", seed, 0))
 
 
-def load_height_map(path: str | Path, *, pixel_m: float, height_unit_m: float = 1.0) -> NDArray[np.float64]:
-    """Read a measured height map: a plain-text grid (whitespace or comma separated, ``#`` comments).
+def level_height_map(
+    heights: ArrayLike, *, pixel_m: float, height_unit_m: float = 1.0, key: str = "heights", source: str | None = None
+) -> NDArray[np.float64]:
+    """A measured height map in metres with its least-squares mean plane removed (form and tilt are not roughness).
 
-    ``height_unit_m`` converts the file's numbers to metres (1e-6 for µm). The least-squares mean plane is
-    removed (form and tilt are not roughness). The map is not periodic: summits on its border are not counted.
+    ``heights`` are the numbers as measured (rows × columns; a file is read by ``contactrig.core.scene``);
+    ``height_unit_m`` converts them to metres (1e-6 for µm). The map is not periodic: summits on its border are not
+    counted. Errors name ``key`` with ``source`` (the file, when there is one) as the value; an RMS slope above
+    :data:`MAX_RMS_SLOPE` (a unit slip) names ``height_unit_m``.
     """
     pixel_m = check_range("pixel_m", pixel_m, 0.0, 1.0, lo_open=True, unit="m")
     height_unit_m = check_range("height_unit_m", height_unit_m, 0.0, 1e3, lo_open=True, unit="m")
-    p = Path(path)
-    text = read_text_file("path", p)
-    rows = []
-    for line_no, line in enumerate(text.splitlines(), 1):
-        line = line.split("#", 1)[0].strip()
-        if not line:
-            continue
-        parts = line.replace(",", " ").replace(";", " ").split()
-        try:
-            rows.append([float(v) for v in parts])
-        except ValueError:
-            raise SettingError("path", f"{p}:{line_no}", "expected numbers only") from None
-    if not rows or len({len(r) for r in rows}) != 1:
-        raise SettingError("path", str(p), "expected a rectangular grid of numbers (same count on every line)")
-    z = np.asarray(rows, dtype=float) * height_unit_m
-    if z.shape[0] < 8 or z.shape[1] < 8:
-        raise SettingError("path", str(p), f"expected at least 8×8 heights, got {z.shape[0]}×{z.shape[1]}")
-    if not np.isfinite(z).all():
-        raise SettingError("path", str(p), "contains non-finite heights")
+    raw = np.asarray(heights, dtype=np.float64)
+    where = source if source is not None else f"array of shape {raw.shape}"
+    if raw.ndim != 2:
+        raise SettingError(key, where, f"expected a 2-D grid of heights, got {raw.ndim} dimension(s)")
+    if raw.shape[0] < 8 or raw.shape[1] < 8:
+        raise SettingError(key, where, f"expected at least 8×8 heights, got {raw.shape[0]}×{raw.shape[1]}")
+    if not np.isfinite(raw).all():
+        raise SettingError(key, where, "contains non-finite heights")
+    z = raw * height_unit_m
     ny, nx = z.shape
     yy, xx = np.mgrid[0:ny, 0:nx]
     a = np.column_stack([np.ones(z.size), xx.ravel(), yy.ravel()])
     coef, *_ = np.linalg.lstsq(a, z.ravel(), rcond=None)
-    return z - (a @ coef).reshape(z.shape)
+    levelled = z - (a @ coef).reshape(z.shape)
+    slope = rms_slope(levelled, pixel_m, periodic=False)
+    if not slope <= MAX_RMS_SLOPE:
+        raise SettingError(
+            "height_unit_m",
+            height_unit_m,
+            f"the heights of {where} in units of {height_unit_m:g} m at pixel_m = {pixel_m:g} m have an RMS slope "
+            f"of {slope:.3g}; expected <= {MAX_RMS_SLOPE:g} (gentle asperities): are the numbers in that unit "
+            "(1e-6 for µm)?",
+        )
+    return levelled
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -194,6 +208,16 @@ def rms_roughness(z: ArrayLike) -> float:
     """Sq: RMS of heights about their mean, m."""
     z = np.asarray(z, dtype=float)
     return float(np.sqrt(np.mean((z - z.mean()) ** 2)))
+
+
+def rms_slope(z: ArrayLike, pixel_m: float, *, periodic: bool = True) -> float:
+    """RMS gradient √⟨z_x² + z_y²⟩ (Sdq) by forward differences, −; ``periodic=False``: no wrap at the edges."""
+    a = np.asarray(z, dtype=np.float64)
+    if periodic:
+        dx, dy = np.roll(a, -1, axis=0) - a, np.roll(a, -1, axis=1) - a
+    else:
+        dx, dy = np.diff(a, axis=0), np.diff(a, axis=1)
+    return float(np.sqrt(np.mean(dx * dx) + np.mean(dy * dy))) / pixel_m
 
 
 def combined_sigma(sq1_m: float, sq2_m: float) -> float:
@@ -360,12 +384,12 @@ def _moments_from_power(
 
 def spectral_moments(z: ArrayLike, pixel_m: float) -> SpectralMoments:
     """m0, m2, m4 of a height map from its Fourier transform (spectral derivatives; periodic assumption)."""
-    z = np.asarray(z, dtype=float)
-    z = z - z.mean()
-    ny, nx = z.shape
-    power = np.abs(np.fft.fft2(z)) ** 2 / (z.size**2)
-    qx = 2.0 * np.pi * np.fft.fftfreq(ny, d=pixel_m)
-    qy = 2.0 * np.pi * np.fft.fftfreq(nx, d=pixel_m)
+    a = np.asarray(z, dtype=np.float64)
+    a = a - a.mean()
+    ny, nx = a.shape
+    power = np.abs(np.fft.fft2(a)) ** 2 / (a.size**2)
+    qx = np.asarray(2.0 * np.pi * np.fft.fftfreq(ny, d=pixel_m), dtype=np.float64)
+    qy = np.asarray(2.0 * np.pi * np.fft.fftfreq(nx, d=pixel_m), dtype=np.float64)
     return _moments_from_power(power, qx, qy)
 
 
@@ -419,8 +443,60 @@ _KIND_KEYS = {
 _REQUIRED = {
     "gaussian": ("n", "pixel_m", "sq_m", "correlation_m"),
     "self_affine": ("n", "pixel_m", "sq_m", "hurst"),
-    "file": ("path", "pixel_m"),
+    "file": ("pixel_m",),  # and ``path`` unless the heights are given directly
 }
+
+
+def _check_table(section: str, table: Any) -> str:
+    """The ``kind`` of ``table`` after checking its keys (unknown or missing keys name ``[section] key``)."""
+    if not isinstance(table, dict):
+        raise SettingError(section, table, "expected a TOML table")
+    if "kind" not in table:
+        raise SettingError(f"{section}.kind", None, "required key is missing; one of " + ", ".join(SURFACE_KINDS))
+    kind: str = check_choice(f"{section}.kind", table["kind"], SURFACE_KINDS)
+    check_keys(section, table, _KIND_KEYS[kind])
+    for key in _REQUIRED[kind]:
+        if key not in table:
+            raise SettingError(f"{section}.{key}", None, f"required key for kind {kind!r} is missing")
+    return kind
+
+
+def _in_section(section: str, exc: SettingError) -> SettingError:
+    """``exc`` with its field named as the scene key ``section.field`` (unchanged when it already is one)."""
+    if exc.field == section or exc.field.startswith(section + "."):
+        return exc
+    return SettingError(f"{section}.{exc.field}", exc.value, exc.allowed)
+
+
+def _check_slope(key: str, value: float, slope: float, how: str) -> None:
+    if not slope <= MAX_RMS_SLOPE:
+        raise SettingError(
+            key,
+            value,
+            f"{how} gives an RMS slope of {slope:.3g}; expected <= {MAX_RMS_SLOPE:g} (gentle asperities): "
+            "is it in metres?",
+        )
+
+
+def _self_affine_slope(sq_m: float, hurst: float, q_box: float, q_roll: float, q_cut: float) -> float:
+    """RMS slope of the self-affine spectrum up to the cut-off: the continuous isotropic integral, from the radius
+    of a disc of one lattice cell (the q = 0 cell is the only one left out), within ~5 % of the realisation's."""
+    q = np.geomspace(q_box / math.sqrt(math.pi), q_cut, 2001)
+    c = np.power(np.maximum(q, q_roll), -2.0 * (1.0 + hurst))
+    dq = np.diff(q)
+
+    def integral(f: NDArray[np.float64]) -> float:  # trapezoid rule (np.trapezoid needs numpy >= 2)
+        return float(np.sum(0.5 * (f[1:] + f[:-1]) * dq))
+
+    return sq_m * math.sqrt(integral(c * q**3) / integral(c * q))
+
+
+def _path_of(table: dict[str, Any], path: str | None) -> str | None:
+    """The height map's file for provenance: ``path`` (as resolved by the scene reader) or the table's."""
+    value = path if path is not None else table.get("path")
+    if value is not None and (not isinstance(value, str) or not value):
+        raise SettingError("path", value, "expected a file name")
+    return value
 
 
 @dataclass(frozen=True)
@@ -436,8 +512,12 @@ class SurfaceSpec:
     ``rolloff_m``      roll-off wavelength, m (default: box size) — ``self_affine``
     ``cutoff_m``       short-wavelength cut-off, m (default: 2 pixels) — ``self_affine``
     ``seed``           random seed, integer ≥ 0 (default 0) — generated kinds
-    ``path``           height-map file, relative to the scene file — ``file``
+    ``path``           height-map file, relative to the scene file — ``file`` (read by the scene reader)
     ``height_unit_m``  metres per unit of the file's numbers (default 1.0; 1e-6 for µm) — ``file``
+
+    Every surface must have an RMS slope ≤ :data:`MAX_RMS_SLOPE` (a larger one is a unit slip, reported on ``sq_m``
+    or ``height_unit_m``). For ``file``, ``measured`` holds the levelled heights in metres (read-only; not part of
+    :meth:`as_dict`, equality or the repr).
     """
 
     section: str
@@ -452,118 +532,152 @@ class SurfaceSpec:
     seed: int = 0
     path: str | None = None
     height_unit_m: float = 1.0
+    measured: NDArray[np.float64] | None = field(default=None, repr=False, compare=False)
 
     @classmethod
-    def from_table(cls, section: str, table: dict[str, Any], base_dir: Path | None = None) -> SurfaceSpec:
-        if not isinstance(table, dict):
-            raise SettingError(section, table, "expected a TOML table")
-        if "kind" not in table:
-            raise SettingError(f"{section}.kind", None, "required key is missing; one of " + ", ".join(SURFACE_KINDS))
-        kind = check_choice(f"{section}.kind", table["kind"], SURFACE_KINDS)
-        check_keys(section, table, _KIND_KEYS[kind])
-        for key in _REQUIRED[kind]:
-            if key not in table:
-                raise SettingError(f"{section}.{key}", None, f"required key for kind {kind!r} is missing")
+    def from_table(
+        cls, section: str, table: dict[str, Any], heights: ArrayLike | None = None, *, path: str | None = None
+    ) -> SurfaceSpec:
+        """Validate a ``[surfaces.<body>]`` table; errors name the scene key (``[surfaces.liner] sq_m``).
+
+        ``kind = "file"`` needs ``heights``, the height map's numbers as read from its file (the scene reader
+        passes ``Scene.height_maps[section]``; a notebook may pass any 2-D array, ``path`` then optional);
+        ``path`` is the file they came from, kept for provenance (default: the table's ``path``).
+        """
+        kind = _check_table(section, table)
+        if heights is not None and kind != "file":
+            raise SettingError(f"{section}.kind", kind, "heights were given: expected kind 'file' (a measured map)")
         try:
             if kind == "file":
-                path = table["path"]
-                if not isinstance(path, str) or not path:
-                    raise SettingError("path", path, "expected a file name")
-                p = Path(path)
-                if not p.is_absolute() and base_dir is not None:
-                    p = base_dir / p
-                return cls(
-                    section=section,
-                    kind=kind,
-                    pixel_m=check_range("pixel_m", table["pixel_m"], 0.0, 1.0, lo_open=True, unit="m"),
-                    path=str(p),
-                    height_unit_m=check_range(
-                        "height_unit_m", table.get("height_unit_m", 1.0), 0.0, 1e3, lo_open=True, unit="m"
-                    ),
-                )
-            n, pixel_m = _check_grid(table["n"], table["pixel_m"])
-            spec = cls(
-                section=section,
-                kind=kind,
-                n=n,
-                pixel_m=pixel_m,
-                sq_m=check_range("sq_m", table["sq_m"], 0.0, 1e-2, lo_open=True, unit="m"),
-                seed=check_int("seed", table.get("seed", 0), 0),
-            )
-            if kind == "gaussian":
-                lam = check_range("correlation_m", table["correlation_m"], 0.0, 1.0, lo_open=True, unit="m")
-                if lam < 2 * pixel_m or lam > n * pixel_m / 4:
-                    raise SettingError(
-                        "correlation_m",
-                        lam,
-                        f"expected 2 pixels to a quarter box: [{2 * pixel_m:g}, {n * pixel_m / 4:g}] m",
-                    )
-                return cls(**{**asdict(spec), "correlation_m": lam})
-            hurst = check_range("hurst", table["hurst"], 0.0, 1.0, lo_open=True)
-            q_roll, q_cut = _self_affine_q(n, pixel_m, table.get("rolloff_m"), table.get("cutoff_m"))
-            return cls(
-                **{
-                    **asdict(spec),
-                    "hurst": hurst,
-                    "rolloff_m": 2 * np.pi / q_roll,
-                    "cutoff_m": 2 * np.pi / q_cut,
-                }
-            )
+                return cls._measured(section, table, heights, path)
+            return cls._generated(section, kind, table)
         except SettingError as exc:
-            if exc.field.startswith(section):
-                raise
-            raise SettingError(f"{section}.{exc.field}", exc.value, exc.allowed) from None
+            raise _in_section(section, exc) from None
+
+    @classmethod
+    def from_heights(
+        cls,
+        heights: ArrayLike,
+        *,
+        pixel_m: float,
+        height_unit_m: float = 1.0,
+        section: str = "surface",
+        path: str | None = None,
+    ) -> SurfaceSpec:
+        """A measured surface from an array of heights (in units of ``height_unit_m``), for notebooks."""
+        table = {"kind": "file", "pixel_m": pixel_m, "height_unit_m": height_unit_m}
+        return cls.from_table(section, table, heights, path=path)
+
+    @classmethod
+    def _measured(cls, section: str, table: dict[str, Any], heights: ArrayLike | None, path: str | None) -> SurfaceSpec:
+        source = _path_of(table, path)
+        if heights is None:
+            if source is None:
+                raise SettingError("path", None, "required key for kind 'file' is missing")
+            raise SettingError(
+                "path",
+                source,
+                "the height map was not read: load the scene from its file (contactrig.core.scene.load_scene) "
+                "or pass the heights (SurfaceSpec.from_table(..., heights=...))",
+            )
+        pixel_m = check_range("pixel_m", table["pixel_m"], 0.0, 1.0, lo_open=True, unit="m")
+        unit = check_range("height_unit_m", table.get("height_unit_m", 1.0), 0.0, 1e3, lo_open=True, unit="m")
+        key = "path" if source is not None else "heights"
+        z = level_height_map(heights, pixel_m=pixel_m, height_unit_m=unit, key=key, source=source)
+        z.setflags(write=False)
+        return cls(section=section, kind="file", pixel_m=pixel_m, path=source, height_unit_m=unit, measured=z)
+
+    @classmethod
+    def _generated(cls, section: str, kind: str, table: dict[str, Any]) -> SurfaceSpec:
+        n, pixel_m = _check_grid(table["n"], table["pixel_m"])
+        sq_m = check_range("sq_m", table["sq_m"], 0.0, 1e-2, lo_open=True, unit="m")
+        spec = cls(
+            section=section, kind=kind, n=n, pixel_m=pixel_m, sq_m=sq_m, seed=check_int("seed", table.get("seed", 0), 0)
+        )
+        if kind == "gaussian":
+            return spec._with_correlation(table["correlation_m"])
+        return spec._with_spectrum(table["hurst"], table.get("rolloff_m"), table.get("cutoff_m"))
+
+    def _with_correlation(self, value: Any) -> SurfaceSpec:
+        """Gaussian: λ between 2 pixels and a quarter box; RMS slope 2 Sq/λ."""
+        lam = check_range("correlation_m", value, 0.0, 1.0, lo_open=True, unit="m")
+        lo, hi = 2 * self.pixel_m, self.n * self.pixel_m / 4
+        if lam < lo or lam > hi:
+            raise SettingError("correlation_m", lam, f"expected 2 pixels to a quarter box: [{lo:g}, {hi:g}] m")
+        _check_slope("sq_m", self.sq_m, 2.0 * self.sq_m / lam, f"sq_m with correlation_m = {lam:g} m")
+        return replace(self, correlation_m=lam)
+
+    def _with_spectrum(self, hurst_value: Any, rolloff_m: Any, cutoff_m: Any) -> SurfaceSpec:
+        """Self-affine: H, roll-off and cut-off (defaults: box, 2 pixels)."""
+        hurst = check_range("hurst", hurst_value, 0.0, 1.0, lo_open=True)
+        q_roll, q_cut = _self_affine_q(self.n, self.pixel_m, rolloff_m, cutoff_m)
+        q_box = 2 * np.pi / (self.n * self.pixel_m)
+        slope = _self_affine_slope(self.sq_m, hurst, q_box, q_roll, q_cut)
+        _check_slope("sq_m", self.sq_m, slope, f"sq_m with hurst = {hurst:g}, cut-off {2 * np.pi / q_cut:g} m")
+        return replace(self, hurst=hurst, rolloff_m=2 * np.pi / q_roll, cutoff_m=2 * np.pi / q_cut)
+
+    def _value(self, key: str) -> float:
+        """A key the kind needs (set by :meth:`from_table`; a hand-built spec may lack it)."""
+        value = getattr(self, key)
+        if value is None:
+            raise SettingError(f"{self.section}.{key}", None, f"required for kind {self.kind!r}")
+        return float(value)
 
     @property
     def periodic(self) -> bool:
         return self.kind != "file"
 
     def heights(self) -> NDArray[np.float64]:
-        """The height map, m (generated or loaded)."""
+        """The height map, m (generated, or the measured one levelled; a fresh array either way)."""
         if self.kind == "gaussian":
-            return gaussian(
-                self.n, pixel_m=self.pixel_m, sq_m=self.sq_m, correlation_m=float(self.correlation_m), seed=self.seed
-            )
+            lam = self._value("correlation_m")
+            return gaussian(self.n, pixel_m=self.pixel_m, sq_m=self.sq_m, correlation_m=lam, seed=self.seed)
         if self.kind == "self_affine":
             return self_affine(
                 self.n,
                 pixel_m=self.pixel_m,
                 sq_m=self.sq_m,
-                hurst=float(self.hurst),
-                rolloff_m=self.rolloff_m,
-                cutoff_m=self.cutoff_m,
+                hurst=self._value("hurst"),
+                rolloff_m=self._value("rolloff_m"),
+                cutoff_m=self._value("cutoff_m"),
                 seed=self.seed,
             )
-        return load_height_map(str(self.path), pixel_m=self.pixel_m, height_unit_m=self.height_unit_m)
+        if self.measured is None:
+            raise SettingError(f"{self.section}.path", self.path, "no height map: build it with from_table(heights=)")
+        return self.measured.copy()
 
     def moments(self) -> SpectralMoments:
-        """Spectral moments without generating the surface (generated kinds); measured maps are loaded."""
+        """Spectral moments without generating the surface (generated kinds); of the map for measured ones."""
         if self.kind == "file":
             return spectral_moments(self.heights(), self.pixel_m)
         qx, qy = _wavenumbers(self.n, self.pixel_m)
         q2 = qx[:, None] ** 2 + qy[None, :] ** 2
         if self.kind == "gaussian":
-            psd = _gaussian_psd(q2, float(self.correlation_m))
+            psd = _gaussian_psd(q2, self._value("correlation_m"))
         else:
-            q_roll = 2 * np.pi / float(self.rolloff_m)
-            psd = _self_affine_psd(q2, float(self.hurst), q_roll, 2 * np.pi / float(self.cutoff_m))
+            q_roll = 2 * np.pi / self._value("rolloff_m")
+            psd = _self_affine_psd(q2, self._value("hurst"), q_roll, 2 * np.pi / self._value("cutoff_m"))
         return expected_spectral_moments(psd, self.n, self.pixel_m, self.sq_m)
 
     def as_dict(self) -> dict[str, Any]:
-        return {k: v for k, v in asdict(self).items() if v is not None}
+        """The settings as plain values (for provenance; the measured array is left out, its ``path`` kept)."""
+        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "measured"}
+        return {k: v for k, v in out.items() if v is not None}
 
 
-def surfaces_from_scene(scene: Any) -> tuple[SurfaceSpec, SurfaceSpec]:
-    """Parse ``[surfaces.liner]`` and ``[surfaces.piston]`` of ``scene``."""
+def surfaces_from_scene(scene: Scene) -> tuple[SurfaceSpec, SurfaceSpec]:
+    """Parse ``[surfaces.liner]`` and ``[surfaces.piston]`` of ``scene`` (with its height maps, already read)."""
     table = scene.table("surfaces")
     check_keys("surfaces", table, ("liner", "piston"))
-    base = None
-    source = getattr(scene, "source", "")
-    if source and not source.startswith("<"):
-        base = Path(source).resolve().parent
+    maps = scene.height_maps
     out = []
     for body in ("liner", "piston"):
+        section = f"surfaces.{body}"
         if body not in table:
-            raise SettingError(f"surfaces.{body}", None, "required table is missing")
-        out.append(SurfaceSpec.from_table(f"surfaces.{body}", table[body], base))
+            raise SettingError(section, None, "required table is missing")
+        loaded = maps.get(section)
+        if loaded is None:
+            out.append(SurfaceSpec.from_table(section, table[body]))
+        else:
+            out.append(SurfaceSpec.from_table(section, table[body], loaded.heights, path=loaded.path))
     return out[0], out[1]

@@ -75,43 +75,56 @@ def _numbers(value: Any) -> list[np.ndarray]:
     return [np.asarray(value, dtype=float)]
 
 
-def _classify(case: Case, limit_s: float) -> Outcome:
-    t0 = time.perf_counter()
+def _judge(case: Case, value: Any, caught: list[warnings.WarningMessage]) -> tuple[str, str]:
+    """(got, detail) for a call that returned ``value`` while ``caught`` warnings were issued."""
+    for arr in _numbers(value):
+        if not np.all(np.isfinite(arr)):
+            return "FAIL", "non-finite value returned"
+        if case.non_negative and np.any(arr < 0):
+            return "FAIL", f"negative value {float(arr.min()):.3g}"
+    if case.check is not None:
+        case.check(value)  # an AssertionError here is a wrong value (see _run)
+    relevant = [w for w in caught if not issubclass(w.category, (DeprecationWarning, PendingDeprecationWarning))]
+    if relevant:
+        return "warning", str(relevant[0].message)[:200]
+    return "finite", _summary(value)
 
-    def alarm(signum: int, frame: Any) -> None:  # pragma: no cover - only on a hang
-        raise _Hang
 
-    use_alarm = hasattr(signal, "SIGALRM")
-    if use_alarm:
-        previous = signal.signal(signal.SIGALRM, alarm)
-        signal.setitimer(signal.ITIMER_REAL, limit_s)
+def _run(case: Case, limit_s: float) -> tuple[str, str]:
+    """Call ``case`` and judge what happened: (got, detail); exceptions are classified, never raised."""
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             value = case.call()
-        for arr in _numbers(value):
-            if not np.all(np.isfinite(arr)):
-                return Outcome(case, "FAIL", "non-finite value returned", time.perf_counter() - t0)
-            if case.non_negative and np.any(arr < 0):
-                return Outcome(case, "FAIL", f"negative value {float(arr.min()):.3g}", time.perf_counter() - t0)
-        if case.check is not None:
-            case.check(value)
-        relevant = [w for w in caught if not issubclass(w.category, (DeprecationWarning, PendingDeprecationWarning))]
-        if relevant:
-            return Outcome(case, "warning", str(relevant[0].message)[:200], time.perf_counter() - t0)
-        return Outcome(case, "finite", _summary(value), time.perf_counter() - t0)
+        return _judge(case, value, caught)
     except _Hang:
-        return Outcome(case, "FAIL", f"no answer within {limit_s:g} s", time.perf_counter() - t0)
+        return "FAIL", f"no answer within {limit_s:g} s"
     except AssertionError as exc:
-        return Outcome(case, "FAIL", f"wrong value: {exc}", time.perf_counter() - t0)
+        return "FAIL", f"wrong value: {exc}"
     except (ValueError, RuntimeError, OSError, ArithmeticError) as exc:
-        return Outcome(case, "error", f"{type(exc).__name__}: {exc}"[:200], time.perf_counter() - t0)
+        return "error", f"{type(exc).__name__}: {exc}"[:200]
     except Exception as exc:  # anything else is a defect: an unexpected exception type
-        return Outcome(case, "FAIL", f"unexpected {type(exc).__name__}: {exc}"[:200], time.perf_counter() - t0)
+        return "FAIL", f"unexpected {type(exc).__name__}: {exc}"[:200]
+
+
+def _alarm(signum: int, frame: Any) -> None:  # pragma: no cover - only on a hang
+    raise _Hang
+
+
+def _classify(case: Case, limit_s: float) -> Outcome:
+    """Run ``case`` under a time limit (SIGALRM where the platform has it) and classify the outcome."""
+    t0 = time.perf_counter()
+    if not hasattr(signal, "SIGALRM"):
+        got, detail = _run(case, limit_s)
+        return Outcome(case, got, detail, time.perf_counter() - t0)
+    previous = signal.signal(signal.SIGALRM, _alarm)
+    signal.setitimer(signal.ITIMER_REAL, limit_s)
+    try:
+        got, detail = _run(case, limit_s)
     finally:
-        if use_alarm:
-            signal.setitimer(signal.ITIMER_REAL, 0)
-            signal.signal(signal.SIGALRM, previous)
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+    return Outcome(case, got, detail, time.perf_counter() - t0)
 
 
 def _summary(value: Any) -> str:

@@ -2,12 +2,21 @@
 
 from __future__ import annotations
 
+from functools import partial
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from analysis.studies.atlas import Case
 
+if TYPE_CHECKING:
+    from collections.abc import Mapping
+
+    from contactrig.core.scene import Scene
+    from sims.database import ContactCurve
+
 # a smooth steel/cast-iron-like pair, for cases that need statistics
-_GT = {"sigma": 0.5e-6, "eta": 5e10, "beta": 5e-6}
+_SIGMA, _ETA, _BETA = 0.5e-6, 5e10, 5e-6
 
 
 def _gt_F_extremes() -> np.ndarray:
@@ -34,13 +43,13 @@ def _gt_pressure_sigma_tiny() -> np.ndarray:
 def _gt_pressure_E(E: float) -> np.ndarray:
     from sims.greenwood_tripp import pressure
 
-    return pressure(np.linspace(-2e-6, 5e-6, 50), E_star=E, **_GT)
+    return pressure(np.linspace(-2e-6, 5e-6, 50), sigma=_SIGMA, eta=_ETA, beta=_BETA, E_star=E)
 
 
 def _gt_pressure_E_out_of_domain() -> np.ndarray:
     from sims.greenwood_tripp import pressure
 
-    return pressure(np.array([0.0]), E_star=-1e9, **_GT)
+    return pressure(np.array([0.0]), sigma=_SIGMA, eta=_ETA, beta=_BETA, E_star=-1e9)
 
 
 def _paper_polynomial_beyond_4() -> np.ndarray:
@@ -52,7 +61,7 @@ def _paper_polynomial_beyond_4() -> np.ndarray:
 def _gt_area_too_deep() -> np.ndarray:
     from sims.greenwood_tripp import area_fraction
 
-    return area_fraction(np.array([-1e-3]), **_GT)
+    return area_fraction(np.array([-1e-3]), sigma=_SIGMA, eta=_ETA, beta=_BETA)
 
 
 def greenwood_tripp_cases() -> list[Case]:
@@ -90,9 +99,6 @@ def greenwood_tripp_cases() -> list[Case]:
     ]
 
 
-_ASPERITY_MODELS = ("hertz", "lagemann", "pasaribu_schipper", "jackson_green")
-
-
 def _asperity_extreme(name: str, E_star: float, deltas: np.ndarray) -> dict[str, np.ndarray]:
     from sims.asperity import model
 
@@ -109,13 +115,12 @@ def _check_monotone_and_zero(v: dict[str, np.ndarray]) -> None:
 def _plastic_models_differ() -> dict[str, float]:
     """Deep in the plastic regime (δ = 1000 ω_c1) the elastic models keep growing as δ^1.5 while the
     plastic ones follow F = H·A: their forces must differ by orders of magnitude."""
-    from sims.asperity import model
+    from sims.asperity import MODELS, model
 
     E, R, H = 49e9, 10e-6, 1.2e9
     wc1 = 0.89 * R * (H / E) ** 2
     d = np.array([1000 * wc1])
-    out = {name: float(model(name, E_star=E, R=R, H=H).force(d)[0]) for name in _ASPERITY_MODELS}
-    return out
+    return {name: float(model(name, E_star=E, R=R, H=H).force(d)[0]) for name in MODELS}
 
 
 def _check_plastic_differ(v: dict[str, float]) -> None:
@@ -124,16 +129,18 @@ def _check_plastic_differ(v: dict[str, float]) -> None:
 
 
 def asperity_cases() -> list[Case]:
+    from sims.asperity import MODELS
+
     deltas = np.array([-1.0, 0.0, 1e-15, 1e-9, 1e-6, 1e-3, 1.0])
     cases = []
-    for name in _ASPERITY_MODELS:
+    for name in MODELS:
         for E, label in ((1e3, "1 kPa"), (1e12, "1 TPa")):
             cases.append(
                 Case(
                     f"δ from −1 m to 1 m, E* = {label}",
                     f"asperity.{name}",
                     "interference over 15 decades",
-                    lambda name=name, E=E: _asperity_extreme(name, E, deltas),
+                    partial(_asperity_extreme, name, E, deltas),
                     "finite",
                     check=_check_monotone_and_zero,
                 )
@@ -151,12 +158,12 @@ def asperity_cases() -> list[Case]:
     return cases
 
 
-def _database_curve(model: str):
+def _database_curve(model: str) -> ContactCurve:
     from contactrig.core.scene import load_scene
+    from sims.config import SimConfig
     from sims.database import build_database
 
-    scene = load_scene()
-    return build_database(scene, models=[model], n_separations=64)[model]
+    return build_database(SimConfig.from_scene(load_scene()), [model], n_separations=64)[model]
 
 
 def _curve_far_outside(model: str) -> dict[str, np.ndarray]:
@@ -175,23 +182,26 @@ def _curve_nan_separation() -> np.ndarray:
 
 
 def database_cases() -> list[Case]:
+    """Every registered contact model's curve far outside its table (a newly registered model is checked too)."""
+    from sims.models import model_names
+
     return [
         *[
             Case(
                 "h from h_min − 1 mm to h_max + 1 m",
                 f"database.{m}",
                 "separations far outside the table",
-                lambda m=m: _curve_far_outside(m),
+                partial(_curve_far_outside, m),
                 "finite",
                 check=_check_outside,
             )
-            for m in ("greenwood_tripp", "hertz")
+            for m in model_names()
         ],
         Case("h = NaN", "database.greenwood_tripp", "not a separation", _curve_nan_separation, "error"),
     ]
 
 
-def _scene_with(changes: dict[str, object]):
+def _scene_with(changes: Mapping[str, object]) -> Scene:
     """The default scene with ``changes`` ({"surfaces.liner.sq_m": 1e-8, …}) applied, re-serialised as TOML."""
     import json
     import tomllib
@@ -218,9 +228,11 @@ def _scene_with(changes: dict[str, object]):
 
 
 def _sweep_numbers(scene=None, models=("greenwood_tripp",), weights=(5.44,), **kw) -> dict[str, np.ndarray]:
+    from sims.config import SimConfig
     from sims.rig import sweep
 
-    result = sweep(scene, models=list(models), weights_kg=list(weights), **kw)
+    config = SimConfig.from_scene(scene) if scene is not None else None
+    result = sweep(config, models=list(models), weights_kg=list(weights), **kw)
     for w in result.warnings:
         import warnings
 
@@ -251,7 +263,7 @@ def _zero_clearance() -> dict[str, np.ndarray]:
     import dataclasses
 
     from contactrig.core.scene import load_scene
-    from sims.rig_settings import RigSettings
+    from sims.rig.settings import RigSettings
 
     settings = dataclasses.replace(RigSettings.from_scene(load_scene()), clearance_m=0.0)
     return _sweep_numbers(None, settings=settings)
@@ -333,7 +345,7 @@ def _delta_with_overflow(indices: set[int], count: int = 10) -> dict[str, float]
     rm = simulated_resource_manager(bench=bench)
     with Keithley6221.open("GPIB0::12::INSTR", resource_manager=rm, timeout_ms=2000) as k:
         block = k.run_delta(DeltaSettings(high_a=1e-3, count=count))
-    out = {"n": block.n, "n_invalid": block.n_invalid}
+    out: dict[str, float] = {"n": block.n, "n_invalid": block.n_invalid}
     if block.n:
         out["mean_ohm"] = float(block.resistance_ohm()[block.valid].mean())
     return out
@@ -406,15 +418,13 @@ def instrument_and_session_cases() -> list[Case]:
 
 def _settle(method: str, damping: float, budget: int | None) -> dict[str, float]:
     from contactrig.core.scene import load_scene
+    from sims.config import SimConfig
     from sims.database import build_database
-    from sims.rig_dynamics import settle
-    from sims.rig_settings import RigSettings
+    from sims.rig.dynamics import settle
 
-    scene = load_scene()
-    curve = build_database(scene, models=["greenwood_tripp"])["greenwood_tripp"]
-    run = settle(
-        curve, RigSettings.from_scene(scene), 25.966, method=method, damping_n_s_per_m=damping, max_evaluations=budget
-    )
+    config = SimConfig.from_scene(load_scene())
+    curve = build_database(config, ["greenwood_tripp"])["greenwood_tripp"]
+    run = settle(curve, config.rig, 25.966, method=method, damping_n_s_per_m=damping, max_evaluations=budget)
     out = {"nfev": float(run.nfev), "status": float(abs(run.status))}
     if run.settled:
         out["rest_error"] = abs(run.separation_error_m) / abs(run.static_separation_m)
@@ -433,7 +443,7 @@ def dynamics_cases() -> list[Case]:
     return [
         Case(
             "BDF, B = 1e7 N·s/m",
-            "rig_dynamics.settle",
+            "rig.dynamics.settle",
             "stiff damping, implicit method with the analytic Jacobian",
             lambda: _settle("BDF", 1e7, 100_000),
             "finite",
@@ -441,7 +451,7 @@ def dynamics_cases() -> list[Case]:
         ),
         Case(
             "RK45, B = 1e7 N·s/m, budget 2e4",
-            "rig_dynamics.settle",
+            "rig.dynamics.settle",
             "stiff damping, explicit method: must stop at its budget and say so, not run for minutes",
             lambda: _settle("RK45", 1e7, 20_000),
             "warning",

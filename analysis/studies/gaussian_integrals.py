@@ -12,6 +12,7 @@ scipy's pbdv is still usable — beyond it its error grows, which is why the tab
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from functools import partial
 
 import numpy as np
@@ -37,7 +38,7 @@ def reference_F(n: float, t: np.ndarray) -> np.ndarray:
     return out
 
 
-def _methods() -> dict[str, object]:
+def _methods() -> dict[str, Callable[[np.ndarray], np.ndarray]]:
     from sims import greenwood_tripp as gt
 
     return {
@@ -72,7 +73,7 @@ def run(quick: bool) -> list[Row]:
             t_time = np.linspace(lo, hi, n_points)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # the paper polynomial warns where it is negative: counted below
-                _, seconds = stopwatch(lambda fn=fn, t=t_time: fn(t))
+                _, seconds = stopwatch(partial(fn, t_time))
                 approx = fn(t_ref)
             rel = np.abs(approx - f_ref) / f_ref
             worst = int(np.argmax(rel))

@@ -1,7 +1,7 @@
 """Study ``integrator``: the damped release-to-rest of seed eq. 22, explicit against implicit integrators.
 
 The piston under a Tab. 1 weight is released just touching the liner and integrated to rest with
-m ẍ = m g − F_c(x) − B ẋ on the Greenwood–Tripp curve of the default scene (``sims.rig_dynamics.settle``; the
+m ẍ = m g − F_c(x) − B ẋ on the Greenwood–Tripp curve of the default scene (``sims.rig.dynamics.settle``; the
 implicit methods get the analytic Jacobian from the curve's slope). Reference: the static equilibrium of the same
 model on the same mesh (a bracketed root solve, independent of any time integration); error = relative error of
 the rest separation. Two dampings: light (the scene's B, not stiff) and heavy (stiffness ratio ≫ 100, stiff).
@@ -23,21 +23,21 @@ _WEIGHT_KG = 25.966
 
 def run(quick: bool) -> list[Row]:
     from contactrig.core.scene import load_scene
+    from sims.config import SimConfig
     from sims.database import build_database
-    from sims.rig_dynamics import settle
-    from sims.rig_settings import RigSettings
-    from sims.rig_statics import equilibrium
+    from sims.rig import equilibrium, settle
+    from sims.rig.dynamics import MAX_EVALUATIONS
 
-    scene = load_scene()
-    settings = RigSettings.from_scene(scene)
-    curve = build_database(scene, models=["greenwood_tripp"])["greenwood_tripp"]
+    config = SimConfig.from_scene(load_scene())
+    settings = config.rig
+    curve = build_database(config, models=["greenwood_tripp"])["greenwood_tripp"]
     static = equilibrium(curve, settings, _WEIGHT_KG)
     dampings = (("light", settings.damping_n_s_per_m), ("heavy", 3e6 if quick else 1e7))
     rows: list[Row] = []
     for label, damping in dampings:
         for method in _METHODS:
             # full study: no evaluation budget, so explicit RK45's true cost on the stiff case is measured
-            budget = {} if quick else {"max_evaluations": None}
+            budget = MAX_EVALUATIONS if quick else None
             with warnings.catch_warnings(record=True) as caught:
                 # an explicit method on the stiff case warns by design: keep the text in the row, not on stderr
                 warnings.simplefilter("always")
@@ -49,7 +49,7 @@ def run(quick: bool) -> list[Row]:
                     damping_n_s_per_m=damping,
                     static=static,
                     rtol=1e-6,
-                    **budget,
+                    max_evaluations=budget,
                 )
             rows.append(
                 Row(

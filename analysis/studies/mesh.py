@@ -61,15 +61,15 @@ def quad_reference(curve: Any, settings: Any, weight_kg: float) -> tuple[float, 
 
 def run(quick: bool) -> list[Row]:
     from contactrig.core.scene import load_scene
+    from sims.config import SimConfig
     from sims.database import build_database
-    from sims.rig_settings import RigSettings
-    from sims.rig_statics import equilibrium
+    from sims.rig import equilibrium
 
-    scene = load_scene()
-    base = RigSettings.from_scene(scene)
+    config = SimConfig.from_scene(load_scene())
+    base = config.rig
     models = ("greenwood_tripp", "hertz")
     weights = (5.44,) if quick else (5.44, 25.966)
-    db = build_database(scene, models=list(models))
+    db = build_database(config, models=list(models))
     stopwatch = Stopwatch(repeat=3)
     rows: list[Row] = []
     for name in models:

@@ -68,7 +68,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     f.add_argument("--json", action="store_true", help="print the fits as JSON")
     f.set_defaults(handler=_fit)
 
-    g = subparsers.add_parser("figures", parents=[common], help="draw seed Figs. 2, 9, 11, 12 and the fit residuals")
+    g = subparsers.add_parser(
+        "figures",
+        parents=[common],
+        help="draw every figure of the analysis.figures registry (PNG and a vector format)",
+    )
     g.add_argument("-o", "--output", required=True, metavar="DIR", help="directory for the figures")
     g.add_argument("--format", choices=("svg", "pdf"), default="svg", help="vector format written beside the PNG")
     g.set_defaults(handler=_figures)
@@ -136,14 +140,7 @@ def _analysis(args: argparse.Namespace) -> Any:
     if args.session == _TAB1:
         from analysis.pipeline import analyse_tab1
 
-        if args.sim:
-            from analysis.pipeline import _load_sim
-            from contactrig.core.scene import load_scene
-
-            scene = load_scene(None)
-            sweep_result, _, info = _load_sim(args.sim, scene, None, args.models)
-            return analyse_tab1(sweep_result, scene, sim_info=info, **kw)
-        return analyse_tab1(models=args.models, **kw)
+        return analyse_tab1(sim_path=args.sim, models=args.models, **kw)
     from analysis.pipeline import analyse_session
 
     return analyse_session(args.session, args.sim, models=args.models, **kw)
@@ -158,27 +155,27 @@ def _fit(args: argparse.Namespace) -> int:
         d["simulation"] = a.sim_info.get("source")
         print(json.dumps(d, indent=2))
         return 0
-    from analysis.figures import model_label
+    from sims.models import model_label
 
     if not a.measured_info.get("complete", True):
         print("INCOMPLETE SESSION: no stop record; analysing the blocks on disk", file=sys.stderr)
-    first = next(iter(cmp.fits.values()))
+    best = cmp.best
+    boot = best.intervals.bootstrap
     print(f"{a.title}: {cmp.n_weights} weights × {cmp.n_repeats} repeats; simulation: {a.sim_info.get('source')}")
-    print(f"R = R_s + s·x(A), conversion {a.conversion}, weighting {first.weighting}, "
-          f"{first.n_boot} bootstrap resamples ({first.bootstrap})")  # fmt: skip
-    lvl = round(first.ci_level * 100)
+    print(f"R = R_s + s·x(A), conversion {a.conversion}, weighting {best.weighting}, "
+          f"{boot.n_boot} bootstrap resamples ({boot.resampling})")  # fmt: skip
     print(f"{'model':<20} {'R_s [mΩ]':>18} {'s [Ω·m]':>22} {'χ²/dof':>8} {'AIC':>8} {'ΔAIC':>7} {'RMSE [mΩ]':>10}")
     for name in cmp.ranking:
-        f = cmp.fits[name]
+        e, g = cmp.fits[name].estimate, cmp.fits[name].goodness
         print(
-            f"{model_label(name):<20} {f.R_series_ohm * 1e3:>9.4g} ± {f.R_series_se * 1e3:<6.2g}"
-            f" {f.scale:>12.4g} ± {f.scale_se:<7.2g} {f.reduced_chi2:>8.3g} {f.aic:>8.5g}"
-            f" {cmp.delta_aic[name]:>7.3g} {f.rmse_ohm * 1e3:>10.3g}"
+            f"{model_label(name):<20} {e.R_series_ohm * 1e3:>9.4g} ± {e.R_series_se * 1e3:<6.2g}"
+            f" {e.scale:>12.4g} ± {e.scale_se:<7.2g} {g.reduced_chi2:>8.3g} {g.aic:>8.5g}"
+            f" {cmp.delta_aic[name]:>7.3g} {g.rmse_ohm * 1e3:>10.3g}"
         )
-    best = cmp.fits[cmp.ranking[0]]
-    print(f"{model_label(best.model)}: R_s {lvl}% t-interval [{best.R_series_ci[0] * 1e3:.3g}, "
-          f"{best.R_series_ci[1] * 1e3:.3g}] mΩ, {best.boot_interval} bootstrap [{best.R_series_boot_ci[0] * 1e3:.3g}, "
-          f"{best.R_series_boot_ci[1] * 1e3:.3g}] mΩ; goodness of fit against {best.gof_reference}")  # fmt: skip
+    t_ci, b_ci = best.intervals.t.R_series_ohm, boot.R_series_ohm
+    print(f"{model_label(best.model)}: R_s {round(best.intervals.level * 100)}% t-interval [{t_ci[0] * 1e3:.3g}, "
+          f"{t_ci[1] * 1e3:.3g}] mΩ, {boot.method} bootstrap [{b_ci[0] * 1e3:.3g}, {b_ci[1] * 1e3:.3g}] mΩ; "
+          f"goodness of fit against {best.goodness.reference}")  # fmt: skip
     print(cmp.statement)
     for w in a.measured_info.get("warnings", []):
         print(f"note: {w}", file=sys.stderr)
@@ -186,16 +183,17 @@ def _fit(args: argparse.Namespace) -> int:
 
 
 def _figures(args: argparse.Namespace) -> int:
-    from analysis.report import output_directory, write_figures
+    from analysis.figures import figure_specs, write_figures
+    from analysis.report import output_directory
 
     output_directory(args.output)
     a = _analysis(args)
     written = write_figures(a, args.output, formats=("png", args.format))
-    for name, paths in written.items():
-        print(f"{name}: " + ", ".join(str(p) for p in paths))
-    if a.database is None:
-        print("fig02_database: not drawn (the contact database is built only when the rig is simulated now; "
-              "omit --sim)", file=sys.stderr)  # fmt: skip
+    for spec in figure_specs():
+        if spec.key in written:
+            print(f"{spec.key}: " + ", ".join(str(p) for p in written[spec.key]))
+        else:
+            print(f"{spec.key}: not drawn ({spec.missing or 'no data for it in this analysis'})", file=sys.stderr)
     return 0
 
 

@@ -10,8 +10,6 @@ from __future__ import annotations
 import argparse
 import sys
 import warnings
-from pathlib import Path
-from typing import Any
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -23,12 +21,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("scene", nargs="?", default=None, help="scene TOML file (default: the packaged default scene)")
     p.add_argument("-o", "--output", required=True, help="HDF5 file to write")
-    p.add_argument(
-        "--models",
-        default=None,
-        help="comma-separated models (default: the scene's [database].models): greenwood_tripp, hertz, lagemann, "
-        "pasaribu_schipper, jackson_green",
-    )
+    p.add_argument("--models", default=None, help=models_help())
     p.add_argument("--n-separations", type=int, default=None, help="grid points per curve (default: the scene's)")
     p.add_argument(
         "--gt-heights",
@@ -41,18 +34,24 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=run_database)
 
 
+def models_help() -> str:
+    """``--models`` help from the model registry (the same text in every command that takes models)."""
+    from sims.models import model_names
+
+    return "comma-separated contact models (default: the scene's [database] models): " + ", ".join(model_names())
+
+
 def run_database(args: argparse.Namespace) -> int:
     """Handler of ``contactrig database``."""
     from contactrig.core.scene import load_scene
-    from sims.database import build_database, save_database
+    from daq.database_file import save_database
+    from sims.config import SimConfig
+    from sims.database import build_database
 
-    scene = load_scene(args.scene)
-    models = None
-    if args.models is not None:
-        models = [m.strip() for m in args.models.split(",") if m.strip()]
+    config = SimConfig.from_scene(load_scene(args.scene))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # the same text is in provenance["warnings"], printed below
-        db = build_database(scene, models=models, n_separations=args.n_separations, gt_heights=args.gt_heights)
+        db = build_database(config, args.models, n_separations=args.n_separations, gt_heights=args.gt_heights)
     out = save_database(db, args.output)
     prov = db.provenance
     for w in prov.get("warnings", []):
@@ -73,36 +72,7 @@ def run_database(args: argparse.Namespace) -> int:
         )
     print(f"wrote {out} ({prov.get('build_time_s', 0.0):.2f} s)")
     if args.plot:
-        path = plot_database(db, args.plot)
-        print(f"wrote {path}")
+        from analysis.figures import write_database_figure
+
+        print(f"wrote {write_database_figure(db, args.plot)}")
     return 0
-
-
-def plot_database(db: Any, path: str | Path) -> Path:
-    """Seed Fig. 2: nominal contact pressure against separation, one line per model, log pressure axis."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    fig, (ax_p, ax_a) = plt.subplots(1, 2, figsize=(10, 4.2), constrained_layout=True)
-    for name, curve in db.items():
-        h_um = curve.separation_m * 1e6
-        p = np.asarray(curve.pressure_pa)
-        a = np.asarray(curve.area_fraction)
-        pos = p > 0
-        ax_p.semilogy(h_um[pos], p[pos], label=name)
-        ax_a.semilogy(h_um[a > 0], a[a > 0], label=name)
-    ax_p.set_xlabel("separation h (µm)")
-    ax_p.set_ylabel("nominal contact pressure (Pa)")
-    ax_p.set_title("Contact pressure vs separation (seed Fig. 2)")
-    ax_a.set_xlabel("separation h (µm)")
-    ax_a.set_ylabel("real / nominal contact area")
-    for ax in (ax_p, ax_a):
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
-    out = Path(path)
-    fig.savefig(out, dpi=120)
-    plt.close(fig)
-    return out

@@ -1,4 +1,6 @@
-"""``contactrig simulate``: the rig model's load sweep, contact area against added weight (``sims.rig``).
+"""``contactrig simulate``: the rig model's load sweep, contact area against added weight (``sims.rig.sweep``).
+
+The scene is read once and parsed into a :class:`sims.config.SimConfig`; ``-o`` writes :mod:`daq.sweep_file`.
 
 Registered by ``contactrig.cli.main``. Nothing heavy is imported until the command runs.
 """
@@ -55,14 +57,14 @@ def parse_list(option: str, text: str, kind: type = float) -> list[Any]:
 
 def _simulate(args: argparse.Namespace) -> int:
     from contactrig.core.scene import load_scene
-    from sims.rig import save_sweep, sweep
+    from daq.sweep_file import save_sweep
+    from sims.config import SimConfig
+    from sims.rig import check_weights, sweep
 
-    scene = load_scene(args.scene)
-    from sims.rig_settings import check_weights
-
+    config = SimConfig.from_scene(load_scene(args.scene))
     weights = check_weights(parse_list("--weights", args.weights), "--weights") if args.weights is not None else None
     models = parse_list("--models", args.models, str) if args.models is not None else None
-    result = sweep(scene, models=models, weights_kg=weights)
+    result = sweep(config, models=models, weights_kg=weights)
     if args.output:
         path = save_sweep(result, args.output)
         print(f"wrote {path}", file=sys.stderr if args.json else sys.stdout)

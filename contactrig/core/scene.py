@@ -19,21 +19,56 @@ table               what                                    parsed by
 
 An unknown top-level table is an error naming it; unknown keys inside a table are errors raised by its owner.
 The default scene ships with the package (``contactrig/scenes/default.toml``).
+
+This module is the edge where a scene's files are read. A ``[surfaces.<body>]`` table of ``kind = "file"`` names a
+measured height map (``path``, relative to the scene file's folder); :func:`load_scene` reads it when the scene is
+loaded and keeps the numbers, exactly as written in the file, on :attr:`Scene.height_maps` (section →
+:class:`HeightMap`, the resolved path kept for provenance). ``sims.surface`` builds the surface from the table and that
+array; it reads no file. :func:`parse_scene` reads height maps only when given ``base_dir`` (a scene recorded in a
+data file is parsed without its files). A missing or malformed height map is an error naming the scene key, e.g.
+``[surfaces.liner] path = 'maps/liner.csv:3'``.
 """
 
 from __future__ import annotations
 
 import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
 
 from contactrig.core.validation import SCENE_TABLES, SettingError, check_keys, read_text_file
 
-__all__ = ["KNOWN_TABLES", "Scene", "default_scene_text", "load_scene", "parse_scene"]
+__all__ = [
+    "KNOWN_TABLES",
+    "HeightMap",
+    "Scene",
+    "default_scene_text",
+    "load_height_maps",
+    "load_scene",
+    "parse_scene",
+    "read_height_map",
+]
 
 KNOWN_TABLES = SCENE_TABLES
+
+
+@dataclass(frozen=True)
+class HeightMap:
+    """A measured height map as read from its file: ``heights`` are the file's numbers (its own unit, rows × columns,
+    read-only), ``path`` the file it came from (resolved; for provenance and messages)."""
+
+    path: str
+    heights: NDArray[np.float64] = field(repr=False, compare=False)
+
+
+def _no_height_maps() -> Mapping[str, HeightMap]:
+    return MappingProxyType({})
 
 
 @dataclass(frozen=True)
@@ -43,6 +78,8 @@ class Scene:
     text: str
     data: dict[str, Any] = field(repr=False)
     source: str = "<default>"
+    #: measured height maps the scene references, by section (``"surfaces.liner"``); see :func:`load_height_maps`
+    height_maps: Mapping[str, HeightMap] = field(default_factory=_no_height_maps, repr=False, compare=False)
 
     @property
     def name(self) -> str:
@@ -61,8 +98,12 @@ def default_scene_text() -> str:
     return resources.files("contactrig").joinpath("scenes/default.toml").read_text(encoding="utf-8")
 
 
-def parse_scene(text: str, source: str = "<string>") -> Scene:
-    """Parse scene ``text``; raise :class:`SettingError` on malformed TOML or an unknown table."""
+def parse_scene(text: str, source: str = "<string>", *, base_dir: str | Path | None = None) -> Scene:
+    """Parse scene ``text``; raise :class:`SettingError` on malformed TOML or an unknown table.
+
+    With ``base_dir``, the height maps the scene references are read too (relative paths from ``base_dir``);
+    without it, none are (:attr:`Scene.height_maps` is empty).
+    """
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -72,11 +113,77 @@ def parse_scene(text: str, source: str = "<string>") -> Scene:
     if not isinstance(scene_table, dict):
         raise SettingError("scene", scene_table, "expected a TOML table")
     check_keys("scene", scene_table, ("name", "description"))
-    return Scene(text=text, data=data, source=source)
+    maps = load_height_maps(data, base_dir) if base_dir is not None else _no_height_maps()
+    return Scene(text=text, data=data, source=source, height_maps=maps)
 
 
 def load_scene(path: str | Path | None = None) -> Scene:
-    """Load the scene at ``path``, or the packaged default scene when ``path`` is None."""
+    """Load the scene at ``path`` and the height-map files it references, or the packaged default scene when
+    ``path`` is None."""
     if path is None:
         return parse_scene(default_scene_text(), "<default>")
-    return parse_scene(read_text_file("scene", path), str(path))
+    p = Path(path)
+    return parse_scene(read_text_file("scene", p), str(path), base_dir=p.resolve().parent)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Measured height maps.
+
+
+def _height_map_paths(data: Mapping[str, Any]) -> dict[str, Any]:
+    """section → the ``path`` value of every ``[surfaces.<body>]`` table of ``kind = "file"`` (as written)."""
+    surfaces = data.get("surfaces", {})
+    if not isinstance(surfaces, dict):
+        return {}  # sims.surface reports the malformed table
+    return {
+        f"surfaces.{body}": table.get("path")
+        for body, table in surfaces.items()
+        if isinstance(table, dict) and table.get("kind") == "file"
+    }
+
+
+def load_height_maps(data: Mapping[str, Any], base_dir: str | Path) -> Mapping[str, HeightMap]:
+    """Read every height-map file the scene tables ``data`` reference (relative paths from ``base_dir``).
+
+    Returns a read-only mapping section → :class:`HeightMap`. A ``path`` that is not a non-empty string is left
+    for ``sims.surface`` to report; a missing or malformed file is a :class:`SettingError` naming ``[section] path``.
+    """
+    out: dict[str, HeightMap] = {}
+    for section, value in _height_map_paths(data).items():
+        if not isinstance(value, str) or not value:
+            continue
+        p = Path(value)
+        if not p.is_absolute():
+            p = Path(base_dir) / p
+        out[section] = HeightMap(path=str(p), heights=read_height_map(p, key=f"{section}.path"))
+    return MappingProxyType(out)
+
+
+def _parse_row(line: str, where: str, key: str) -> list[float] | None:
+    """The numbers of one line of a height-map file (None for a blank or comment line)."""
+    line = line.split("#", 1)[0].strip()
+    if not line:
+        return None
+    try:
+        return [float(v) for v in line.replace(",", " ").replace(";", " ").split()]
+    except ValueError:
+        raise SettingError(key, where, "expected numbers only") from None
+
+
+def read_height_map(path: str | Path, *, key: str = "path") -> NDArray[np.float64]:
+    """The numbers of a plain-text height map: a grid separated by whitespace, commas or semicolons, ``#`` comments.
+
+    Returned as written (no unit conversion, no levelling; that is physics, done by ``sims.surface``), rows × columns,
+    read-only. A missing, unreadable or non-rectangular file is a :class:`SettingError` naming ``key``.
+    """
+    p = Path(path)
+    rows = []
+    for line_no, line in enumerate(read_text_file(key, p).splitlines(), 1):
+        row = _parse_row(line, f"{p}:{line_no}", key)
+        if row is not None:
+            rows.append(row)
+    if not rows or len({len(r) for r in rows}) != 1:
+        raise SettingError(key, str(p), "expected a rectangular grid of numbers (same count on every line)")
+    z = np.asarray(rows, dtype=np.float64)
+    z.setflags(write=False)
+    return z

@@ -54,11 +54,13 @@ def test_default_scene_gives_a_simulated_session_the_magnitude_of_tab1():
     # the scene comment's assumption: R_s + ζh/A(W) with the rig's greenwood_tripp area is within ~25 % of the
     # published Tab. 1 means at every weight (Tab. 1's shape is not 1/A, so not closer); refit if this fails
     from analysis.measured import load_tab1
+    from sims.config import SimConfig
     from sims.rig import sweep
 
     tab1 = load_tab1()
     scene = load_scene()
-    area = sweep(scene, models=["greenwood_tripp"], weights_kg=list(tab1.weight_kg)).models["greenwood_tripp"]
+    result = sweep(SimConfig.from_scene(scene), models=["greenwood_tripp"], weights_kg=list(tab1.weight_kg))
+    area = result.models["greenwood_tripp"]
     simulated = CircuitSettings.from_scene(scene).measured_resistance_ohm(area.contact_area_m2)
     ratio = simulated / tab1.mean_ohm
     assert 0.7 < ratio.min() and ratio.max() < 1.35, ratio

@@ -11,7 +11,8 @@ W = np.array([5.0, 10.0, 15.0, 20.0])
 
 
 def _sweep_file(path, weights=W):
-    from sims.rig import ModelSweep, SweepResult, save_sweep
+    from daq.sweep_file import save_sweep
+    from sims.rig import ModelSweep, SweepResult
 
     models = {}
     for name, expo in (("greenwood_tripp", 0.8), ("hertz", 2 / 3)):
@@ -75,10 +76,18 @@ def test_fit_json_on_an_incomplete_session(tmp_path, capsys):
     d = json.loads(capsys.readouterr().out)
     assert set(d["models"]) == {"greenwood_tripp", "hertz"}
     assert d["ranking"][0] == "greenwood_tripp"
-    for key in ("R_series_ohm", "R_series_se", "scale", "scale_se", "aic", "rmse_ohm"):
-        assert isinstance(d["models"]["hertz"][key], float)
+    for group, key in (
+        ("estimate", "R_series_ohm"), ("estimate", "R_series_se"), ("estimate", "scale"), ("estimate", "scale_se"),
+        ("goodness", "aic"), ("goodness", "rmse_ohm"),
+    ):  # fmt: skip
+        assert isinstance(d["models"]["hertz"][group][key], float)
     assert d["measured"]["complete"] is False
-    assert abs(d["models"]["greenwood_tripp"]["scale"] - 1e-7) < 5 * d["models"]["greenwood_tripp"]["scale_se"]
+    gt = d["models"]["greenwood_tripp"]["estimate"]
+    assert abs(gt["scale"] - 1e-7) < 5 * gt["scale_se"]
+    # what the text output shows is in the JSON too: intervals by both methods, goodness of fit, solver diagnostics
+    fit = d["models"]["greenwood_tripp"]
+    assert fit["intervals"]["bootstrap"]["n_boot"] == 200 and len(fit["intervals"]["t"]["R_series_ohm"]) == 2
+    assert fit["goodness"]["reference"] and fit["diagnostics"]["nfev"] >= 1 and "delta_aic" in d
 
 
 def test_report_has_banner_tables_and_figures(tmp_path, capsys):

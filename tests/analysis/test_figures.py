@@ -10,6 +10,9 @@ from analysis.fit import compare_models
 from analysis.measured import MeasuredCurve
 from analysis.normalisation import normalise_measured, normalise_simulated
 from contactrig.core.validation import SettingError
+from sims.models import ContactModel, model_label, model_names, models
+from sims.models import register as register_model
+from sims.models import unregister as unregister_model
 
 W = np.array([5.0, 10.0, 15.0, 20.0])
 RNG = np.random.default_rng(0)
@@ -74,7 +77,7 @@ def test_fit_figure_has_fits_and_residual_bars():
     top, bottom = fig.axes[:2]
     fitted = [ln for ln in top.get_lines() if "ΔAIC" in str(ln.get_label())]
     assert len(fitted) == 2
-    assert {F.model_label(n) for n in AREAS} == {str(ln.get_label()).split(":")[0] for ln in fitted}
+    assert {model_label(n) for n in AREAS} == {str(ln.get_label()).split(":")[0] for ln in fitted}
     assert len(bottom.patches) == 2 * W.size
     assert all("ΔAIC" in t.get_text() or "measured" in t.get_text() for t in top.get_legend().get_texts())
     assert _units(bottom) and "mΩ" in top.get_ylabel()
@@ -118,8 +121,9 @@ def test_save_writes_png_and_svg(tmp_path):
 
 
 def test_a_model_looks_the_same_in_every_figure_and_models_differ():
-    known = list(F.MODEL_LABELS)
-    assert len({F.model_colour(n) for n in known}) == len(known)
+    known = list(model_names())
+    assert len(known) >= 5
+    assert len({F.model_style(n)["color"] for n in known}) == len(known)
     assert len({(F.model_style(n)["linestyle"], F.model_style(n)["marker"]) for n in known}) == len(known)
     area = F.figure_simulated_area({k: (W, a) for k, a in AREAS.items()}).axes[0].get_lines()
     cmp = compare_models(CURVE, AREAS, height_m=5e-3, n_boot=0)
@@ -127,5 +131,83 @@ def test_a_model_looks_the_same_in_every_figure_and_models_differ():
     by_label = {str(ln.get_label()).split(":")[0]: ln.get_color() for ln in fit_lines}
     for ln in area:
         assert by_label[ln.get_label()] == ln.get_color()
-    assert F.model_label("jackson_green") == "Jackson–Green"
-    assert F.model_label("my_model") == "my model"
+    assert model_label("jackson_green") == "Jackson–Green"
+    assert model_label("my_model") == "my model"
+
+
+def _toy_model(key, label, style=None):
+    return ContactModel(key=key, label=label, build=lambda ctx: None, style=style or {})
+
+
+def test_labels_and_styles_come_from_the_model_registry_and_unstyled_models_cycle():
+    register_model(_toy_model("toy_styled", "Toy styled", {"color": "#123456", "linestyle": "--", "marker": "*"}))
+    register_model(_toy_model("toy_plain_a", "Toy A"))
+    register_model(_toy_model("toy_plain_b", "Toy B"))
+    try:
+        s = F.model_style("toy_styled")
+        assert (s["color"], s["linestyle"], s["marker"], s["label"]) == ("#123456", "--", "*", "Toy styled")
+        a, b = F.model_style("toy_plain_a"), F.model_style("toy_plain_b")
+        assert a["label"] == "Toy A" and b["label"] == "Toy B"
+        styled = {m.style["color"] for m in models() if "color" in m.style}
+        assert a["color"] != b["color"] and not {a["color"], b["color"]} & styled
+        assert (a["linestyle"], a["marker"]) != (b["linestyle"], b["marker"])
+        assert F.model_style("toy_plain_a") == a  # stable: the same in every figure
+        fig = F.figure_simulated_area({"toy_plain_a": (W, AREAS["hertz"]), "toy_styled": (W, AREAS["hertz"])})
+        assert {t.get_text() for t in fig.axes[0].get_legend().get_texts()} == {"Toy A", "Toy styled"}
+    finally:
+        for key in ("toy_styled", "toy_plain_a", "toy_plain_b"):
+            unregister_model(key)
+    # a key nobody registered: readable label, a colour from the cycle
+    u = F.model_style("not_registered")
+    assert u["label"] == "not registered" and u["color"].startswith("#")
+
+
+def test_fig2_for_a_database_written_to_one_file(tmp_path):
+    h = np.linspace(0, 3e-6, 20)
+    c = SimpleNamespace(separation_m=h, pressure_pa=1e8 * np.exp(-h / 5e-7), area_fraction=0.1 * np.exp(-h / 4e-7))
+    path = F.write_database_figure({"greenwood_tripp": c, "hertz": c}, tmp_path / "fig2.pdf")
+    assert path == tmp_path / "fig2.pdf" and path.read_bytes()[:4] == b"%PDF"
+    with pytest.raises(SettingError, match="format"):
+        F.write_database_figure({"hertz": c}, tmp_path / "fig2.bmp")
+
+
+def _analysis(database=None):
+    from analysis.pipeline import analyse
+    from contactrig.core.scene import load_scene
+
+    sweep = SimpleNamespace(models={k: SimpleNamespace(weight_kg=W, contact_area_m2=a) for k, a in AREAS.items()})
+    return analyse(CURVE, sweep, load_scene(None), title="Toy", n_boot=20, database=database)
+
+
+def test_figure_registry_drives_the_figures_and_the_report(tmp_path):
+    from analysis.report import write_report
+
+    keys = [s.key for s in F.figure_specs()]
+    assert {"fig02_database", "fig09_measured", "fig11_area", "fig12_normalised", "fit_residuals"} <= set(keys)
+    with pytest.raises(ValueError, match="registered already"):
+        F.register(F.FigureSpec("fig09_measured", "again", lambda a: None))
+    with pytest.raises(KeyError, match="fig09_measured"):
+        F.get_figure("nope")
+
+    def draw(a):
+        fig = F.figure_measured(a.curve, title="toy figure")
+        return fig
+
+    spec = F.register(F.FigureSpec("toy_fig", "A toy figure", draw, caption="Toy caption.", filename="toy"))
+    try:
+        a = _analysis()
+        written = F.write_figures(a, tmp_path / "figs", formats=("png",))
+        assert [k for k in keys if k != "fig02_database"] + ["toy_fig"] == list(written)  # no database: no Fig. 2
+        assert written["toy_fig"] == [tmp_path / "figs" / "toy.png"]
+        report = write_report([a], tmp_path / "rep")
+        text = report.read_text()
+        assert "### Further figures" in text and "![A toy figure](figures/toy-toy.png)" in text
+        assert "Toy caption." in text
+        assert text.index("![Measured resistance") < text.index("### Simulated real contact area")
+        assert text.index("### Fit and model comparison") < text.index("![Fit and residuals")
+        for line in text.splitlines():
+            if line.startswith("!["):
+                assert (tmp_path / "rep" / line.split("](")[1].split(")")[0]).is_file()
+    finally:
+        F.unregister(spec.key)
+    assert "toy_fig" not in [s.key for s in F.figure_specs()]

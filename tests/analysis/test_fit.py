@@ -27,36 +27,37 @@ def _data(seed, r=6, rel=0.05, area=AREA, paired=False):
 def test_recovers_known_parameters_and_matches_independent_weighted_lstsq():
     curve = _data(1, r=10)
     f = fit_model(curve, AREA, height_m=H, n_boot=200, weighting="repeats")
-    assert abs(f.R_series_ohm - RS) < 4 * f.R_series_se
-    assert abs(f.scale - S) < 4 * f.scale_se
+    e, g, d = f.estimate, f.goodness, f.diagnostics
+    assert abs(e.R_series_ohm - RS) < 4 * e.R_series_se
+    assert abs(e.scale - S) < 4 * e.scale_se
     # independent solution: numpy lstsq on the sqrt-weighted design
     y, sem = curve.mean_ohm, curve.sem_ohm
     x = H / AREA
     design = np.column_stack((np.ones_like(x), x)) / sem[:, None]
     sol, *_ = np.linalg.lstsq(design, y / sem, rcond=None)
-    assert f.R_series_ohm == pytest.approx(sol[0], rel=1e-7, abs=1e-12)
-    assert f.scale == pytest.approx(sol[1], rel=1e-7)
+    assert e.R_series_ohm == pytest.approx(sol[0], rel=1e-7, abs=1e-12)
+    assert e.scale == pytest.approx(sol[1], rel=1e-7)
     # covariance for independent repeats is (XᵀWX)⁻¹
     cov = np.linalg.inv(design.T @ design)
-    assert np.allclose(f.cov, cov, rtol=1e-8)
-    assert np.allclose(f.cov_ls, cov, rtol=1e-6)
+    assert np.allclose(e.cov, cov, rtol=1e-8)
+    assert np.allclose(d.cov_ls, cov, rtol=1e-6)
     # χ², AIC, BIC by their definitions
     chi2 = float(np.sum(((y - sol[0] - sol[1] * x) / sem) ** 2))
-    assert f.chi2 == pytest.approx(chi2, rel=1e-8)
-    assert f.dof == 6
-    assert f.aic == pytest.approx(chi2 + 4)
-    assert f.bic == pytest.approx(chi2 + 2 * math.log(8))
-    assert f.rmse_ohm == pytest.approx(np.sqrt(np.mean((y - sol[0] - sol[1] * x) ** 2)))
+    assert g.chi2 == pytest.approx(chi2, rel=1e-8)
+    assert g.dof == 6
+    assert g.aic == pytest.approx(chi2 + 4)
+    assert g.bic == pytest.approx(chi2 + 2 * math.log(8))
+    assert g.rmse_ohm == pytest.approx(np.sqrt(np.mean((y - sol[0] - sol[1] * x) ** 2)))
     # diagnostics like SciPy's
-    assert f.success and f.status > 0 and f.nfev >= 1 and f.message
-    assert f.cost == pytest.approx(chi2 / 2, rel=1e-8)
-    assert f.linear_check < 1e-8
+    assert d.success and d.status > 0 and d.nfev >= 1 and d.message
+    assert d.cost == pytest.approx(chi2 / 2, rel=1e-8)
+    assert d.linear_check < 1e-8
 
 
 def test_noise_free_limit_is_exact():
     truth = RS + S * H / AREA
     v = truth[:, None] * (1 + 1e-9 * np.array([-1.0, 0.0, 1.0]))
-    f = fit_model(MeasuredCurve(W, v), AREA, height_m=H, n_boot=0)
+    f = fit_model(MeasuredCurve(W, v), AREA, height_m=H, n_boot=0).estimate
     assert f.R_series_ohm == pytest.approx(RS, rel=1e-6)
     assert f.scale == pytest.approx(S, rel=1e-9)
 
@@ -79,12 +80,13 @@ def _coverage(r, weighting, paired, n_sets, boot_interval="studentized", n_boot=
             _series(seed, r, paired=paired), AREA, height_m=H, weighting=weighting, n_boot=n_boot,
             boot_interval=boot_interval, seed=10_000 + seed,
         )  # fmt: skip
+        t, b = f.intervals.t, f.intervals.bootstrap
         hits += [
-            f.R_series_ci[0] <= RS <= f.R_series_ci[1],
-            f.scale_ci[0] <= S <= f.scale_ci[1],
-            f.R_series_boot_ci[0] <= RS <= f.R_series_boot_ci[1],
-            f.scale_boot_ci[0] <= S <= f.scale_boot_ci[1],
-            f.p_value < 0.05,
+            t.R_series_ohm[0] <= RS <= t.R_series_ohm[1],
+            t.scale[0] <= S <= t.scale[1],
+            b.R_series_ohm[0] <= RS <= b.R_series_ohm[1],
+            b.scale[0] <= S <= b.scale[1],
+            f.goodness.p_value < 0.05,
         ]
     return hits / n_sets
 
@@ -133,17 +135,17 @@ def test_relative_weights_are_the_pooled_relative_scatter():
     f = fit_model(curve, AREA, height_m=H, n_boot=0)
     v = curve.values_ohm
     cv2 = sum(np.var(row, ddof=1) / np.mean(row) ** 2 for row in v) / W.size  # equal n: plain mean of (s/R̄)²
-    assert np.allclose(f.sigma_ohm, math.sqrt(cv2) * v.mean(axis=1) / math.sqrt(6), rtol=1e-12)
-    assert f.weighting == "relative" and f.gof_reference == "F(6, 40)"
+    assert np.allclose(f.points.sigma_ohm, math.sqrt(cv2) * v.mean(axis=1) / math.sqrt(6), rtol=1e-12)
+    assert f.weighting == "relative" and f.goodness.reference == "F(6, 40)"
 
 
 def test_proportional_areas_cannot_be_told_apart():
     # s absorbs any constant factor in A: ΔAIC = 0 exactly, and the statement says so
     cmp = compare_models(_data(3), {"a": AREA, "b": 3.0 * AREA}, height_m=H, n_boot=200)
     a, b = cmp.fits["a"], cmp.fits["b"]
-    assert abs(a.aic - b.aic) < 1e-8 * a.aic
-    assert b.scale == pytest.approx(3.0 * a.scale, rel=1e-9)
-    assert b.R_series_ohm == pytest.approx(a.R_series_ohm, rel=1e-7)
+    assert abs(a.goodness.aic - b.goodness.aic) < 1e-8 * a.goodness.aic
+    assert b.estimate.scale == pytest.approx(3.0 * a.estimate.scale, rel=1e-9)
+    assert b.estimate.R_series_ohm == pytest.approx(a.estimate.R_series_ohm, rel=1e-7)
     assert not cmp.discriminates
     assert "do not discriminate" in cmp.statement
 
@@ -157,8 +159,11 @@ def test_clearly_different_shapes_are_ranked_and_discriminated():
     assert cmp.discriminates
     d = cmp.as_dict()
     assert d["ranking"] == ["right", "wrong"]
-    for key in ("R_series_ohm", "R_series_se", "scale", "scale_se", "aic", "rmse_ohm"):
-        assert isinstance(d["models"]["right"][key], float)
+    for group, key in (
+        ("estimate", "R_series_ohm"), ("estimate", "R_series_se"), ("estimate", "scale"), ("estimate", "scale_se"),
+        ("goodness", "aic"), ("goodness", "rmse_ohm"),
+    ):  # fmt: skip
+        assert isinstance(d["models"]["right"][group][key], float)
 
 
 def test_holm_conversion_regressor():
@@ -208,12 +213,13 @@ def test_extreme_scales_give_finite_results_and_recover_the_truth(r_s, s, area0,
     truth = r_s + s * H / area
     v = truth[:, None] * (1 + rel * rng.normal(size=(W.size, 5)))
     f = fit_model(MeasuredCurve(W, v), area, height_m=H, n_boot=50)
-    values = [f.R_series_ohm, f.R_series_se, f.scale, f.scale_se, f.chi2, f.aic, f.bic, f.rmse_ohm]
+    e, g = f.estimate, f.goodness
+    values = [e.R_series_ohm, e.R_series_se, e.scale, e.scale_se, g.chi2, g.aic, g.bic, g.rmse_ohm]
     assert all(math.isfinite(x) for x in values)
-    assert f.R_series_se > 0 and f.scale_se > 0
-    assert f.linear_check < 1e-6
-    assert abs(f.scale - s) < 8 * f.scale_se
-    assert abs(f.R_series_ohm - r_s) < 8 * f.R_series_se + 1e-12 * truth.max()
+    assert e.R_series_se > 0 and e.scale_se > 0
+    assert f.diagnostics.linear_check < 1e-6
+    assert abs(e.scale - s) < 8 * e.scale_se
+    assert abs(e.R_series_ohm - r_s) < 8 * e.R_series_se + 1e-12 * truth.max()
 
 
 def test_single_repeats_with_block_errors():
@@ -225,6 +231,36 @@ def test_single_repeats_with_block_errors():
     with pytest.raises(SettingError, match="n_boot"):
         fit_model(curve, AREA, height_m=H, weighting="blocks")
     f = fit_model(curve, AREA, height_m=H, weighting="blocks", n_boot=0)
-    assert f.ci_dof == (math.inf, math.inf)
-    assert abs(f.scale - S) < 4 * f.scale_se
-    assert math.isnan(f.R_series_boot_ci[0])
+    assert f.intervals.t.dof == (math.inf, math.inf)
+    assert abs(f.estimate.scale - S) < 4 * f.estimate.scale_se
+    assert math.isnan(f.intervals.bootstrap.R_series_ohm[0])
+
+
+def test_results_are_nested_and_their_dict_follows_the_structure():
+    import dataclasses
+    import json
+
+    cmp = compare_models(_data(5), {"a": AREA, "b": AREA**0.9}, height_m=H, n_boot=50)
+    f = cmp.fits["a"]
+    d = f.as_dict()
+    # every field of every nested result object, and nothing else: the dict is generated, not hand-listed
+    for group in ("estimate", "intervals", "goodness", "diagnostics", "points"):
+        obj = getattr(f, group)
+        assert set(d[group]) == {fl.name for fl in dataclasses.fields(obj)}, group
+    assert set(d["intervals"]["t"]) == {"R_series_ohm", "scale", "dof", "method"}
+    assert d["intervals"]["bootstrap"]["method"] == "studentized" and d["intervals"]["bootstrap"]["n_boot"] == 50
+    assert d["intervals"]["bootstrap"]["resampling"] == "within"
+    assert "boot_params" not in d
+    assert d["estimate"]["correlation"] == pytest.approx(
+        f.estimate.cov[0, 1] / np.sqrt(np.prod(np.diag(f.estimate.cov)))
+    )
+    assert d["estimate"]["scale_units"] == "ohm*m"
+    assert d["points"]["residuals_ohm"] == pytest.approx(list(f.points.residuals_ohm))
+    # the comparison: fits under "models", per-model rank statistics, strictly JSON (NaN and inf become null)
+    c = cmp.as_dict()
+    assert set(c["models"]) == {"a", "b"} and set(c["delta_aic"]) == {"a", "b"}
+    assert c["models"]["a"] == json.loads(json.dumps(d))
+    json.dumps(c, allow_nan=False)
+    single = fit_model(_data(5), AREA, height_m=H, n_boot=0).as_dict()
+    assert single["intervals"]["bootstrap"]["R_series_ohm"] == [None, None]
+    json.dumps(single, allow_nan=False)

@@ -62,3 +62,92 @@ def test_tab1_ships_in_milliohm_and_matches_the_paper_average():
     # the paper's Avg column, to its four decimals (mΩ); the first row's printed 8.0913 rounds 8.09125
     avg_paper = np.array([8.0913, 7.5237, 5.9488, 4.7583, 3.9734, 3.4037, 2.2916, 1.8456])
     assert np.allclose(c.mean_ohm * 1e3, avg_paper, atol=0.6e-4)
+
+
+# ---- tables: read by daq.table_import.read_table, the one table reader -------------------------------------------
+def test_tab1_curve_and_import_read_the_same_values():
+    from daq.table_import import read_table, tab1_path
+
+    c, t = load_tab1(), read_table(tab1_path(), "mohm")
+    np.testing.assert_array_equal(c.values_ohm, t.resistance_ohm)
+    np.testing.assert_array_equal(c.weight_kg, t.weight_kg)
+    assert c.repeat_labels == t.columns and c.paired and c.source == "seed paper Tab. 1"
+    assert c.provenance["table"]["unit"] == "mohm"
+
+
+def test_from_table_sorts_by_weight_and_keeps_series():
+    from daq.table_import import parse_table
+
+    c = MeasuredCurve.from_table(parse_table("weight_kg,M1,M2\n10,5,6\n5,7,8\n", "mohm", source="x.csv"))
+    assert c.weight_kg.tolist() == [5.0, 10.0] and c.source == "x.csv"
+    np.testing.assert_allclose(c.values_ohm * 1e3, [[7, 8], [5, 6]], rtol=1e-12)
+    assert c.paired and c.repeat_labels == ("M1", "M2")
+
+
+def test_load_table_spreadsheet_export_with_missing_repeat_is_unpaired(tmp_path):
+    from analysis.measured import load_table
+
+    p = tmp_path / "t.csv"
+    p.write_text("weight [kg];M1 [mΩ];M2 [mΩ]\n5,44;7,1;8,2\n7,44;6,5;\n", encoding="utf-8")
+    c = load_table(p, allow_missing=True)
+    assert c.n.tolist() == [2, 1] and not c.paired
+    with pytest.raises(SettingError, match="row 3, column 'M2"):
+        load_table(p)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("weight_kg,M1,Avg\n5,7,7\n", "looks like an average"),  # Tab. 1's printed Avg column is not a series
+        ("weight_kg,M1\n5,7\n5,8\n", "one row per weight"),
+        ("weight_kg,M1\n5,7000\n", "is the unit right"),
+        ("weight_kg,M1,M1\n5,7,7\n", "unique column name"),
+        ("weight_kg,M1\n5,\n", "empty cell"),
+    ],
+)
+def test_load_tab1_from_a_path_uses_the_same_rules_as_import(tmp_path, text, message):
+    p = tmp_path / "t.csv"
+    p.write_text(text)
+    with pytest.raises(SettingError, match=message) as info:
+        load_tab1(p)
+    assert str(p) in str(info.value)
+
+
+def test_any_valid_table_makes_a_curve():
+    """Whatever the reader accepts, MeasuredCurve accepts (its checks are no stricter than the reader's)."""
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from daq.table_import import parse_table
+
+    @settings(max_examples=200, deadline=None)
+    @given(
+        st.lists(st.floats(0, 10_000), min_size=1, max_size=5, unique=True),
+        st.integers(1, 3),
+        st.data(),
+    )
+    def check(weights, k, data):
+        rows = []
+        for w in weights:
+            cells = [data.draw(st.one_of(st.just(""), st.floats(1e-5, 1e3).map(repr))) for _ in range(k)]
+            if not any(cells):
+                cells[0] = "1"
+            rows.append(",".join([repr(w), *cells]))
+        text = "weight_kg," + ",".join(f"M{i}" for i in range(k)) + "\n" + "\n".join(rows)
+        c = MeasuredCurve.from_table(parse_table(text, "mohm", allow_missing=True))
+        assert c.weight_kg.size == len(weights) and np.all(np.diff(c.weight_kg) > 0)
+
+    check()
+
+
+def test_post_init_checks_shapes_labels_and_sem():
+    with pytest.raises(SettingError, match="values_ohm"):
+        MeasuredCurve([1.0, 2.0], [[1.0, 1.0]])
+    with pytest.raises(SettingError, match="repeat_labels"):
+        MeasuredCurve([1.0], [[1.0, 1.0]], repeat_labels=("a",))
+    with pytest.raises(SettingError, match="block_sem_ohm"):
+        MeasuredCurve([1.0], [[1.0, 1.0]], block_sem_ohm=[[1.0]])
+    with pytest.raises(SettingError, match="no valid repeat at 2 kg"):
+        MeasuredCurve([1.0, 2.0], [[1.0], [np.nan]])
+    c = MeasuredCurve([1.0, 2.0], [1.0, 2.0])
+    assert c.values_ohm.shape == (2, 1) and c.repeat_labels == ("1",) and not c.values_ohm.flags.writeable

@@ -72,7 +72,7 @@ def main() -> None:
     p, t = _best_time(lambda: curve_fit(lambda xx, a, b: a + b * xx, x, y, sigma=sig, absolute_sigma=True)[0])
     rows.append(("point fit", "curve_fit (baseline)", "8 weights", err(p), t))
     f, t = _best_time(lambda: fit_model(curve, area, height_m=h, n_boot=0, weighting="repeats"))
-    rows.append(("point fit", "fit_model least_squares lm", "8 weights", err([f.R_series_ohm, f.scale]), t))
+    rows.append(("point fit", "fit_model least_squares lm", "8 weights", err(f.estimate.params), t))
 
     def closed() -> np.ndarray:
         a = np.column_stack((np.ones_like(x), x)) / sig[:, None]
@@ -125,9 +125,8 @@ def _coverage_rows(w: np.ndarray, area: np.ndarray, h: float, n_sets: int = 1000
             noise = np.sqrt(0.5) * (rng.normal(size=(1, r)) + rng.normal(size=(w.size, r)))
             curve = MeasuredCurve(w, truth[:, None] * (1 + 0.05 * noise), paired=True)
             f = fit_model(curve, area, height_m=h, n_boot=999, boot_interval=interval, seed=seed)
-            for k, (lo_hi_b, lo_hi_t) in enumerate(
-                ((f.R_series_boot_ci, f.R_series_ci), (f.scale_boot_ci, f.scale_ci))
-            ):
+            b, t = f.intervals.bootstrap, f.intervals.t
+            for k, (lo_hi_b, lo_hi_t) in enumerate(((b.R_series_ohm, t.R_series_ohm), (b.scale, t.scale))):
                 hits_boot[k] += lo_hi_b[0] <= truth_p[k] <= lo_hi_b[1]
                 hits_t[k] += lo_hi_t[0] <= truth_p[k] <= lo_hi_t[1]
         seconds = (time.perf_counter() - t0) / n_sets

@@ -5,7 +5,7 @@ on the Greenwood–Tripp database curve of the default scene (mesh: the converge
 damping B — light (not stiff) and heavy (stiff, stiffness ratio ≈ 4ζ²) — and each method: the error of the rest
 state against the static equilibrium (minimum gap and real area), function and Jacobian evaluations, LU
 decompositions and wall time. The implicit methods get the analytic Jacobian from the law's slope. Explicit runs
-on the stiff case stop at the evaluation budget (``--max-evaluations``, default ``sims.rig_dynamics.MAX_EVALUATIONS``;
+on the stiff case stop at the evaluation budget (``--max-evaluations``, default ``sims.rig.dynamics.MAX_EVALUATIONS``;
 0 lifts it: RK45 then needs ~1.7e5 evaluations at 25.966 kg and ~3.5e6 at 5.44 kg).
 
 Second part, numerical damping (light damping, not stiff): the piston released δ = 1e-3·W/k above rest (linear
@@ -25,10 +25,11 @@ import warnings
 import numpy as np
 
 from contactrig.core.scene import load_scene
+from sims.config import SimConfig
 from sims.database import build_database
-from sims.rig_dynamics import MAX_EVALUATIONS, settle
-from sims.rig_settings import RigSettings
-from sims.rig_statics import equilibrium
+from sims.rig.dynamics import MAX_EVALUATIONS, settle
+from sims.rig.equilibrium import equilibrium
+from sims.rig.settings import RigSettings
 
 
 def main() -> None:
@@ -42,10 +43,10 @@ def main() -> None:
     args = ap.parse_args()
     warnings.simplefilter("ignore", RuntimeWarning)  # the explicit-on-stiff warnings: shown as status below
     budget = args.max_evaluations or None
-    scene = load_scene()
-    s = RigSettings.from_scene(scene)
+    config = SimConfig.from_scene(load_scene())
+    s = config.rig
     t = time.perf_counter()
-    curve = build_database(scene, models=[args.model])[args.model]
+    curve = build_database(config, models=[args.model])[args.model]
     print(f"database build ({args.model}): {time.perf_counter() - t:.3f} s (excluded)")
     static = equilibrium(curve, s, args.weight)
     print(

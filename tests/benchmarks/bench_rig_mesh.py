@@ -7,10 +7,10 @@ method and given to quad — no code shared with the rig's mesh or geometry.
 
 Rules compared, each solving its own equilibrium F(h0) = W and reporting the real area's error:
 
-- ``uniform``: n equal cells on θ ∈ [0, π] (``sims.rig_mesh.uniform_mesh``), every n from 2 to 1024;
+- ``uniform``: n equal cells on θ ∈ [0, π] (``sims.rig.mesh.uniform_mesh``), every n from 2 to 1024;
 - ``variable``: n equal cells on the contact zone [0, θ_z] (θ_z where the gap at the reference h0 reaches h_max),
-  plus the graded tail cells to π only when ``sims.rig_loads.tail_bound`` says the tail matters — the rule the
-  adaptive scheme uses on its last level (``sims.rig_mesh.variable_mesh``), every n from 1 to 64;
+  plus the graded tail cells to π only when ``sims.rig.loads.tail_bound`` says the tail matters — the rule the
+  adaptive scheme uses on its last level (``sims.rig.mesh.variable_mesh``), every n from 1 to 64;
 - ``gauss``: n Gauss–Legendre nodes on [0, θ_z] (the positive half of the symmetric 2n-point rule on [−θ_z, θ_z],
   which uses the integrand's evenness), implemented here, no tail — the higher-order alternative, for comparison.
 
@@ -36,11 +36,12 @@ from scipy.integrate import quad
 from scipy.optimize import brentq
 
 from contactrig.core.scene import load_scene
+from sims.config import SimConfig
 from sims.database import build_database
-from sims.rig_loads import tail_bound, tail_matters
-from sims.rig_mesh import uniform_mesh, variable_mesh
-from sims.rig_settings import RigSettings
-from sims.rig_statics import equilibrium, solve_on_mesh
+from sims.rig.equilibrium import equilibrium
+from sims.rig.loads import tail_bound, tail_matters
+from sims.rig.mesh import uniform_mesh, variable_mesh
+from sims.rig.settings import RigSettings
 
 GOAL = 1e-3
 # quad on tabulated, kinked curves reports round-off near its tolerance; the reference is still ~1e-10 (also when
@@ -124,10 +125,10 @@ def main() -> None:
     ap.add_argument("--models", default="greenwood_tripp,hertz,pasaribu_schipper")
     ap.add_argument("--verbose", action="store_true", help="print every mesh size")
     args = ap.parse_args()
-    scene = load_scene()
-    s = RigSettings.from_scene(scene)
+    config = SimConfig.from_scene(load_scene())
+    s = config.rig
     t0 = time.perf_counter()
-    db = build_database(scene, models=args.models.split(","))
+    db = build_database(config, models=args.models.split(","))
     print(f"database build: {time.perf_counter() - t0:.3f} s (excluded below)")
     print("one axial cell for every rule (straight skirt); nodes = θ nodes")
     summary = []
@@ -146,11 +147,11 @@ def main() -> None:
             rows: dict[str, list[tuple[int, float]]] = {"uniform": [], "variable": [], "gauss": []}
             for n in range(2, 1025):
                 mesh = uniform_mesh(s.piston_radius_m, s.skirt_length_m, n, 1)
-                eq = solve_on_mesh(curve, s, mesh, w, guess_m=h_ref)
+                eq = equilibrium(curve, s, w, mesh=mesh, guess_m=h_ref)
                 rows["uniform"].append((mesh.n_nodes, abs(eq.contact_area_m2 - a_ref) / a_ref))
             for n in range(1, 65):
                 mesh = variable_mesh(s.piston_radius_m, s.skirt_length_m, zone, n, tail=tail)
-                eq = solve_on_mesh(curve, s, mesh, w, guess_m=h_ref)
+                eq = equilibrium(curve, s, w, mesh=mesh, guess_m=h_ref)
                 rows["variable"].append((mesh.n_nodes, abs(eq.contact_area_m2 - a_ref) / a_ref))
                 rows["gauss"].append((n, abs(gauss_area(curve, s, w, zone, n) - a_ref) / a_ref))
             for kind, r in rows.items():

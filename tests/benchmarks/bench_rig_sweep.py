@@ -4,8 +4,9 @@ Compared in one run, each against the same independent reference (adaptive quadr
 on each database curve, see bench_rig_mesh.py):
 
 - ``sweep``: the default (variable mesh, all weights of a model solved together, safeguarded Newton);
-- ``per-weight Brent``: :func:`sims.rig.equilibrium` for every (model, weight), variable mesh;
-- ``uniform 512``: per-weight Brent on a uniform mesh of 512 cells over the half circumference.
+- ``per-weight``: :func:`sims.rig.equilibrium` (the same solver, one weight at a time) for every (model, weight),
+  variable mesh;
+- ``uniform 512``: per-weight on a uniform mesh of 512 cells over the half circumference.
 
 Goal: the sweep to 1e-3 relative area error in under 0.2 s (database build stated separately).
 
@@ -20,11 +21,10 @@ import numpy as np
 from bench_rig_mesh import reference  # same directory: run as a script
 
 from contactrig.core.scene import load_scene
+from sims.config import SimConfig
 from sims.database import build_database
-from sims.rig import sweep
-from sims.rig_mesh import uniform_mesh
-from sims.rig_settings import RigSettings
-from sims.rig_statics import equilibrium, solve_on_mesh
+from sims.rig import equilibrium, sweep
+from sims.rig.mesh import uniform_mesh
 
 
 def best_of(fn, repeat: int = 7) -> tuple[float, object]:
@@ -37,29 +37,29 @@ def best_of(fn, repeat: int = 7) -> tuple[float, object]:
 
 
 def main() -> None:
-    scene = load_scene()
-    s = RigSettings.from_scene(scene)
+    config = SimConfig.from_scene(load_scene())
+    s = config.rig
     t = time.perf_counter()
-    db = build_database(scene)
+    db = build_database(config)
     print(f"database build (all {len(db)} models): {time.perf_counter() - t:.3f} s — excluded from the times below")
     t = time.perf_counter()
     ref = {n: np.array([reference(db[n], s, w)[1] for w in s.weights_kg]) for n in db}
     print(f"quadrature reference: {time.perf_counter() - t:.1f} s")
 
     def run_sweep():
-        r = sweep(scene, database=db)
+        r = sweep(config, database=db)
         return {n: m.contact_area_m2 for n, m in r.models.items()}
 
-    def run_brent():
+    def run_per_weight():
         return {n: np.array([equilibrium(db[n], s, w).contact_area_m2 for w in s.weights_kg]) for n in db}
 
     mesh = uniform_mesh(s.piston_radius_m, s.skirt_length_m, 512, 1)
 
     def run_uniform():
-        return {n: np.array([solve_on_mesh(db[n], s, mesh, w).contact_area_m2 for w in s.weights_kg]) for n in db}
+        return {n: np.array([equilibrium(db[n], s, w, mesh=mesh).contact_area_m2 for w in s.weights_kg]) for n in db}
 
     print(f"{'method':18s} {'time ms (best of 7)':>20s} {'max rel. area error':>20s}   per model")
-    for label, fn in (("sweep", run_sweep), ("per-weight Brent", run_brent), ("uniform 512", run_uniform)):
+    for label, fn in (("sweep", run_sweep), ("per-weight", run_per_weight), ("uniform 512", run_uniform)):
         dt, areas = best_of(fn)
         errs = {n: float(np.max(np.abs(areas[n] - ref[n]) / ref[n])) for n in db}
         detail = ", ".join(f"{n} {e:.1e}" for n, e in errs.items())

@@ -73,3 +73,17 @@ def test_read_text_file_names_the_field(tmp_path):
         read_text_file("path", binary)
     with pytest.raises(SettingError, match="cannot be read"):
         read_text_file("path", tmp_path)  # a directory
+
+
+def test_unit_slips_name_the_scene_key_the_user_typed():
+    """A value in the wrong unit is reported on the key the user typed, never on an internal quantity (H, h_min)."""
+    from sims.materials import Material
+    from sims.surface import SurfaceSpec
+
+    steel = {"E_pa": 210e9, "nu": 0.3, "H_pa": 2e9}
+    assert Material.from_table("materials.liner", steel).E_pa == 210e9
+    with pytest.raises(SettingError, match=r"^\[materials\.liner\] E_pa = 210000\.0 .*H_pa = 2e\+09 Pa.*in Pa\?"):
+        Material.from_table("materials.liner", {**steel, "E_pa": 210e3})  # MPa typed for Pa
+    gaussian = {"kind": "gaussian", "n": 512, "pixel_m": 10e-6, "sq_m": 0.4e-6, "correlation_m": 80e-6}
+    with pytest.raises(SettingError, match=r"^\[surfaces\.piston\] sq_m = 0\.0004 .*in metres\?"):
+        SurfaceSpec.from_table("surfaces.piston", {**gaussian, "sq_m": 0.4e-3})  # 0.4 µm typed in mm

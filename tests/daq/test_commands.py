@@ -38,23 +38,23 @@ def test_import_tab1_reproduces_the_papers_averages(tmp_path):
 
 def test_import_units_and_force(tmp_path):
     table = tmp_path / "t.csv"
-    table.write_text("weight_kg,A,B\n1.0,1.5,2.5\n2.0,1.0,1.25\n")
+    table.write_text("weight_kg,A,B\n1.0,0.15,0.25\n2.0,0.1,0.125\n")  # plausible in µΩ and in Ω
     out = tmp_path / "t.h5"
     assert main(["import", str(table), "--unit", "uohm", "-o", str(out)]) == 0
     s = load_session(out)
-    np.testing.assert_allclose(s.summary.mean_ohm, [1.5e-6, 2.5e-6, 1.0e-6, 1.25e-6], rtol=1e-15)
+    np.testing.assert_allclose(s.summary.mean_ohm, [1.5e-7, 2.5e-7, 1.0e-7, 1.25e-7], rtol=1e-15)
     assert main(["import", str(table), "--unit", "ohm", "-o", str(out)]) == 2  # exists, no --force
     assert main(["import", str(table), "--unit", "ohm", "-o", str(out), "--force"]) == 0
-    assert load_session(out).summary.mean_ohm.iloc[0] == 1.5
+    assert load_session(out).summary.mean_ohm.iloc[0] == 0.15
 
 
 @pytest.mark.parametrize(
     ("text", "message"),
     [
         ("weight_kg,M1,Avg\n1,2,2\n", "looks like an average"),
-        ("weight_kg,M1,M2\n1,2,\n", "line 2, column 'M2'"),
+        ("weight_kg,M1,M2\n1,2,\n", "row 2, column 'M2'"),
         ("weight_kg,M1\n1,abc\n", "expected a number"),
-        ("weight_kg,M1\n-1,2\n", "weight > 0"),
+        ("weight_kg,M1\n-1,2\n", "weight in [0, 10000] kg"),
         ("weight_kg,M1\n1,inf\n", "finite"),
         ("weight_kg\n1\n", "repeat column"),
         ("weight_kg,M1\n", "at least one row"),

@@ -16,16 +16,21 @@ from scipy import integrate
 
 from contactrig.core.scene import load_scene, parse_scene
 from contactrig.core.validation import SettingError
+from daq.database_file import load_database, save_database
 from sims import greenwood_tripp as gt
 from sims import surface
+from sims.config import SimConfig
 from sims.database import (
     ContactCurve,
     MissingModelError,
     build_database,
-    load_database,
-    save_database,
 )
 from sims.materials import Material, composite_modulus
+
+
+def _db(scene, models=None, **kw):
+    """Build the database of ``scene`` as every entry point does: the scene parsed into a SimConfig once."""
+    return build_database(SimConfig.from_scene(scene), models, **kw)
 
 SMALL = """
 [scene]
@@ -62,7 +67,7 @@ h_max_sigma = 6.0
 
 @pytest.fixture(scope="module")
 def small_db():
-    return build_database(parse_scene(SMALL))
+    return _db(parse_scene(SMALL))
 
 
 def test_composite_modulus_eq4() -> None:
@@ -174,7 +179,7 @@ def test_only_requested_models_are_built_and_gt_needs_no_surface(monkeypatch) ->
         raise AssertionError("a surface was generated for a statistics-only model")
 
     monkeypatch.setattr(surface.SurfaceSpec, "heights", boom)
-    db = build_database(parse_scene(SMALL), models=["greenwood_tripp"])
+    db = _db(parse_scene(SMALL), models=["greenwood_tripp"])
     assert list(db) == ["greenwood_tripp"]
     with pytest.raises(MissingModelError) as err:
         db["hertz"]
@@ -232,19 +237,19 @@ def test_scene_errors_name_the_key(table: str, line: str, field: str) -> None:
     if "nu = 0.7" in line:
         text = text.replace("nu = 0.33\n", "")
     with pytest.raises(SettingError) as err:
-        build_database(parse_scene(text), models=["greenwood_tripp"])
+        _db(parse_scene(text), models=["greenwood_tripp"])
     assert err.value.field == field
 
 
 def test_asperity_models_need_one_grid_but_gt_does_not() -> None:
     text = SMALL.replace("n = 128\npixel_m = 10e-6\nsq_m = 0.3e-6", "n = 64\npixel_m = 10e-6\nsq_m = 0.3e-6")
-    assert list(build_database(parse_scene(text), models=["greenwood_tripp"])) == ["greenwood_tripp"]
+    assert list(_db(parse_scene(text), models=["greenwood_tripp"])) == ["greenwood_tripp"]
     with pytest.raises(SettingError, match="one grid"):
-        build_database(parse_scene(text), models=["hertz"])
+        _db(parse_scene(text), models=["hertz"])
 
 
 def test_default_scene_covers_the_rig_and_is_elastic_dominated() -> None:
-    db = build_database(load_scene(None), models=["greenwood_tripp", "pasaribu_schipper"])
+    db = _db(load_scene(None), models=["greenwood_tripp", "pasaribu_schipper"])
     # 5–26 kg on tens of mm² of nominal area: ~0.5 to ~15 MPa must lie inside every curve's range
     for c in db.values():
         assert c.pressure_pa[0] > 15e6 and c.pressure(c.h_max) < 0.5e6
@@ -334,7 +339,7 @@ def test_gt_parameters_for_unlike_surfaces_against_the_asperity_pair_integral(h:
 
 @pytest.fixture(scope="module")
 def default_db():
-    return build_database(load_scene(None), models=["greenwood_tripp", "hertz", "lagemann"])
+    return _db(load_scene(None), models=["greenwood_tripp", "hertz", "lagemann"])
 
 
 def test_summation_matches_a_gw_quadrature_of_the_composite_surface(default_db) -> None:
@@ -367,7 +372,7 @@ def test_gt_as_printed_needs_much_smaller_separations(default_db) -> None:
     # pressure at equal h on the default surfaces; at the rig's pressures h is 1.5–1.9σ smaller than summation's.
     text = load_scene(None).text.replace('gt_heights = "summits"', 'gt_heights = "seed"')
     text = text.replace("h_min_sigma = -0.25", "h_min_sigma = -1.5")
-    seed = build_database(parse_scene(text), models=["greenwood_tripp"])["greenwood_tripp"]
+    seed = _db(parse_scene(text), models=["greenwood_tripp"])["greenwood_tripp"]
     assert seed.parameters["offset_m"] == 0.0 and seed.parameters["sigma_summits_m"] == seed.parameters["sigma_m"]
     summed, summits = default_db["lagemann"], default_db["greenwood_tripp"]
     sig = seed.parameters["sigma_m"]
@@ -386,7 +391,7 @@ def test_summation_against_a_brute_force_loop_on_a_tiny_surface() -> None:
     # Pasaribu–Schipper written out here), summed at a few separations, against the database.
     text = SMALL.replace("n = 128", "n = 24").replace("correlation_m = 80e-6", "correlation_m = 30e-6")
     sc = parse_scene(text)
-    db = build_database(sc, models=["hertz", "pasaribu_schipper"], n_separations=16)
+    db = _db(sc, models=["hertz", "pasaribu_schipper"], n_separations=16)
     liner, piston = surface.surfaces_from_scene(sc)
     z = liner.heights() + piston.heights()
     z = z - z.mean()
@@ -443,7 +448,7 @@ def test_measured_and_self_affine_surfaces_in_a_scene(tmp_path) -> None:
         )
     scene_file = tmp_path / "measured.toml"
     scene_file.write_text(text)
-    db = build_database(load_scene(scene_file), models=["greenwood_tripp", "hertz"])
+    db = _db(load_scene(scene_file), models=["greenwood_tripp", "hertz"])
     assert db.provenance["surfaces"]["liner"]["sq_m"] == pytest.approx(0.4e-6, rel=0.05)
     assert db["hertz"].pressure_pa[0] > 0
     affine = SMALL.replace("correlation_m = 80e-6\nseed = 1", "hurst = 0.8\ncutoff_m = 40e-6\nseed = 1")
@@ -451,7 +456,7 @@ def test_measured_and_self_affine_surfaces_in_a_scene(tmp_path) -> None:
         'kind = "gaussian"\nn = 128\npixel_m = 10e-6\nsq_m = 0.4e-6',
         'kind = "self_affine"\nn = 128\npixel_m = 10e-6\nsq_m = 0.4e-6',
     )
-    db2 = build_database(parse_scene(affine), models=["greenwood_tripp", "jackson_green"])
+    db2 = _db(parse_scene(affine), models=["greenwood_tripp", "jackson_green"])
     assert db2.provenance["surfaces"]["liner"]["kind"] == "self_affine"
     assert np.all(np.diff(db2["jackson_green"].pressure_pa) <= 0)
 
@@ -461,10 +466,10 @@ def test_jackson_green_beyond_its_fit_range_warns_and_records() -> None:
     text = SMALL.replace("sq_m = 0.4e-6", "sq_m = 4e-6").replace("sq_m = 0.3e-6", "sq_m = 3e-6")
     text = text.replace("h_min_sigma = -1.0", "h_min_sigma = 0.5")
     with pytest.warns(RuntimeWarning, match="beyond the range of Jackson & Green's fit"):
-        db = build_database(parse_scene(text), models=["jackson_green"])
+        db = _db(parse_scene(text), models=["jackson_green"])
     assert db["jackson_green"].parameters["max_interference_over_omega_c"] > 110
     assert any("jackson_green" in w for w in db.provenance["warnings"])
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # the default (elastic-dominated) scene stays inside the fit
-        small = build_database(parse_scene(SMALL), models=["jackson_green"])
+        small = _db(parse_scene(SMALL), models=["jackson_green"])
     assert small["jackson_green"].parameters["max_interference_over_omega_c"] < 110

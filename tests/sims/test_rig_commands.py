@@ -8,7 +8,7 @@ import pytest
 
 from contactrig.cli.main import main
 from contactrig.cli.simulate import parse_list
-from sims.rig import load_sweep
+from daq.sweep_file import load_sweep
 
 
 def test_simulate_json_with_weights_and_output(tmp_path, capsys):
@@ -64,7 +64,7 @@ def test_simulate_imports_neither_pyvisa_nor_matplotlib():
 
     code = (
         "import sys, io, contextlib\n"
-        "import sims.rig, sims.rig_dynamics\n"
+        "import sims.rig, sims.rig.dynamics, daq.sweep_file\n"
         "from contactrig.cli.main import main\n"
         "with contextlib.redirect_stdout(io.StringIO()):\n"
         "    rc = main(['simulate', '--models', 'greenwood_tripp', '--weights', '5.44', '--json'])\n"

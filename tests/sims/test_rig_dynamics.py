@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from sims.rig_dynamics import explicit_cost_estimate, settle, stiffness_ratio
-from sims.rig_loads import SkirtLoads
-from sims.rig_settings import RigSettings
-from sims.rig_statics import RigLoadError, equilibrium
+from sims.rig.dynamics import explicit_cost_estimate, settle, stiffness_ratio
+from sims.rig.equilibrium import RigLoadError, equilibrium
+from sims.rig.loads import SkirtLoads
+from sims.rig.settings import RigSettings
 from tests.sims.test_rig_laws import ExponentialLaw, GreenwoodTrippLaw
 
 LAW = ExponentialLaw()
@@ -131,11 +131,12 @@ def test_massless_piston_is_an_error():
 
 def test_settles_on_the_database_curve():
     from contactrig.core.scene import load_scene
+    from sims.config import SimConfig
     from sims.database import build_database
 
-    scene = load_scene()
-    curve = build_database(scene, models=["greenwood_tripp"])["greenwood_tripp"]
-    s = RigSettings.from_scene(scene)
+    config = SimConfig.from_scene(load_scene())
+    curve = build_database(config, models=["greenwood_tripp"])["greenwood_tripp"]
+    s = config.rig
     run = settle(curve, s, 13.616, damping_n_s_per_m=1e7)
     assert run.stiff and run.method == "BDF" and run.settled
     assert abs(run.separation_error_m) <= 2e-6 * run.static.load_n / run.static.stiffness_n_per_m

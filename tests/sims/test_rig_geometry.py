@@ -9,13 +9,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sims.rig_geometry import (
+from sims.rig.geometry import (
     contact_edge_angle_rad,
     dgap_dh0,
     effective_radius_m,
     gap_m,
 )
-from sims.rig_mesh import graded_edges, uniform_mesh, variable_mesh
+from sims.rig.mesh import graded_edges, uniform_mesh, variable_mesh
 
 R_L, C = 0.042, 40e-6
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import gamma, ive, pbdv
 
-from sims.rig_law import ContactLaw, check_law
+from sims.rig.law import ContactLaw, check_law
 
 
 @dataclass(frozen=True)

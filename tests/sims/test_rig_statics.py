@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
-from sims.rig_settings import STANDARD_GRAVITY, RigSettings
-from sims.rig_statics import RigLoadError, equilibrium, roughness_parameter
+from sims.rig.equilibrium import RigLoadError, equilibrium, roughness_parameter
+from sims.rig.settings import STANDARD_GRAVITY, RigSettings
 from tests.sims.test_rig_laws import (
     ExponentialLaw,
     GreenwoodTrippLaw,
@@ -212,7 +212,7 @@ def test_extreme_surfaces_stay_finite_and_balanced(law):
 
 def test_tail_bound_bounds_the_integral_beyond_the_zone():
     # Independent: quad of the force and area integrands beyond θ_z on the exact gap, against the bound.
-    from sims.rig_loads import tail_bound
+    from sims.rig.loads import tail_bound
 
     s = RigSettings()
     R_l, c, L, R_p = s.liner_radius_m, s.clearance_m, s.skirt_length_m, s.piston_radius_m
@@ -225,7 +225,7 @@ def test_tail_bound_bounds_the_integral_beyond_the_zone():
             assert abs(f_tail) <= f_bound[0] and a_tail <= a_bound[0]
     # A law that is exactly zero above h_max (contact onset, like an asperity curve): nothing beyond its edge.
     onset = WinklerLaw(k=1e13, h_c=1e-6, h_max=1e-6, h_min=-1e-6)
-    from sims.rig_geometry import contact_edge_angle_rad
+    from sims.rig.geometry import contact_edge_angle_rad
 
     edge = contact_edge_angle_rad(onset.h_max, h0, R_l, c)
     assert tail_bound(onset, s, edge, h0)[0][0] == 0.0 and tail_bound(onset, s, edge + 0.1, h0)[1][0] == 0.0

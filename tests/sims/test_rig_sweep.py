@@ -14,11 +14,18 @@ from scipy.optimize import brentq
 
 from contactrig.core.scene import load_scene, parse_scene
 from contactrig.core.validation import SettingError
-from sims.rig import ModelSweep, RigSettings, SweepResult, equilibrium, load_sweep, save_sweep, sweep
-from sims.rig_settings import PAPER_WEIGHTS_KG, STANDARD_GRAVITY
+from daq.sweep_file import load_sweep, save_sweep
+from sims.config import SimConfig
+from sims.rig import ModelSweep, RigSettings, SweepResult, equilibrium, sweep
+from sims.rig.settings import PAPER_WEIGHTS_KG, STANDARD_GRAVITY
 from tests.sims.test_rig_laws import ExponentialLaw, GreenwoodTrippLaw, WinklerLaw
 
 LAWS = {"exp": ExponentialLaw(), "gt": GreenwoodTrippLaw()}
+
+
+def _cfg(scene) -> SimConfig:
+    """The typed configuration every entry point of ``sims`` takes."""
+    return SimConfig.from_scene(scene)
 
 
 def _quad_equilibrium(curve, s: RigSettings, weight_kg: float, h_lo: float, h_hi: float) -> tuple[float, float]:
@@ -49,7 +56,7 @@ def scene():
 
 @pytest.fixture(scope="module")
 def gt_sweep(scene):
-    return sweep(scene, models=["greenwood_tripp"])
+    return sweep(_cfg(scene), models=["greenwood_tripp"])
 
 
 def test_default_scene_settings_are_the_papers(scene):
@@ -90,7 +97,7 @@ def test_bad_rig_settings_name_the_key(key, value, match):
 def test_scene_with_unknown_rig_key_is_rejected_before_anything_is_built():
     text = load_scene().text.replace("[rig]\n", "[rig]\nbore_diameter_m = 0.084\n", 1)
     with pytest.raises(SettingError, match=r"\[rig\] bore_diameter_m"):
-        sweep(parse_scene(text))
+        sweep(_cfg(parse_scene(text)))
 
 
 def test_sweep_with_given_laws_matches_single_equilibria():
@@ -128,7 +135,7 @@ def test_greenwood_tripp_sweep_from_the_database_against_quadrature(scene, gt_sw
     assert np.all(m.converged)
     # Independent check of the heaviest weight: adaptive quadrature of the exact-gap integrals on the same curve
     # (Greenwood–Tripp's tail beyond its h_max = 6σ carries ~1e-8 of the load and area).
-    curve = build_database(scene, models=["greenwood_tripp"])["greenwood_tripp"]
+    curve = build_database(_cfg(scene), models=["greenwood_tripp"])["greenwood_tripp"]
     h_ref, a_ref = _quad_equilibrium(curve, RigSettings.from_scene(scene), PAPER_WEIGHTS_KG[-1], 0.0, 2e-6)
     assert m.min_separation_m[-1] == pytest.approx(h_ref, rel=1e-4)
     assert m.contact_area_m2[-1] == pytest.approx(a_ref, rel=1e-3)
@@ -193,7 +200,7 @@ def test_zero_clearance_sweep_is_finite():
 
 def test_models_agree_when_elastic_and_differ_deep_in_the_plastic_regime(scene):
     # The paper's observation: at the Tab. 1 loads the asperities stay elastic and the models agree.
-    hard = sweep(scene, models=["hertz", "pasaribu_schipper"], weights_kg=[25.966])
+    hard = sweep(_cfg(scene), models=["hertz", "pasaribu_schipper"], weights_kg=[25.966])
     hz, ps = hard.models["hertz"].contact_area_m2, hard.models["pasaribu_schipper"].contact_area_m2
     assert abs(ps[0] - hz[0]) / hz[0] < 0.01
     # A soft piston alloy (H = 0.15 GPa) and a heavy load push the asperities far past yield: the plastic area
@@ -201,7 +208,7 @@ def test_models_agree_when_elastic_and_differ_deep_in_the_plastic_regime(scene):
     # less (H instead of the elastic pressure), so for the same load Pasaribu–Schipper's area exceeds Hertz's by more.
     text = scene.text.replace("H_pa = 1.2e9", "H_pa = 0.15e9")
     assert text != scene.text
-    soft = sweep(parse_scene(text), models=["hertz", "pasaribu_schipper"], weights_kg=[3000.0])
+    soft = sweep(_cfg(parse_scene(text)), models=["hertz", "pasaribu_schipper"], weights_kg=[3000.0])
     hz, ps = soft.models["hertz"].contact_area_m2, soft.models["pasaribu_schipper"].contact_area_m2
     assert ps[0] > 1.5 * hz[0]
 
@@ -257,7 +264,7 @@ def test_batch_solver_monotone_finite_and_balanced_for_any_weights(weights):
 
 def test_database_is_extended_when_a_load_leaves_its_range(scene):
     # 3000 kg pushes the Greenwood–Tripp minimum gap below the scene's h_min_sigma = −1.5: the curve is rebuilt deeper.
-    result = sweep(scene, models=["greenwood_tripp"], weights_kg=[25.966, 3000.0])
+    result = sweep(_cfg(scene), models=["greenwood_tripp"], weights_kg=[25.966, 3000.0])
     ext = result.provenance["database_extension"]
     assert ext["models"] == ["greenwood_tripp"] and ext["h_min_sigma"]["used"] < ext["h_min_sigma"]["scene"]
     assert any("database extended" in w for w in result.warnings)
@@ -265,14 +272,14 @@ def test_database_is_extended_when_a_load_leaves_its_range(scene):
     h = result.models["greenwood_tripp"].min_separation_m
     assert h[1] >= ext["h_min_sigma"]["used"] * result.provenance["database"]["greenwood_tripp"]["sigma_m"]
     # Beyond what the database allows (−3σ), the result stays extrapolated and says so.
-    deep = sweep(scene, models=["greenwood_tripp"], weights_kg=[3e5])
+    deep = sweep(_cfg(scene), models=["greenwood_tripp"], weights_kg=[3e5])
     assert any("extrapolated" in w and "greenwood_tripp" in w for w in deep.warnings)
     assert np.all(np.isfinite(deep.models["greenwood_tripp"].contact_area_m2))
     # A database handed in by the caller is not rebuilt: warning only.
     from sims.database import build_database
 
-    given_db = build_database(scene, models=["greenwood_tripp"])
-    kept = sweep(scene, weights_kg=[3000.0], database=given_db)
+    given_db = build_database(_cfg(scene), models=["greenwood_tripp"])
+    kept = sweep(_cfg(scene), weights_kg=[3000.0], database=given_db)
     assert "database_extension" not in kept.provenance
     assert any("extrapolated" in w for w in kept.warnings)
 
@@ -292,7 +299,7 @@ def test_extreme_scenes_give_finite_balanced_sweeps(scene, old, new):
         assert a in text
         text = text.replace(a, b, 1)
     weights = [0.0, 5.44, 25.966, 500.0]
-    result = sweep(parse_scene(text), models=["greenwood_tripp", "hertz"], weights_kg=weights)
+    result = sweep(_cfg(parse_scene(text)), models=["greenwood_tripp", "hertz"], weights_kg=weights)
     for m in result.models.values():
         assert np.all(np.isfinite(m.contact_area_m2)) and np.all(np.isfinite(m.min_separation_m))
         assert m.contact_area_m2[0] == 0 and np.all(np.diff(m.contact_area_m2) > 0)
@@ -323,10 +330,10 @@ def test_batch_newton_does_not_fall_back_to_bisection_once_converged():
 def test_asperity_sweep_from_the_database_against_quadrature(scene):
     # The variable mesh leaves out the skirt beyond the highest summit's contact edge (the law is zero there):
     # the area still meets mesh_tol against adaptive quadrature of the exact-gap integrals on the same curve.
-    result = sweep(scene, models=["hertz"], weights_kg=[25.966])
+    result = sweep(_cfg(scene), models=["hertz"], weights_kg=[25.966])
     from sims.database import build_database
 
-    curve = build_database(scene, models=["hertz"])["hertz"]
+    curve = build_database(_cfg(scene), models=["hertz"])["hertz"]
     s = RigSettings.from_scene(scene)
     h_ref, a_ref = _quad_equilibrium(curve, s, 25.966, 0.0, 0.99 * curve.h_max)
     m = result.models["hertz"]

@@ -113,24 +113,81 @@ def test_self_affine_exact_sq_and_spectral_slope() -> None:
     assert power[q > 2 * np.pi / 4e-6 * 1.001].max() < 1e-20 * power.max()
 
 
-def test_load_height_map_removes_the_plane(tmp_path) -> None:
+def test_level_height_map_removes_the_plane() -> None:
     rng = np.random.default_rng(0)
     rough = rng.normal(size=(12, 10))
     rough -= rough.mean()
     yy, xx = np.mgrid[0:12, 0:10]
     data = rough + 0.3 * xx - 0.2 * yy + 5.0
-    f = tmp_path / "map.csv"
-    f.write_text("# heights in µm\n" + "\n".join(",".join(f"{v:.12g}" for v in row) for row in data))
-    z = s.load_height_map(f, pixel_m=2e-6, height_unit_m=1e-6)
+    z = s.level_height_map(data, pixel_m=2e-6, height_unit_m=1e-6)
     a = np.column_stack([np.ones(rough.size), xx.ravel(), yy.ravel()])
     coef, *_ = np.linalg.lstsq(a, rough.ravel(), rcond=None)
     np.testing.assert_allclose(z, (rough - (a @ coef).reshape(rough.shape)) * 1e-6, atol=1e-15)
-    bad = tmp_path / "bad.txt"
-    bad.write_text("1 2 3\n4 5\n")
-    with pytest.raises(SettingError, match="rectangular"):
-        s.load_height_map(bad, pixel_m=1e-6)
-    with pytest.raises(SettingError, match="not found"):
-        s.load_height_map(tmp_path / "none.txt", pixel_m=1e-6)
+    with pytest.raises(SettingError, match="at least 8×8"):
+        s.level_height_map(np.zeros((4, 9)), pixel_m=1e-6)
+    with pytest.raises(SettingError, match="non-finite"):
+        s.level_height_map(np.full((8, 8), np.nan), pixel_m=1e-6)
+    with pytest.raises(SettingError, match="2-D"):
+        s.level_height_map(np.zeros(64), pixel_m=1e-6)
+
+
+def test_measured_surface_from_an_array_without_any_file() -> None:
+    z_um = s.gaussian(32, pixel_m=1e-6, sq_m=0.5e-6, correlation_m=4e-6, seed=3) * 1e6  # numbers in µm
+    spec = s.SurfaceSpec.from_heights(z_um, pixel_m=1e-6, height_unit_m=1e-6, section="surfaces.liner")
+    assert spec.kind == "file" and not spec.periodic and spec.path is None
+    np.testing.assert_allclose(s.rms_roughness(spec.heights()), 0.5e-6, rtol=0.05)
+    assert "measured" not in spec.as_dict()
+    assert spec.heights() is not spec.heights()  # fresh arrays: the spec's own stays untouched
+    assert spec.measured is not None and not spec.measured.flags.writeable
+    via_table = s.SurfaceSpec.from_table(
+        "surfaces.liner", {"kind": "file", "path": "liner.csv", "pixel_m": 1e-6, "height_unit_m": 1e-6}, z_um
+    )
+    assert via_table.path == "liner.csv" and via_table == s.SurfaceSpec.from_table(
+        "surfaces.liner",
+        {"kind": "file", "path": "elsewhere.csv", "pixel_m": 1e-6, "height_unit_m": 1e-6},
+        z_um,
+        path="liner.csv",
+    )
+    np.testing.assert_array_equal(via_table.heights(), spec.heights())
+    assert via_table.moments().m0 == pytest.approx(float(np.mean(spec.heights() ** 2)), rel=1e-9)
+
+
+def test_measured_surface_errors_name_the_scene_key_and_the_file() -> None:
+    table = {"kind": "file", "path": "maps/liner.csv", "pixel_m": 1e-6, "height_unit_m": 1e-6}
+    # a table whose file was never read (a scene parsed from text): the key and the file are named
+    with pytest.raises(SettingError, match=r"\[surfaces\.liner\] path = 'maps/liner\.csv'.*not read"):
+        s.SurfaceSpec.from_table("surfaces.liner", table)
+    with pytest.raises(SettingError, match=r"\[surfaces\.liner\] kind = 'gaussian'.*heights were given"):
+        s.SurfaceSpec.from_table(
+            "surfaces.liner",
+            {"kind": "gaussian", "n": 64, "pixel_m": 1e-6, "sq_m": 1e-7, "correlation_m": 8e-6},
+            np.zeros((8, 8)),
+        )
+    with pytest.raises(SettingError, match=r"\[surfaces\.liner\] path = None.*missing"):
+        s.SurfaceSpec.from_table("surfaces.liner", {"kind": "file", "pixel_m": 1e-6})
+    with pytest.raises(SettingError, match=r"\[surfaces\.liner\] path = '/data/liner\.csv'.*8×8"):
+        s.SurfaceSpec.from_table("surfaces.liner", table, np.zeros((4, 4)), path="/data/liner.csv")
+    # numbers in µm read as metres: the unit is blamed, with the file, not something downstream
+    z_um = s.gaussian(32, pixel_m=1e-6, sq_m=0.5e-6, correlation_m=4e-6, seed=3) * 1e6
+    with pytest.raises(SettingError, match=r"\[surfaces\.liner\] height_unit_m = 1\.0 .*/data/liner\.csv.*slope"):
+        s.SurfaceSpec.from_table("surfaces.liner", {**table, "height_unit_m": 1.0}, z_um, path="/data/liner.csv")
+
+
+def test_roughness_in_the_wrong_unit_names_sq_m() -> None:
+    good = {"kind": "gaussian", "n": 512, "pixel_m": 10e-6, "sq_m": 0.4e-6, "correlation_m": 80e-6}
+    s.SurfaceSpec.from_table("surfaces.liner", good)
+    with pytest.raises(SettingError, match=r"\[surfaces\.liner\] sq_m = 0\.0004 .*RMS slope of 10"):
+        s.SurfaceSpec.from_table("surfaces.liner", {**good, "sq_m": 0.4e-3})  # 0.4 µm typed in mm
+    affine = {"kind": "self_affine", "n": 128, "pixel_m": 10e-6, "sq_m": 0.4e-6, "hurst": 0.8, "cutoff_m": 40e-6}
+    s.SurfaceSpec.from_table("surfaces.piston", affine)
+    with pytest.raises(SettingError, match=r"\[surfaces\.piston\] sq_m .*RMS slope"):
+        s.SurfaceSpec.from_table("surfaces.piston", {**affine, "sq_m": 0.4e-3})
+
+
+def test_rms_slope_of_a_gaussian_surface() -> None:
+    z = s.gaussian(256, pixel_m=PX, sq_m=0.1e-6, correlation_m=16e-6, seed=2)
+    assert s.rms_slope(z, PX) == pytest.approx(2 * 0.1e-6 / 16e-6, rel=0.02)  # 2 Sq/λ
+    assert s.rms_slope(z, PX, periodic=False) == pytest.approx(s.rms_slope(z, PX), rel=0.05)
 
 
 def test_surface_spec_validation_names_the_key() -> None:
@@ -144,3 +201,38 @@ def test_surface_spec_validation_names_the_key() -> None:
         s.SurfaceSpec.from_table("surfaces.liner", {**good, "kind": "fractal"})
     with pytest.raises(SettingError, match=r"\[surfaces\.liner\] correlation_m"):
         s.SurfaceSpec.from_table("surfaces.liner", {k: v for k, v in good.items() if k != "correlation_m"})
+
+
+def test_a_scene_with_a_measured_height_map(tmp_path) -> None:
+    from contactrig.core.scene import load_scene, parse_scene
+
+    z_um = s.gaussian(32, pixel_m=1e-6, sq_m=0.5e-6, correlation_m=4e-6, seed=3) * 1e6
+    (tmp_path / "liner.csv").write_text("\n".join(",".join(f"{v:.12g}" for v in row) for row in z_um))
+    text = (
+        '[surfaces.liner]\nkind = "file"\npath = "liner.csv"\npixel_m = 1e-6\nheight_unit_m = 1e-6\n'
+        '[surfaces.piston]\nkind = "gaussian"\nn = 32\npixel_m = 1e-6\nsq_m = 0.3e-6\ncorrelation_m = 4e-6\n'
+    )
+    (tmp_path / "scene.toml").write_text(text)
+    liner, piston = s.surfaces_from_scene(load_scene(tmp_path / "scene.toml"))
+    assert liner.path == str(tmp_path.resolve() / "liner.csv") and liner.as_dict()["path"] == liner.path
+    np.testing.assert_allclose(liner.heights(), s.level_height_map(z_um, pixel_m=1e-6, height_unit_m=1e-6))
+    assert piston.kind == "gaussian" and piston.measured is None
+    with pytest.raises(SettingError, match=r"\[surfaces\.liner\] path = 'liner\.csv'.*not read"):
+        s.surfaces_from_scene(parse_scene(text))  # parsed from text: no file was read
+
+
+def test_the_surface_module_reads_no_file() -> None:
+    """Physics does no I/O: height-map files are read by contactrig.core.scene."""
+    import ast
+    import inspect
+
+    tree = ast.parse(inspect.getsource(s))
+    imported = {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+    imported |= {n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
+    assert not imported & {"pathlib", "os", "io", "csv"}, imported
+    called = {
+        n.func.attr if isinstance(n.func, ast.Attribute) else getattr(n.func, "id", "")
+        for n in ast.walk(tree)
+        if isinstance(n, ast.Call)
+    }
+    assert not called & {"open", "read_text", "read_bytes", "loadtxt", "genfromtxt", "read_text_file"}, called

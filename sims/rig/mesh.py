@@ -9,7 +9,7 @@ summing ``area_m2`` gives the whole skirt, ``2π R_p L``.
 - :func:`variable_mesh`: equal fine cells over the expected contact zone ``θ ≤ θ_z`` (and ``y ≤ y_z`` for a crowned
   skirt), then cells growing geometrically to ``θ = π`` (``y = L/2``): dense where the contact is, coarse where it is
   not (seed Fig. 4). With a straight skirt the gap does not vary along y and one axial cell is exact. With
-  ``tail=False`` the mesh stops at ``θ_z``: the caller has shown (:func:`sims.rig_loads.tail_bound`) that the skirt
+  ``tail=False`` the mesh stops at ``θ_z``: the caller has shown (:func:`sims.rig.loads.tail_bound`) that the skirt
   beyond carries nothing that matters — for an asperity model nothing at all, since its law is exactly zero above
   the highest summit. ``area_m2`` then sums to the zone's nominal area, not the whole skirt's.
 

@@ -1,5 +1,7 @@
 """HDF5 file of a rig load sweep (``contactrig simulate -o sim.h5``): arrays with units, warnings, provenance.
 
+The sweep itself is computed by :func:`sims.rig.sweep` (physics, no file I/O); ``daq`` owns every data file.
+
 Layout (every array carries a ``units`` attribute)::
 
     /                       attrs: format = "contactrig-sweep", format_version = 1, software_version, scene_name
@@ -24,7 +26,7 @@ import numpy as np
 from contactrig.core.provenance import json_default
 
 if TYPE_CHECKING:
-    from sims.rig import SweepResult
+    from sims.rig.sweep import SweepResult
 
 __all__ = ["FORMAT", "load_sweep", "save_sweep"]
 
@@ -36,7 +38,7 @@ def save_sweep(result: SweepResult, path: str | os.PathLike[str]) -> Path:
     """Write ``result`` to the HDF5 file ``path`` (replaced atomically); returns the path."""
     import h5py
 
-    from sims.rig import ModelSweep
+    from sims.rig.sweep import ModelSweep
 
     path = Path(path)
     tmp = path.with_name(path.name + ".partial")
@@ -68,7 +70,7 @@ def load_sweep(path: str | os.PathLike[str]) -> SweepResult:
     """Read a sweep written by :func:`save_sweep`; a file of another kind is a ``ValueError`` naming it."""
     import h5py
 
-    from sims.rig import ModelSweep, SweepResult
+    from sims.rig.sweep import ModelSweep, SweepResult
 
     path = Path(path)
     try:

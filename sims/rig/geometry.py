@@ -44,29 +44,37 @@ def effective_radius_m(liner_radius_m: float, clearance_m: float) -> float:
 
 
 def gap_m(
-    theta_rad: ArrayLike, h0_m: float, liner_radius_m: float, clearance_m: float, exact: bool = True
+    theta_rad: ArrayLike, h0_m: ArrayLike, liner_radius_m: float, clearance_m: float, exact: bool = True
 ) -> np.ndarray:
-    """Gap [m] between skirt and liner at angle ``theta_rad`` from the bottom when the minimum gap is ``h0_m``."""
+    """Gap [m] between skirt and liner at angle ``theta_rad`` from the bottom when the minimum gap is ``h0_m``.
+
+    ``theta_rad`` [rad] and ``h0_m`` [m] broadcast against each other (one minimum gap per weight of a batch).
+    """
     theta = np.asarray(theta_rad, dtype=float)
-    e = clearance_m - h0_m
+    h0 = np.asarray(h0_m, dtype=float)
+    e = clearance_m - h0
     if not exact:
-        return h0_m + e * (1.0 - np.cos(theta))
+        return np.asarray(h0 + e * (1.0 - np.cos(theta)))
     rp = liner_radius_m - clearance_m
     s2 = (e * np.sin(theta)) ** 2
-    return clearance_m - e * np.cos(theta) + s2 / (rp + np.sqrt(rp * rp - s2))
+    return np.asarray(clearance_m - e * np.cos(theta) + s2 / (rp + np.sqrt(rp * rp - s2)))
 
 
 def dgap_dh0(
-    theta_rad: ArrayLike, h0_m: float, liner_radius_m: float, clearance_m: float, exact: bool = True
+    theta_rad: ArrayLike, h0_m: ArrayLike, liner_radius_m: float, clearance_m: float, exact: bool = True
 ) -> np.ndarray:
-    """Derivative of :func:`gap_m` with respect to the minimum gap ``h0`` [-] (``cos θ``: small-clearance gap)."""
+    """Derivative of :func:`gap_m` with respect to the minimum gap ``h0`` [-] (``cos θ``: small-clearance gap).
+
+    ``theta_rad`` [rad] and ``h0_m`` [m] broadcast against each other, as in :func:`gap_m`.
+    """
     theta = np.asarray(theta_rad, dtype=float)
+    h0 = np.asarray(h0_m, dtype=float)
     if not exact:
-        return np.cos(theta)
-    e = clearance_m - h0_m
+        return np.asarray(np.cos(theta) + 0.0 * h0)
+    e = clearance_m - h0
     rp = liner_radius_m - clearance_m
     sin = np.sin(theta)
-    return np.cos(theta) - e * sin * sin / np.sqrt(rp * rp - (e * sin) ** 2)
+    return np.asarray(np.cos(theta) - e * sin * sin / np.sqrt(rp * rp - (e * sin) ** 2))
 
 
 def axial_profile_m(y_m: ArrayLike, skirt_length_m: float, crown_m: float) -> np.ndarray:

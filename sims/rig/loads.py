@@ -19,15 +19,14 @@ exactly zero there (contact onset of an asperity model), else π.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from sims.rig_geometry import axial_profile_m, contact_edge_angle_rad, dgap_dh0, gap_m
-from sims.rig_law import ContactLaw
-from sims.rig_mesh import SkirtMesh
-from sims.rig_settings import RigSettings
+from sims.rig.geometry import axial_profile_m, contact_edge_angle_rad, dgap_dh0, gap_m
+from sims.rig.law import ContactLaw
+from sims.rig.mesh import SkirtMesh
+from sims.rig.settings import RigSettings
 
 __all__ = ["TAIL_SHARE", "SkirtLoads", "tail_bound", "tail_matters"]
 
@@ -35,68 +34,79 @@ __all__ = ["TAIL_SHARE", "SkirtLoads", "tail_bound", "tail_matters"]
 #: below this share of ``mesh_tol`` (relative to the load and the area).
 TAIL_SHARE = 0.1
 
+#: Sum over the nodes (θ, y) of a gap-shaped array; any leading axes are minimum gaps (one per weight).
+_SUM = "...ty,ty->..."
 
-@dataclass(frozen=True)
+
 class SkirtLoads:
-    """Evaluator of force, slope and area on one mesh for one contact law; ``evaluations`` counts force calls."""
+    """Force, slope and area on one mesh for one contact law, for one minimum gap or many at once.
 
-    law: ContactLaw
-    settings: RigSettings
-    mesh: SkirtMesh
-    _theta: np.ndarray = field(init=False, repr=False)
-    _cos_area: np.ndarray = field(init=False, repr=False)
-    _area: np.ndarray = field(init=False, repr=False)
-    _profile: np.ndarray = field(init=False, repr=False)
-    _count: list[int] = field(init=False, repr=False)
+    The ``*_n``/``*_m2`` methods taking an array ``h0_m`` [m] return one value per minimum gap (the batch solver
+    evaluates every weight of a sweep in one call of the law); the scalar methods (:meth:`force_n`,
+    :meth:`force_and_slope`, :meth:`area_m2`) are what the dynamics use. ``evaluations`` counts force (or
+    force-and-slope) evaluations, ``law_calls`` calls of the contact law (each covers every minimum gap given).
+    """
 
-    def __post_init__(self) -> None:
-        theta = self.mesh.theta_rad
-        area = self.mesh.area_m2
-        object.__setattr__(self, "_theta", theta)
-        object.__setattr__(self, "_area", area)
-        object.__setattr__(self, "_cos_area", area * np.cos(theta)[:, None])
+    def __init__(self, law: ContactLaw, settings: RigSettings, mesh: SkirtMesh) -> None:
+        self.law, self.settings, self.mesh = law, settings, mesh
+        self._theta = mesh.theta_rad
+        self._area = mesh.area_m2
+        self._cos_area = self._area * np.cos(self._theta)[:, None]
+        self._profile = axial_profile_m(mesh.y_m, settings.skirt_length_m, settings.crown_m)[None, :]
+        self.evaluations = 0
+        self.law_calls = 0
+
+    def gap(self, h0_m: ArrayLike) -> np.ndarray:
+        """Gap [m] at every node: shape ``h0_m.shape + mesh.shape`` for minimum gaps ``h0_m`` [m]."""
         s = self.settings
-        object.__setattr__(self, "_profile", axial_profile_m(self.mesh.y_m, s.skirt_length_m, s.crown_m)[None, :])
-        object.__setattr__(self, "_count", [0])
+        h0 = np.asarray(h0_m, dtype=float)
+        g = gap_m(self._theta, h0[..., None], s.liner_radius_m, s.clearance_m, s.exact_gap)
+        return g[..., None] + self._profile
 
-    @property
-    def evaluations(self) -> int:
-        """Number of force (or force-and-slope) evaluations so far."""
-        return self._count[0]
+    def _law(self, method: str, h: np.ndarray) -> np.ndarray:
+        self.law_calls += 1
+        return np.asarray(getattr(self.law, method)(h.ravel()), dtype=float).reshape(h.shape)
 
-    def gap(self, h0_m: float) -> np.ndarray:
-        """Gap [m] at every node, shape ``mesh.shape``."""
+    def forces_n(self, h0_m: ArrayLike) -> np.ndarray:
+        """Vertical contact force F(h0) = Σ p ΔA cos θ [N] per minimum gap (seed eq. 22, ``P_c A_c``)."""
+        self.evaluations += 1
+        return np.einsum(_SUM, self._law("pressure", self.gap(h0_m)), self._cos_area)
+
+    def forces_and_slopes(self, h0_m: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        """F(h0) [N] and dF/dh0 [N/m] (≤ 0) per minimum gap, from the law's analytic slope."""
+        self.evaluations += 1
         s = self.settings
-        g = gap_m(self._theta, h0_m, s.liner_radius_m, s.clearance_m, s.exact_gap)
-        return g[:, None] + self._profile
+        h0 = np.asarray(h0_m, dtype=float)
+        h = self.gap(h0)
+        p = self._law("pressure", h)
+        dp = self._law("dpressure_dh", h)
+        dh = dgap_dh0(self._theta, h0[..., None], s.liner_radius_m, s.clearance_m, s.exact_gap)[..., None]
+        return np.einsum(_SUM, p, self._cos_area), np.einsum(_SUM, dp * dh, self._cos_area)
+
+    def areas_m2(self, h0_m: ArrayLike) -> np.ndarray:
+        """Real contact area A_r(h0) = Σ a ΔA [m²] per minimum gap."""
+        return np.einsum(_SUM, self._law("area_fraction_at", self.gap(h0_m)), self._area)
 
     def force_n(self, h0_m: float) -> float:
-        """Vertical contact force F(h0) [N]."""
-        self._count[0] += 1
-        p = self.law.pressure(self.gap(h0_m).ravel()).reshape(self.mesh.shape)
-        return float(np.sum(p * self._cos_area))
+        """Vertical contact force F(h0) [N] for one minimum gap [m]."""
+        return float(self.forces_n(h0_m))
 
     def force_and_slope(self, h0_m: float) -> tuple[float, float]:
-        """F(h0) [N] and dF/dh0 [N/m] (≤ 0)."""
-        self._count[0] += 1
-        s = self.settings
-        h = self.gap(h0_m).ravel()
-        p = self.law.pressure(h).reshape(self.mesh.shape)
-        dp = self.law.dpressure_dh(h).reshape(self.mesh.shape)
-        dh = dgap_dh0(self._theta, h0_m, s.liner_radius_m, s.clearance_m, s.exact_gap)[:, None]
-        return float(np.sum(p * self._cos_area)), float(np.sum(dp * dh * self._cos_area))
+        """F(h0) [N] and dF/dh0 [N/m] (≤ 0) for one minimum gap [m]."""
+        force, slope = self.forces_and_slopes(h0_m)
+        return float(force), float(slope)
 
     def pressure_pa(self, h0_m: float) -> np.ndarray:
-        """Nominal pressure [Pa] at every node."""
-        return np.asarray(self.law.pressure(self.gap(h0_m).ravel()), dtype=float).reshape(self.mesh.shape)
+        """Nominal pressure [Pa] at every node, shape ``mesh.shape``, for one minimum gap [m]."""
+        return self._law("pressure", self.gap(h0_m))
 
     def area_fraction(self, h0_m: float) -> np.ndarray:
-        """Real-area fraction [-] at every node."""
-        return np.asarray(self.law.area_fraction_at(self.gap(h0_m).ravel()), dtype=float).reshape(self.mesh.shape)
+        """Real-area fraction [-] at every node, shape ``mesh.shape``, for one minimum gap [m]."""
+        return self._law("area_fraction_at", self.gap(h0_m))
 
     def area_m2(self, h0_m: float) -> float:
-        """Real contact area A_r(h0) [m²]."""
-        return float(np.sum(self.area_fraction(h0_m) * self._area))
+        """Real contact area A_r(h0) [m²] for one minimum gap [m]."""
+        return float(self.areas_m2(h0_m))
 
 
 def tail_bound(

@@ -1,11 +1,11 @@
-"""The piston/liner rig model: real contact area against added weight (seed section 2.1, Fig. 11).
+"""The load sweep of the rig model: real contact area against added weight, per model (seed section 2.1, Fig. 11).
 
 A piston lies in a horizontal liner; the weight presses its skirt down onto the liner's bottom. Piston and liner are
 rigid, the asperities deform (the paper's MBS assumption), and the contact law of each model — nominal pressure and
 real-area fraction against mean-plane separation, from :mod:`sims.database` — gives the load and the real area on a
-mesh of the skirt. For every weight the static equilibrium is solved (:func:`equilibrium`); :func:`sweep` does this
-for every model a scene asks for. The damped release-to-rest dynamics of seed eq. 22 are in :mod:`sims.rig_dynamics`,
-the HDF5 file in :mod:`sims.rig_file`.
+mesh of the skirt. :func:`sweep` solves the static equilibrium of every weight for every model a configuration asks
+for (:func:`sims.rig.equilibrium.batch_equilibrium`, all weights of a model at once). The damped release-to-rest
+dynamics of seed eq. 22 are in :mod:`sims.rig.dynamics`; the HDF5 file of a sweep is :mod:`daq.sweep_file`.
 
 Load convention: ``W = (weight_kg + piston_mass_kg)·g`` with standard gravity. The paper's "255 N (26 kg)" is
 25.966 kg × g, i.e. its Tab. 1 weights are the whole load on the skirt; the default scene therefore sets
@@ -13,7 +13,8 @@ Load convention: ``W = (weight_kg + piston_mass_kg)·g`` with standard gravity. 
 
 Contract (used by ``daq`` and ``analysis``)::
 
-    result = sweep(scene, models=["greenwood_tripp"], weights_kg=None)   # None → the scene's [rig].weights_kg
+    config = SimConfig.from_scene(scene)
+    result = sweep(config, models=["greenwood_tripp"], weights_kg=None)   # None → config.rig.weights_kg
     result.models["greenwood_tripp"].weight_kg, .contact_area_m2, .min_separation_m, .force_n   # numpy arrays
     result.warnings      # list[str]
     result.provenance    # dict: scene text, database provenance, software version
@@ -22,37 +23,28 @@ Contract (used by ``daq`` and ``analysis``)::
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
 from contactrig.core.provenance import software_version
-from sims.rig_batch import BatchEquilibrium, batch_equilibrium
-from sims.rig_file import load_sweep, save_sweep
-from sims.rig_law import ContactLaw, check_law
-from sims.rig_settings import STANDARD_GRAVITY, RigSettings, check_weights
-from sims.rig_statics import ALPHA_WARN, Equilibrium, RigLoadError, equilibrium, preload_note, roughness_parameter
+from sims.rig.equilibrium import (
+    ALPHA_WARN,
+    BatchEquilibrium,
+    RigLoadError,
+    batch_equilibrium,
+    preload_note,
+    roughness_parameter,
+)
+from sims.rig.law import ContactLaw, check_law
+from sims.rig.settings import STANDARD_GRAVITY, RigSettings, check_weights
 
 if TYPE_CHECKING:
-    from contactrig.core.scene import Scene
+    from sims.config import SimConfig
 
-__all__ = [
-    "BatchEquilibrium",
-    "ContactLaw",
-    "Equilibrium",
-    "ModelSweep",
-    "RigLoadError",
-    "RigSettings",
-    "SweepResult",
-    "batch_equilibrium",
-    "equilibrium",
-    "load_sweep",
-    "save_sweep",
-    "sweep",
-]
+__all__ = ["ModelSweep", "SweepResult", "roughness_and_modulus", "sweep"]
 
 
 @dataclass(frozen=True)
@@ -127,29 +119,8 @@ class SweepResult:
         }
 
 
-def roughness_and_modulus(scene: Scene, database: Any = None) -> tuple[float | None, float | None]:
-    """Combined RMS roughness σ [m] (seed eq. 3) and composite modulus E* [Pa] (seed eq. 4) for the α check.
-
-    From the database's provenance when it has them (``greenwood_tripp.sigma_m``, ``materials.E_star_pa``), else
-    from the scene (``[surfaces.*].sq_m`` and ``[materials.*]``); ``None`` where neither gives a value.
-    """
-    prov = dict(getattr(database, "provenance", {}) or {})
-    sigma = prov.get("greenwood_tripp", {}).get("sigma_m") if isinstance(prov.get("greenwood_tripp"), dict) else None
-    modulus = prov.get("materials", {}).get("E_star_pa") if isinstance(prov.get("materials"), dict) else None
-    if sigma is None:
-        surfaces = scene.table("surfaces")
-        sq = [t.get("sq_m") for t in surfaces.values() if isinstance(t, dict)]
-        if sq and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in sq):
-            sigma = math.sqrt(sum(float(v) ** 2 for v in sq))
-    if modulus is None and scene.table("materials"):
-        from sims.materials import materials_from_scene
-
-        modulus = materials_from_scene(scene).E_star
-    return (None if sigma is None else float(sigma)), (None if modulus is None else float(modulus))
-
-
 def sweep(
-    scene: Scene | str | os.PathLike[str] | None = None,
+    config: SimConfig | None = None,
     models: Sequence[str] | None = None,
     weights_kg: Sequence[float] | None = None,
     *,
@@ -161,38 +132,88 @@ def sweep(
 ) -> SweepResult:
     """Contact area against weight for every model: static equilibrium per (model, weight).
 
-    All weights of a model are solved together on a shared mesh (:func:`sims.rig_batch.batch_equilibrium`); the
-    per-model solver diagnostics are in ``provenance["solver"]``; ``provenance["notes"]`` says when the clearance
+    All weights of a model are solved together on a shared mesh (:func:`sims.rig.equilibrium.batch_equilibrium`);
+    the per-model solver diagnostics are in ``provenance["solver"]``; ``provenance["notes"]`` says when the clearance
     lies inside a law's contact range (a pre-loaded fit: zero clearance, or roughness comparable with it).
 
-    ``scene`` (a :class:`~contactrig.core.scene.Scene`, a path, or None → the packaged default) gives ``[rig]`` (unless
-    ``settings`` is given) and the database settings. ``models`` restricts the models (None → the scene's
-    ``[database].models``); only those databases are built. ``weights_kg`` overrides ``[rig].weights_kg``. ``laws``
-    (name → contact law) or a prebuilt ``database`` replace the database build (and its automatic extension when a
-    load leaves the tabulated range). ``roughness_m``/``composite_modulus_pa`` (default: from the database or the
-    scene) drive the roughness-parameter check. Raises :class:`RigLoadError` when a law cannot carry a load.
+    ``config`` (a :class:`sims.config.SimConfig`, e.g. ``SimConfig.from_scene(scene)``; None → the packaged default
+    scene's) gives the rig settings (unless ``settings`` is given) and the database settings. ``models`` restricts the
+    models (registered keys, :mod:`sims.models`; None → ``config.database.models``); only those curves are built
+    (:func:`sims.database.build_database`). ``weights_kg`` [kg] overrides ``config.rig.weights_kg``. ``laws`` (name →
+    contact law) or a prebuilt ``database`` replace the database build (and its automatic extension when a load
+    leaves the tabulated range). ``roughness_m`` [m] / ``composite_modulus_pa`` [Pa] (default: from the database or
+    the configuration) drive the roughness-parameter check. Raises :class:`RigLoadError` when a law cannot carry a
+    load.
     """
-    from contactrig.core.scene import Scene as SceneType
-    from contactrig.core.scene import load_scene
-
-    if scene is None or not isinstance(scene, SceneType):
-        scene = load_scene(scene)  # None → the packaged default; a path → that file
-    settings = settings if settings is not None else RigSettings.from_scene(scene)
+    config = _config(config)
+    settings = settings if settings is not None else config.rig
     weights = check_weights(weights_kg, "weights_kg") if weights_kg is not None else settings.weights_kg
-    if models is not None:
-        if isinstance(models, str) or not all(isinstance(m, str) for m in models) or len(models) == 0:
-            raise RigLoadError(f"models = {models!r} is not allowed: expected a non-empty list of model names")
-        models = list(dict.fromkeys(models))
-    built_here = False
+    names = _checked_models(models)
     provenance: dict[str, Any] = {
         "software_version": software_version(),
-        "scene_name": scene.name,
-        "scene_source": scene.source,
-        "scene_text": scene.text,
+        **config.provenance(),
         "rig_settings": settings.as_dict(),
         "weights_kg": list(weights),
         "gravity_m_per_s2": STANDARD_GRAVITY,
     }
+    law_map, database, built_here = _contact_laws(config, names, laws, database, provenance)
+    warnings: list[str] = []
+    if roughness_m is None or composite_modulus_pa is None:
+        sigma, modulus = roughness_and_modulus(config, database) if laws is None else (None, None)
+        roughness_m = roughness_m if roughness_m is not None else sigma
+        composite_modulus_pa = composite_modulus_pa if composite_modulus_pa is not None else modulus
+    if roughness_m is not None and composite_modulus_pa is not None:
+        _check_roughness(settings, weights, roughness_m, composite_modulus_pa, provenance, warnings)
+    batches = {name: batch_equilibrium(law, settings, weights, name=name) for name, law in law_map.items()}
+    if built_here:
+        _extend_database(config, database, law_map, batches, settings, weights, provenance, warnings)
+    if roughness_m is not None and composite_modulus_pa is not None:
+        provenance["bulk_deflection"] = {
+            name: _bulk_deflection(law_map[name], settings, batches[name], roughness_m, composite_modulus_pa)
+            for name in batches
+        }
+    notes = [note for name, law in law_map.items() if (note := preload_note(name, law, settings))]
+    if notes:
+        provenance["notes"] = notes
+    return _collect(batches, provenance, warnings)
+
+
+def _config(config: Any) -> SimConfig:
+    """``config`` checked, or the packaged default scene's when None."""
+    from sims.config import SimConfig
+
+    if config is None:
+        from contactrig.core.scene import load_scene
+
+        return SimConfig.from_scene(load_scene(None))
+    if not isinstance(config, SimConfig):
+        raise TypeError(
+            f"sweep takes a sims.config.SimConfig (SimConfig.from_scene(scene)), not {type(config).__name__}"
+        )
+    return config
+
+
+def _checked_models(models: Sequence[str] | None) -> list[str] | None:
+    """A non-empty list of model names without repeats (order kept), or None."""
+    if models is None:
+        return None
+    if isinstance(models, str) or not all(isinstance(m, str) for m in models) or len(models) == 0:
+        raise RigLoadError(f"models = {models!r} is not allowed: expected a non-empty list of model names")
+    return list(dict.fromkeys(models))
+
+
+def _contact_laws(
+    config: SimConfig,
+    models: list[str] | None,
+    laws: Mapping[str, ContactLaw] | None,
+    database: Any,
+    provenance: dict[str, Any],
+) -> tuple[dict[str, ContactLaw], Any, bool]:
+    """The law of every model (given, from ``database``, or from a database built here), each checked.
+
+    Returns ``(law by name, database, built here)`` and records the database's provenance.
+    """
+    built_here = False
     if laws is not None:
         names = list(laws) if models is None else models
         unknown = [n for n in names if n not in laws]
@@ -204,43 +225,74 @@ def sweep(
         if database is None:
             from sims.database import build_database
 
-            database = build_database(scene, models=models)
+            database = build_database(config, models=models)
             built_here = True
-        names = list(models) if models is not None else _database_names(database, scene)
+        names = list(models) if models is not None else _database_names(database, config)
         law_map = {n: database[n] for n in names}
         provenance["database"] = dict(getattr(database, "provenance", {}) or {})
     for n, law in law_map.items():
         check_law(law, n)
+    return law_map, database, built_here
 
-    if roughness_m is None or composite_modulus_pa is None:
-        sigma, modulus = roughness_and_modulus(scene, database) if laws is None else (None, None)
-        roughness_m = roughness_m if roughness_m is not None else sigma
-        composite_modulus_pa = composite_modulus_pa if composite_modulus_pa is not None else modulus
 
-    warnings: list[str] = []
-    if roughness_m is not None and composite_modulus_pa is not None:
-        provenance["roughness_m"] = roughness_m
-        provenance["composite_modulus_pa"] = composite_modulus_pa
-        for w in weights:
-            alpha = roughness_parameter(settings.load_n(w), settings.skirt_length_m, roughness_m, composite_modulus_pa)
-            if alpha < ALPHA_WARN:
-                warnings.append(
-                    f"weight {w:g} kg: roughness parameter σ·R_eff/b² = {alpha:.3g} < {ALPHA_WARN:g}: bulk elastic "
-                    "deformation is no longer small against asperity deformation (rigid-body model)"
-                )
-        provenance["line_contact_check"] = _line_contact_check(settings, max(weights), composite_modulus_pa, warnings)
+def _database_names(database: Any, config: SimConfig) -> list[str]:
+    """The models a database holds (its keys), else the configuration's ``[database] models``."""
+    if isinstance(database, Mapping):
+        return list(database.keys())
+    return list(config.database.models)
 
-    batches = {name: batch_equilibrium(law, settings, weights, name=name) for name, law in law_map.items()}
-    if built_here:
-        _extend_database(scene, law_map, batches, settings, weights, provenance, warnings)
-    if roughness_m is not None and composite_modulus_pa is not None:
-        provenance["bulk_deflection"] = {
-            name: _bulk_deflection(law_map[name], settings, batches[name], roughness_m, composite_modulus_pa)
-            for name in batches
-        }
-    notes = [note for name, law in law_map.items() if (note := preload_note(name, law, settings))]
-    if notes:
-        provenance["notes"] = notes
+
+def _database_sigma(database: Any) -> float | None:
+    """Combined RMS roughness σ = √(Sq1² + Sq2²) [m] (seed eq. 3) of the surfaces a database was built from."""
+    prov = dict(getattr(database, "provenance", {}) or {})
+    surfaces = prov.get("surfaces")
+    if not isinstance(surfaces, dict):
+        return None
+    sq = [s.get("sq_m") if isinstance(s, dict) else None for s in (surfaces.get("liner"), surfaces.get("piston"))]
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in sq):
+        return None
+    return math.hypot(*(float(v) for v in sq if v is not None))
+
+
+def roughness_and_modulus(config: SimConfig, database: Any = None) -> tuple[float | None, float | None]:
+    """Combined RMS roughness σ [m] (seed eq. 3) and composite modulus E* [Pa] (seed eq. 4) for the α check.
+
+    From the database's provenance when it has them (its surfaces' ``sq_m``, ``materials.E_star_pa``), else from the
+    configuration (generated surfaces' ``sq_m``; a measured surface's Sq is only known once it is read: None).
+    """
+    prov = dict(getattr(database, "provenance", {}) or {})
+    sigma = _database_sigma(database)
+    modulus = prov.get("materials", {}).get("E_star_pa") if isinstance(prov.get("materials"), dict) else None
+    if sigma is None and "file" not in (config.liner.kind, config.piston.kind):
+        sigma = math.hypot(config.liner.sq_m, config.piston.sq_m)
+    if modulus is None:
+        modulus = config.materials.E_star
+    return (None if sigma is None else float(sigma)), (None if modulus is None else float(modulus))
+
+
+def _check_roughness(
+    settings: RigSettings,
+    weights: tuple[float, ...],
+    roughness_m: float,
+    composite_modulus_pa: float,
+    provenance: dict[str, Any],
+    warnings: list[str],
+) -> None:
+    """Roughness parameter α of every weight against :data:`ALPHA_WARN`, and the line-contact check of the heaviest."""
+    provenance["roughness_m"] = roughness_m
+    provenance["composite_modulus_pa"] = composite_modulus_pa
+    for w in weights:
+        alpha = roughness_parameter(settings.load_n(w), settings.skirt_length_m, roughness_m, composite_modulus_pa)
+        if alpha < ALPHA_WARN:
+            warnings.append(
+                f"weight {w:g} kg: roughness parameter σ·R_eff/b² = {alpha:.3g} < {ALPHA_WARN:g}: bulk elastic "
+                "deformation is no longer small against asperity deformation (rigid-body model)"
+            )
+    provenance["line_contact_check"] = _line_contact_check(settings, max(weights), composite_modulus_pa, warnings)
+
+
+def _collect(batches: dict[str, BatchEquilibrium], provenance: dict[str, Any], warnings: list[str]) -> SweepResult:
+    """The sweep result: one :class:`ModelSweep` per model, the solvers' warnings (once each) and diagnostics."""
     result_models: dict[str, ModelSweep] = {}
     for name, batch in batches.items():
         warnings.extend(w for w in batch.warnings if w not in warnings)
@@ -257,7 +309,8 @@ def sweep(
 
 
 def _extend_database(
-    scene: Scene,
+    config: SimConfig,
+    database: Any,
     law_map: dict[str, ContactLaw],
     batches: dict[str, BatchEquilibrium],
     settings: RigSettings,
@@ -265,27 +318,23 @@ def _extend_database(
     provenance: dict[str, Any],
     warnings: list[str],
 ) -> None:
-    """Rebuild the curves whose minimum gap fell below their range, deeper (``[database].h_min_sigma``), and re-solve.
+    """Rebuild the curves whose minimum gap fell below their range, deeper (``[database] h_min_sigma``), and re-solve.
 
     The database allows ``h_min_sigma`` down to −3; a load that needs more stays extrapolated (its warning stays).
     ``law_map`` and ``batches`` are updated in place; the extension is recorded in ``provenance``.
     """
-    import copy
-
-    from contactrig.core.scene import Scene as SceneType
-    from sims.database import DatabaseSettings, build_database
+    from sims.database import build_database
 
     low = {n: float(b.min_separation_m.min()) for n, b in batches.items() if not np.all(b.in_range)}
-    sigma = provenance.get("database", {}).get("greenwood_tripp", {}).get("sigma_m")
+    sigma = _database_sigma(database)
     if not low or not sigma:
         return
-    current = DatabaseSettings.from_scene(scene).h_min_sigma
+    current = config.database.h_min_sigma
     needed = max(-3.0, math.floor(min(low.values()) / sigma - 0.25))
     if needed >= current:
         return
-    data = copy.deepcopy(scene.data)
-    data.setdefault("database", {})["h_min_sigma"] = float(needed)
-    extended = build_database(SceneType(text=scene.text, data=data, source=scene.source), models=list(low))
+    deeper = config.with_changes(database=replace(config.database, h_min_sigma=float(needed)))
+    extended = build_database(deeper, models=list(low))
     for name in low:
         law_map[name] = extended[name]
         batches[name] = batch_equilibrium(extended[name], settings, weights, name=name)
@@ -311,7 +360,7 @@ def _bulk_deflection(
     small against σ; it grows as ``1/α``.
     """
     from sims.line_contact import influence_matrix
-    from sims.rig_geometry import gap_m
+    from sims.rig.geometry import gap_m
 
     i = int(np.argmax(batch.load_n))
     width = float(batch.contact_width_m[i])
@@ -340,7 +389,7 @@ def _line_contact_check(
     for the rig's conformal geometry, and warns when it does not (contact wider than a small angle).
     """
     from sims.line_contact import conformal_line_contact, hertz_line_contact
-    from sims.rig_geometry import effective_radius_m
+    from sims.rig.geometry import effective_radius_m
 
     load = settings.load_n(weight_kg)
     if load <= 0 or settings.clearance_m <= 0:
@@ -367,13 +416,3 @@ def _line_contact_check(
         "solver_strip_m": sol.dx_m,
         "status": sol.status,
     }
-
-
-def _database_names(database: Any, scene: Scene) -> list[str]:
-    for attr in ("models", "names"):
-        value = getattr(database, attr, None)
-        if value is not None and not callable(value):
-            return list(value)
-    if hasattr(database, "keys"):
-        return list(database.keys())
-    return list(scene.table("database").get("models", []))
