@@ -336,6 +336,10 @@ def _start_record(
             "address": plan.instrument.address,
             "timeout_ms": plan.instrument.timeout_ms,
             "pair": plan.instrument.pair,
+            # how it was reached: VISA library, Nagle off on LAN, serial parameters and chunk size over RS-232
+            **opened.link.connection,
+            # what every block sets besides the block settings (filters, math, timestamps…), read back each block
+            "pinned_state": opened.link.pinned_state(),
         },
         "run": run,
         "resumed_from": prior.first_start.get("started") if prior.first_start is not None else None,

@@ -300,6 +300,7 @@ class AcquisitionEngine:
             valid=np.isfinite(resistance),
             started=started,
             exchanges=tuple(ex),
+            compliance=bool(getattr(block, "compliance", False)),  # pairs without a compliance flag: never
         )
 
 
@@ -332,8 +333,12 @@ def _after_block_reason(done: list[BlockRecord]) -> str:
 
 
 def format_live_line(rec: BlockRecord, index: int, total: int) -> str:
-    """``block 3/48  5.44 kg  repeat 3  R = 8.0913 mΩ ± 12.3 µΩ (SEM, n = 100)`` — the live line."""
+    """``block 3/48  5.44 kg  repeat 3  R = 8.0913 mΩ ± 12.3 µΩ (SEM, n = 100)`` — the live line; a block taken in
+    compliance says so and shows no value."""
     st = rec.stats
+    if rec.compliance:
+        value = f"COMPLIANCE: source could not drive the current, block excluded ({rec.reading.size} readings)"
+        return f"block {index}/{total}  {rec.weight_kg:g} kg  repeat {rec.repeat}  {value}"
     if st.n == 0:
         value = "no valid readings"
     else:

@@ -21,7 +21,7 @@ from daq.plan import SessionPlan
 from instruments.block import Block
 from instruments.errors import InstrumentTimeout, ReplyError
 from instruments.pairs import Identity, InstrumentPair, PairDriver, get_pair
-from instruments.transport import Exchange, RecordingTransport, Transport, VisaTransport
+from instruments.transport import Exchange, RecordingTransport, SerialSettings, Transport, VisaTransport, is_serial
 
 __all__ = ["Bench", "InstrumentLink", "OpenedBench", "UnreachableInstrument", "VisaBench", "open_visa_link"]
 
@@ -35,7 +35,9 @@ class InstrumentLink:
 
     ``place_weight(weight_kg)`` is called when the operator has placed a weight, ``prepare_block(block)`` just
     before block number ``block`` starts (the simulated bench uses them to set its resistance; on real hardware
-    and in replay they do nothing). ``clock``/``sleep`` go to the driver (replay injects them).
+    and in replay they do nothing). ``clock``/``sleep`` go to the driver (replay injects them), and so do
+    ``driver_options`` (e.g. ``chunk_size`` over RS-232; replay passes the recorded ones). ``connection`` is what the
+    start record keeps about how the instrument was reached (VISA library, Nagle, serial parameters, chunk size).
     """
 
     def __init__(
@@ -48,11 +50,15 @@ class InstrumentLink:
         prepare_block: Callable[[int], None] | None = None,
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
+        driver_options: dict[str, Any] | None = None,
+        connection: dict[str, Any] | None = None,
     ) -> None:
         self.pair = pair if pair is not None else get_pair()
         self.address = address
         self.recorder = RecordingTransport(transport, clock=clock)
-        self.driver: PairDriver = self.pair.open_driver(self.recorder, clock=clock, sleep=sleep)
+        options = dict(driver_options or {})
+        self.driver: PairDriver = self.pair.open_driver(self.recorder, clock=clock, sleep=sleep, **options)
+        self.connection: dict[str, Any] = {**(connection or {}), **options}
         self._place_weight = place_weight
         self._prepare_block = prepare_block
         self._taken = 0
@@ -99,6 +105,11 @@ class InstrumentLink:
         """Leave the source idle and close the connection."""
         self.driver.close()
 
+    def pinned_state(self) -> dict[str, Any]:
+        """What the driver sets besides the block settings (empty for pairs that do not say)."""
+        pinned = getattr(self.driver, "pinned_state", None)
+        return dict(pinned()) if callable(pinned) else {}
+
 
 def open_visa_link(
     address: str,
@@ -108,12 +119,16 @@ def open_visa_link(
     pair: InstrumentPair | None = None,
     place_weight: Callable[[float], None] | None = None,
     prepare_block: Callable[[int], None] | None = None,
+    visa_library: str = "",
+    serial: SerialSettings | None = None,
 ) -> InstrumentLink:
-    """Open ``pair`` at ``address`` on ``resource_manager`` (None: the system's VISA library); an unreachable
-    address raises :class:`UnreachableInstrument` with advice."""
+    """Open ``pair`` at ``address`` on ``resource_manager`` (None: a new one on ``visa_library``, "" = the system's
+    VISA library); an unreachable address raises :class:`UnreachableInstrument` with advice. Over RS-232 the
+    ``serial`` parameters are set and the buffer is read in chunks sized to the baud rate."""
     pair = pair if pair is not None else get_pair()
+    serial = (serial if serial is not None else SerialSettings()) if is_serial(address) else None
     try:
-        transport = VisaTransport.open(address, resource_manager, timeout_ms)
+        transport = VisaTransport.open(address, resource_manager, timeout_ms, visa_library=visa_library, serial=serial)
     except Exception as exc:  # the driver's CommunicationError; raw pyvisa/backends raise ValueError or OSError
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         detail = detail.split(": check")[0]  # keep one piece of advice, ours
@@ -122,7 +137,33 @@ def open_visa_link(
             f"cannot open the {name} at {address!r} ({detail}): check the address in [instrument].address, that the "
             f"{name} is switched on and cabled, and that a VISA library is installed; `--sim` runs without hardware"
         ) from exc
-    return InstrumentLink(transport, pair=pair, address=address, place_weight=place_weight, prepare_block=prepare_block)
+    options: dict[str, Any] = {}
+    connection: dict[str, Any] = {
+        "visa_library": visa_library or _library_name(transport.resource),
+        "timeout_ms_effective": int(transport.resource.timeout),
+    }
+    if transport.nodelay:
+        connection["tcp_nodelay"] = transport.nodelay
+    if serial is not None:
+        options["chunk_size"] = serial.chunk_size(timeout_ms)
+        connection["serial"] = serial.as_dict()
+    return InstrumentLink(
+        transport,
+        pair=pair,
+        address=address,
+        place_weight=place_weight,
+        prepare_block=prepare_block,
+        driver_options=options,
+        connection=connection,
+    )
+
+
+def _library_name(resource: Any) -> str:
+    """Which VISA library a resource is open on (its class and path), for the start record."""
+    lib = getattr(resource, "visalib", None)
+    if lib is None:
+        return ""
+    return f"{type(lib).__name__}:{getattr(lib, 'library_path', '')}"
 
 
 @dataclass(frozen=True)
@@ -147,10 +188,12 @@ class Bench(Protocol):
 
 @dataclass(frozen=True)
 class VisaBench:
-    """The instruments at the plan's ``[instrument].address``, through ``resource_manager`` (None: the system's
-    VISA library; tests give a simulated one and still take the hardware path)."""
+    """The instruments at the plan's ``[instrument].address``, through ``resource_manager`` (None: a new one on
+    ``visa_library``, e.g. ``"@py"`` for pyvisa-py; "" = the system's VISA library; tests give a simulated one and
+    still take the hardware path)."""
 
     resource_manager: Any = None  # a pyvisa.ResourceManager (pyvisa ships no type information)
+    visa_library: str = ""
 
     @property
     def simulated(self) -> bool:
@@ -158,6 +201,11 @@ class VisaBench:
 
     def open(self, plan: SessionPlan) -> OpenedBench:
         link = open_visa_link(
-            plan.instrument.address, plan.instrument.timeout_ms, self.resource_manager, pair=plan.pair
+            plan.instrument.address,
+            plan.instrument.timeout_ms,
+            self.resource_manager,
+            pair=plan.pair,
+            visa_library=self.visa_library,
+            serial=plan.instrument.serial,
         )
         return OpenedBench(link)

@@ -10,9 +10,16 @@ Scene keys (SI units; every key validated, unknown keys are errors naming the ke
 ``[instrument]``
     ``address``     VISA resource of the instrument the PC talks to (e.g. the 6221's ``GPIB0::12::INSTR``,
                     ``TCPIP0::<ip>::1394::SOCKET``)
-    ``timeout_ms``  VISA I/O timeout, 100 … 600 000 ms
+    ``timeout_ms``  VISA I/O timeout, 100 … 600 000 ms (over RS-232 raised if the baud rate needs it)
     ``pair``        the instrument pair (:mod:`instruments.pairs`; default ``"k6221_2182a"``, the Keithley 6221
                     with a 2182A in Delta mode)
+    RS-232 only (``ASRL…::INSTR`` addresses; they must match the 6221's front-panel settings):
+    ``baud_rate``   300, 600, 1200, 2400, 4800, 9600, 19200 (default), 38400, 57600 or 115200
+    ``flow_control``  ``"none"`` (default) or ``"xon_xoff"``
+    ``terminator``  the 6221's RS-232 terminator: ``"LF"`` (default), ``"CR"``, ``"CRLF"`` or ``"LFCR"``
+    ``data_bits``   8 (default) or 7;  ``parity``  ``"none"`` (default), ``"odd"`` or ``"even"``
+    Buffer reads are chunked so that each reply takes at most a quarter of the timeout at the baud rate
+    (:meth:`instruments.transport.SerialSettings.chunk_size`).
 the pair's settings table — ``[delta]`` for the Keithley pair
     validated by the pair (``instruments.delta.DeltaSettings``: ``high_a``, ``low_a``, ``delay_s``, ``count``,
     ``nplc``, ``unit``, ``compliance_v``, ``compliance_abort`` …); ``count`` = readings per block
@@ -41,6 +48,7 @@ from typing import Any
 from contactrig.core.scene import Scene
 from contactrig.core.validation import SettingError, check_choice, check_int, check_keys, check_range
 from instruments.pairs import DEFAULT_PAIR, InstrumentPair, get_pair
+from instruments.transport import SerialSettings
 
 __all__ = [
     "INSTRUMENT_KEYS",
@@ -54,7 +62,7 @@ __all__ = [
     "settings_from_record",
 ]
 
-INSTRUMENT_KEYS = ("address", "timeout_ms", "pair")
+INSTRUMENT_KEYS = ("address", "timeout_ms", "pair", "baud_rate", "flow_control", "terminator", "data_bits", "parity")
 SESSION_KEYS = ("repeats", "weights_kg", "operator", "sample", "rig", "sim_model", "sim_seed", "sim_repeat_sd")
 #: Default ``[session].sim_repeat_sd``: Tab. 1's repeats M1–M3 scatter by 15–16 % at each weight
 #: (analysis.simulated_session).
@@ -72,11 +80,17 @@ def _check_str(field: str, value: Any, *, nonempty: bool = False) -> str:
 
 @dataclass(frozen=True)
 class InstrumentSettings:
-    """How to reach the instruments: VISA ``address``, I/O ``timeout_ms`` (ms) and which registered ``pair``."""
+    """How to reach the instruments: VISA ``address``, I/O ``timeout_ms`` (ms), which registered ``pair``, and the
+    RS-232 parameters (used with ``ASRL`` addresses only; see the module docstring)."""
 
     address: str = "GPIB0::12::INSTR"
     timeout_ms: int = 5000
     pair: str = DEFAULT_PAIR
+    baud_rate: int = 19200
+    flow_control: str = "none"
+    terminator: str = "LF"
+    data_bits: int = 8
+    parity: str = "none"
 
     def __post_init__(self) -> None:
         _check_str("instrument.address", self.address, nonempty=True)
@@ -86,6 +100,19 @@ class InstrumentSettings:
             )
         object.__setattr__(self, "timeout_ms", check_int("instrument.timeout_ms", self.timeout_ms, 100, 600_000))
         get_pair(self.pair)  # an unknown pair is an error naming [instrument] pair and the registered ones
+        self.serial  # noqa: B018 -- validates the RS-232 keys, errors naming [instrument] <key>
+
+    @property
+    def serial(self) -> SerialSettings:
+        """The RS-232 parameters, validated."""
+        return SerialSettings(
+            baud_rate=self.baud_rate,
+            flow_control=self.flow_control,
+            terminator=self.terminator,
+            data_bits=self.data_bits,
+            parity=self.parity,
+            prefix="instrument.",
+        )
 
     @classmethod
     def from_table(cls, table: Mapping[str, Any]) -> InstrumentSettings:

@@ -36,10 +36,13 @@ def block_digest(
     resistance_ohm: np.ndarray,
     valid: np.ndarray,
     stats: BlockStatistics,
+    compliance: bool = False,
 ) -> str:
-    """SHA-256 (hex) over one block's identity, its raw arrays and its summary, as stored on disk.
+    """SHA-256 (hex) over one block's identity, its raw arrays, its summary and its compliance flag, as stored on
+    disk.
 
-    Little-endian float64/int64 and uint8 bytes, so the digest does not depend on the machine.
+    Little-endian float64/int64 and uint8 bytes, so the digest does not depend on the machine. The compliance flag
+    enters only when set, so the digest of a block without it is the one schema 1 stored.
     """
     h = hashlib.sha256()
     h.update(np.asarray([block, repeat, stats.n, stats.n_invalid], dtype="<i8").tobytes())
@@ -47,6 +50,8 @@ def block_digest(
     for arr in (reading, time_s, resistance_ohm):
         h.update(np.ascontiguousarray(arr, dtype="<f8").tobytes())
     h.update(np.ascontiguousarray(valid, dtype="u1").tobytes())
+    if compliance:
+        h.update(b"compliance")
     return h.hexdigest()
 
 
@@ -68,6 +73,9 @@ class BlockRecord:
     ``resistance_ohm`` the same readings in Ω, ``time_s`` the instrument's timestamps (first = 0 s).
     ``exchanges`` are the instrument exchanges of this block, for replay (empty for imported tables).
     ``stats`` are the block statistics of ``resistance_ohm`` over ``valid``, in Ω.
+    ``compliance``: the source was in compliance during the block (readings wrong by an unknown amount): ``valid``
+    is then all False whatever was passed, so the statistics have no value (NaN mean, n = 0, every reading counted
+    invalid) and no fit or report can average the block in.
     """
 
     block: int
@@ -81,11 +89,15 @@ class BlockRecord:
     valid: np.ndarray
     started: str
     exchanges: tuple[Exchange, ...] = ()
+    compliance: bool = False
     stats: BlockStatistics = field(init=False)
     sha256: str = field(init=False)
     exchanges_sha256: str = field(init=False)
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "compliance", bool(self.compliance))
+        if self.compliance:
+            object.__setattr__(self, "valid", np.zeros(np.shape(self.valid), dtype=bool))
         stats = block_statistics(self.resistance_ohm, self.valid)
         object.__setattr__(self, "stats", stats)
         digest = block_digest(
@@ -97,6 +109,7 @@ class BlockRecord:
             self.resistance_ohm,
             self.valid,
             stats,
+            self.compliance,
         )
         object.__setattr__(self, "sha256", digest)
         object.__setattr__(self, "exchanges_sha256", exchanges_digest(self.exchanges))

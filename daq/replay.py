@@ -171,7 +171,9 @@ def _replay_run(session: Session, run: int, pair: InstrumentPair, settings: obje
         return
     replay = ReplayTransport(exchanges, strict=True)
     transport = _PacedTransport(replay) if pace else replay
-    link = InstrumentLink(transport, pair=pair, clock=lambda: 0.0, sleep=lambda s: None)
+    link = InstrumentLink(
+        transport, pair=pair, clock=lambda: 0.0, sleep=lambda s: None, driver_options=_driver_options(session.start)
+    )
     collector = MemoryWriter()
     try:
         outcome = drive(link, settings, _steps(rows), [collector], {}, "", run=run)
@@ -187,6 +189,13 @@ def _replay_run(session: Session, run: int, pair: InstrumentPair, settings: obje
     if replay.remaining:
         tally.notes.append(f"run {run}: {replay.remaining} recorded exchanges were not used")
     _compare(rows, collector.blocks, tally)
+
+
+def _driver_options(start: dict[str, Any]) -> dict[str, Any]:
+    """The driver options the recording was taken with (a serial link's chunk size), so that the replayed driver
+    sends the same commands."""
+    chunk = start.get("instrument", {}).get("chunk_size")
+    return {"chunk_size": int(chunk)} if chunk is not None else {}
 
 
 #: summary column → the block statistic it holds
@@ -217,6 +226,8 @@ def _row_differences(where: str, row: pd.Series, rec: BlockRecord) -> list[str]:
     for column, name in _STATISTICS.items():
         if not _same(float(getattr(st, name)), float(row[column])):
             out.append(f"{where}: {column} recorded {row[column]!r}, replayed {getattr(st, name)!r}")
+    if "compliance" in row.index and bool(row["compliance"]) != rec.compliance:
+        out.append(f"{where}: compliance recorded {bool(row['compliance'])}, replayed {rec.compliance}")
     for name in ("n", "n_invalid"):
         if int(getattr(st, name)) != int(row[name]):
             out.append(f"{where}: {name} recorded {int(row[name])}, replayed {getattr(st, name)}")

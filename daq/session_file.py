@@ -1,6 +1,6 @@
 """The HDF5 session file: a versioned, NeXus-lite layout written block by block and read back with checks.
 
-Layout (schema 1; every numeric field has a ``units`` attribute)::
+Layout (schema 2; every numeric field has a ``units`` attribute)::
 
     /                         attrs contactrig_format, contactrig_schema, creator, HDF5_Version, h5py_version,
                               file_time, default="entry"
@@ -11,7 +11,8 @@ Layout (schema 1; every numeric field has a ``units`` attribute)::
     /entry/summary            NXdata, signal mean_ohm, axes weight_kg: one row per completed block — block, run,
                               weight_kg, repeat, mean_ohm, sd_ohm, sem_ohm (= mean_ohm_errors), n, n_invalid, count,
                               first_reading, started (ISO-8601), sha256 (readings), first_exchange, n_exchanges,
-                              exchanges_sha256
+                              exchanges_sha256, compliance (1 = the source was in compliance during the block: its
+                              readings are all marked invalid and its mean, SD and SEM are NaN; new in schema 2)
     /entry/readings           NXdata, signal resistance_ohm: one row per reading — block, index, time_s, reading
                               (as returned, in the readings' unit), resistance_ohm, valid
     /entry/exchanges          NXcollection: every instrument exchange — run, block (−1 outside blocks), kind,
@@ -69,12 +70,21 @@ __all__ = [
 ]
 
 FORMAT_NAME = "contactrig-session"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+
+
+def _upgrade_1(raw: dict[str, Any]) -> dict[str, Any]:
+    """Schema 1 → 2: the per-block ``compliance`` flag. Schema 1 never read the compliance bit, so its blocks carry
+    no flag (0: not known to have been in compliance)."""
+    summary = dict(raw["summary"])
+    summary.setdefault("compliance", np.zeros(len(summary["block"]), dtype=np.uint8))
+    return {**raw, "summary": summary}
+
 
 # Upgrade functions, keyed by the schema they read: UPGRADES[k](raw) turns a loaded schema-k structure into a
-# schema-(k+1) one. Schema 1 is the first published schema, so there is nothing to upgrade yet; a schema-2 reader
-# adds UPGRADES[1] here and every older file keeps loading.
-UPGRADES: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {}
+# schema-(k+1) one, so every older file keeps loading. A file opened to be continued (--resume) is upgraded in place
+# (:func:`_upgrade_in_place`).
+UPGRADES: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {1: _upgrade_1}
 
 _STR = h5py.string_dtype()
 _SUMMARY_FIELDS: dict[str, tuple[Any, str]] = {
@@ -89,11 +99,20 @@ _SUMMARY_FIELDS: dict[str, tuple[Any, str]] = {
     "n_invalid": ("<i4", ""),
     "count": ("<i4", ""),
     "first_reading": ("<i8", ""),
-    "started": (_STR, "ISO-8601"),
+    # fixed length (schema 2; schema 1: variable-length): a variable-length string lives in HDF5's global heap,
+    # which a later write that fails for lack of space can leave pointing past the end of the file, taking the last
+    # complete block's start time with it
+    "started": ("S40", "ISO-8601"),
     "sha256": ("S64", ""),
     "first_exchange": ("<i8", ""),
     "n_exchanges": ("<i4", ""),
     "exchanges_sha256": ("S64", ""),
+    "compliance": ("u1", "1"),  # a flag: 1 = in compliance (dimensionless)
+}
+#: Columns added after schema 1, with the schema that added them (absent from older files; see UPGRADES).
+_NEW_SUMMARY_FIELDS = {"compliance": 2}
+_FIELD_DESCRIPTIONS = {
+    "compliance": "1 = the current source was in compliance during this block: readings wrong, excluded (mean NaN)",
 }
 _READING_FIELDS: dict[str, tuple[Any, str]] = {
     "block": ("<i4", ""),
@@ -201,8 +220,26 @@ def _units(ds: h5py.Dataset, unit: str) -> None:
 
 def _make_table(group: h5py.Group, fields: dict[str, tuple[Any, str]], chunk: int) -> None:
     for name, (dtype, unit) in fields.items():
-        ds = group.create_dataset(name, shape=(0,), maxshape=(None,), dtype=dtype, chunks=(chunk,))
-        _units(ds, unit)
+        _make_column(group, name, dtype, unit, chunk)
+
+
+def _make_column(group: h5py.Group, name: str, dtype: Any, unit: str, chunk: int, rows: int = 0) -> None:
+    """One resizable column of ``rows`` zero rows, with its ``units`` (and description) attributes."""
+    ds = group.create_dataset(name, shape=(rows,), maxshape=(None,), dtype=dtype, chunks=(chunk,))
+    _units(ds, unit)
+    if name in _FIELD_DESCRIPTIONS:
+        ds.attrs["description"] = _FIELD_DESCRIPTIONS[name]
+
+
+def _upgrade_in_place(h5: h5py.File) -> None:
+    """Bring an older session file that is being continued to this schema: add the columns it lacks (zero for
+    every block it holds: schema 1 never read the compliance bit) and record the new schema."""
+    summary = h5["entry/summary"]
+    rows = min(summary[name].shape[0] for name in _SUMMARY_FIELDS if name in summary)
+    for name, (dtype, unit) in _SUMMARY_FIELDS.items():
+        if name not in summary:
+            _make_column(summary, name, dtype, unit, 64, rows)
+    h5.attrs["contactrig_schema"] = SCHEMA_VERSION
 
 
 _Columns = dict[str, tuple[Any, np.dtype]]
@@ -328,9 +365,11 @@ class SessionFile:
         a kill or a failed write) are cut off before new blocks are appended.
         """
         p = Path(path)
-        _check_readable_schema(p)
+        schema = _check_readable_schema(p)
         h5 = _open_h5(p, "a")
         try:
+            if schema < SCHEMA_VERSION:
+                _upgrade_in_place(h5)
             writer = cls(h5, p, fsync=fsync)
             runs = h5["entry/runs"]
             writer.run = len(runs)
@@ -416,10 +455,14 @@ class SessionFile:
         return int(self._readings["block"][0].get_space().shape[0])
 
     def append_block(self, rec: BlockRecord) -> None:
-        """Append one completed block: readings and exchanges, flush, then its summary row, flush and fsync."""
+        """Append one completed block: readings and exchanges, flush, then its summary row, flush and fsync.
+
+        First checks that the file can grow by what the block needs (:meth:`_check_room`): a write that fails half
+        way can damage HDF5's global heap, where the exchanges of the blocks already on file keep their strings."""
         n = int(rec.reading.size)
         first = self.n_readings
         first_exchange = self.n_exchanges
+        self._check_room(rec)
         try:
             _append(
                 self._readings,
@@ -452,17 +495,35 @@ class SessionFile:
                     "n_invalid": [st.n_invalid],
                     "count": [n],
                     "first_reading": [first],
-                    "started": [rec.started],
+                    "started": [rec.started.encode("ascii", "replace")],
                     "sha256": [rec.sha256.encode()],
                     "first_exchange": [first_exchange],
                     "n_exchanges": [len(rec.exchanges)],
                     "exchanges_sha256": [rec.exchanges_sha256.encode()],
+                    "compliance": [1 if rec.compliance else 0],
                 },
             )
             self._sync()
         except (OSError, RuntimeError) as exc:
             raise _explain_open_error(self.path, exc, writing=True) from exc
         self._block_hashes.append(rec.sha256)
+
+    def _check_room(self, rec: BlockRecord) -> None:
+        """Refuse (before anything is written) a block the file cannot take: the process' file-size limit
+        (RLIMIT_FSIZE) or the free space of the file system, against twice the block's bytes plus 1 MiB for HDF5's
+        chunks and metadata. Raises :class:`SessionWriteError` (EFBIG or ENOSPC)."""
+        needed = 2 * (int(rec.reading.size) * 33 + sum(len(e.message) + len(e.reply or "") + 64 for e in rec.exchanges))
+        needed += 1 << 20
+        size = self.path.stat().st_size if self.path.exists() else 0
+        limit = _file_size_limit()
+        if limit is not None and size + needed > limit:
+            raise SessionWriteError(errno.EFBIG, f"the file system refuses to let {self.path} grow (file too large)")
+        try:
+            st = os.statvfs(self.path.parent)
+        except (OSError, AttributeError):  # no statvfs (Windows): HDF5's own error will have to do
+            return
+        if st.f_bavail * st.f_frsize < needed:
+            raise SessionWriteError(errno.ENOSPC, f"no space left on the device holding {self.path}")
 
     def append_exchanges(self, exchanges: Iterable[Exchange], *, block: int = -1, sync: bool = True) -> None:
         """Record instrument exchanges of this run (``block`` −1: outside any block, e.g. identify, close)."""
@@ -546,6 +607,16 @@ class SessionFile:
         self.close()
 
 
+def _file_size_limit() -> int | None:
+    """The process' file-size limit in bytes (RLIMIT_FSIZE), or None when there is none (or no such notion)."""
+    try:
+        import resource
+    except ImportError:  # Windows
+        return None
+    soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
+    return None if soft == resource.RLIM_INFINITY else int(soft)
+
+
 def _chain_digest(hashes: Iterable[str]) -> str:
     h = hashlib.sha256()
     for d in hashes:
@@ -581,6 +652,17 @@ class Session:
     def status(self) -> str:
         """``success``, ``aborted``, ``failed``, or ``incomplete`` (no stop record)."""
         return str(self.stop["status"]) if self.stop else "incomplete"
+
+    @property
+    def compliance(self) -> np.ndarray:
+        """Per summary row: True where the source was in compliance during the block (``summary["compliance"]``).
+        Such blocks have a NaN mean and no valid reading: fits and reports leave them out."""
+        return self.summary["compliance"].to_numpy(dtype=bool)
+
+    @property
+    def compliant_blocks(self) -> list[int]:
+        """Block numbers of the blocks taken in compliance."""
+        return [int(b) for b in self.summary.loc[self.compliance, "block"]]
 
 
 def _check_readable_schema(path: Path) -> int:
@@ -649,8 +731,11 @@ def _read_raw(h5: h5py.File, path: Path) -> dict[str, Any]:
         except (json.JSONDecodeError, OSError, UnicodeDecodeError) as exc:  # the writer died writing it
             stop_note = f"the stop record is unreadable ({_first_line(str(exc))}), so the session counts as incomplete"
     summary_group = entry["summary"]
-    n_blocks = min(summary_group[name].shape[0] for name in _SUMMARY_FIELDS)
-    summary = _read_table(summary_group, _SUMMARY_FIELDS, n_blocks)
+    present = [name for name in _SUMMARY_FIELDS if name in summary_group]  # older schemas lack the newer columns
+    n_blocks = min(summary_group[name].shape[0] for name in present)
+    if stop is None:  # a writer that died mid-flush can leave the last summary row unreadable
+        n_blocks = _readable_rows(summary_group, present, n_blocks)
+    summary = _read_table(summary_group, present, n_blocks)
     n_readings = int(summary["first_reading"][-1] + summary["count"][-1]) if n_blocks else 0
     readings_group = entry["readings"]
     on_file = available = min(readings_group[name].shape[0] for name in _READING_FIELDS)
@@ -730,6 +815,7 @@ def _verify(raw: dict[str, Any], path: Path) -> None:
             r["resistance_ohm"][a:b],
             r["valid"][a:b],
             stats,
+            bool(s["compliance"][i]) if "compliance" in s else False,
         )
         stored = s["sha256"][i].decode() if isinstance(s["sha256"][i], bytes) else str(s["sha256"][i])
         if digest != stored:
@@ -887,10 +973,11 @@ def _frames(raw: dict[str, Any]) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFra
             "sem_ohm": s["sem_ohm"],
             "n": s["n"].astype(np.int64),
             "n_invalid": s["n_invalid"].astype(np.int64),
-            "started": s["started"],
+            "started": [_text(t) for t in s["started"]],
             "sha256": [_text(d) for d in s["sha256"]],
             "first_exchange": s["first_exchange"].astype(np.int64),
             "n_exchanges": s["n_exchanges"].astype(np.int64),
+            "compliance": np.asarray(s.get("compliance", np.zeros(len(s["block"]))), dtype=bool),
         }
     )
     counts = s["count"].astype(np.int64)

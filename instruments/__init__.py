@@ -40,6 +40,8 @@ _EXPORTS = {
     "ReplayMismatch": "instruments.errors",
     "ReplyError": "instruments.errors",
     "SweepAborted": "instruments.errors",
+    "SweepStalled": "instruments.errors",
+    "ComplianceWarning": "instruments.errors",
 }
 
 __all__ = sorted(_EXPORTS)

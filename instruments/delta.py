@@ -51,7 +51,9 @@ class DeltaSettings:
     compliance_v: voltage compliance, 0.1 … 105 V in 10 mV steps.
     compliance_abort: abort the sweep when the source goes into compliance.
     current_range_a: fixed source range (one of :data:`CURRENT_RANGES_A`) or ``None`` for auto range.
-    unit: reading unit, ``"V"`` or ``"OHMS"``.
+    unit: reading unit, ``"V"`` or ``"OHMS"``. ``"OHMS"`` needs symmetric levels (``low_a == -high_a``): the 6221
+    divides by "the sourced current", and with asymmetric levels which one is undocumented, so that combination is
+    refused (a :class:`SettingError` naming ``unit``); use ``"V"``, from which R = V/ΔI, ΔI = (high − low)/2.
     nplc: 2182A integration time in power-line cycles, 0.01 … 50 (60 Hz lines: 60).
     voltmeter_range_v: 2182A range (one of :data:`VOLTMETER_RANGES_V`) or ``None`` for auto range.
     line_frequency_hz: mains frequency, 50 or 60 (sets the NPLC limit and the conversion time).
@@ -98,7 +100,7 @@ class DeltaSettings:
             raise SettingError("compliance_abort", compliance_abort, "expected True or False")
         set_(self, "compliance_abort", bool(compliance_abort))
         set_(self, "current_range_a", _source_range(current_range_a, high, low))
-        set_(self, "unit", check_choice("unit", unit, ("V", "OHMS")))
+        set_(self, "unit", _unit(check_choice("unit", unit, ("V", "OHMS")), high, low))
         set_(self, "nplc", check_range("nplc", nplc, 0.01, 50.0 if line == 50.0 else 60.0))
         set_(self, "voltmeter_range_v", _fixed_range("voltmeter_range_v", voltmeter_range_v, VOLTMETER_RANGES_V, "V"))
 
@@ -134,6 +136,18 @@ def _source_levels(high_a: float, low_a: float | None) -> tuple[float, float]:
     return high, low
 
 
+def _unit(unit: str, high: float, low: float) -> str:
+    """``OHMS`` only with symmetric levels: the 6221's divisor for asymmetric ones is undocumented."""
+    if unit == "OHMS" and not math.isclose(low, -high, rel_tol=1e-12, abs_tol=0.0):
+        raise SettingError(
+            "unit",
+            unit,
+            f"'OHMS' needs low_a = -high_a (got high_a = {high:g} A, low_a = {low:g} A: which current the 6221 "
+            "divides by is undocumented); use unit 'V' — R is then computed as V / ((high - low)/2)",
+        )
+    return unit
+
+
 def _compliance(compliance_v: float) -> float:
     comp = check_range("compliance_v", compliance_v, 0.1, 105.0, unit="V")
     if abs(round(comp * 100) - comp * 100) > 1e-6:
@@ -167,6 +181,9 @@ class DeltaBlock:
     """One Delta block as read from the 6221 buffer.
 
     readings: in ``unit`` (V or Ω); invalid readings (+9.9E37) are NaN and counted in ``n_invalid``.
+    compliance: the 6221 latched its compliance bit (``STAT:MEAS:EVEN?`` bit 3) during this block: the source could
+    not drive the set current, so every reading is wrong by an unknown amount. ``valid`` is then all False and the
+    statistics have no value (NaN mean, n = 0); the readings are kept as returned, for the record.
     timestamps_s: 6221 buffer timestamps in s, the first is 0.
     Statistics (``stats``, and ``mean``, ``sd``, ``sem``, ``n`` from it) are those of
     :func:`instruments.block.block_statistics` over the valid readings, in ``unit``.
@@ -177,6 +194,7 @@ class DeltaBlock:
     timestamps_s: np.ndarray
     n_invalid: int
     unit: str
+    compliance: bool = False
 
     def __post_init__(self) -> None:
         r = np.array(self.readings, dtype=float)
@@ -190,8 +208,9 @@ class DeltaBlock:
 
     @property
     def valid(self) -> np.ndarray:
-        """Boolean mask of valid readings."""
-        return np.isfinite(self.readings)
+        """Boolean mask of valid readings: finite, and none at all in a block taken in compliance."""
+        ok = np.isfinite(self.readings)
+        return ok & False if self.compliance else ok
 
     def resistance_ohm(self) -> np.ndarray:
         """Readings in Ω: V readings divided by ΔI = (high − low)/2; OHMS readings as they are."""

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 __all__ = [
     "CommunicationError",
+    "ComplianceWarning",
     "InstrumentError",
     "InstrumentTimeout",
     "InvalidReadingsWarning",
@@ -17,6 +18,7 @@ __all__ = [
     "ReplayMismatch",
     "ReplyError",
     "SweepAborted",
+    "SweepStalled",
 ]
 
 
@@ -27,6 +29,12 @@ class CommunicationError(RuntimeError):
 class InvalidReadingsWarning(RuntimeWarning):
     """Some Delta readings came back invalid (+9.9E37: 2182A overflow or no reading). They are NaN in the block,
     counted in ``n_invalid`` and never averaged; with none valid the block's mean is NaN (no value)."""
+
+
+class ComplianceWarning(RuntimeWarning):
+    """The 6221 went into compliance during a block (``STAT:MEAS:EVEN?`` bit 3) with compliance abort off: the
+    sweep completed, but the source could not drive the set current, so the readings are wrong by an unknown
+    amount. The block is kept, flagged ``compliance``, and none of its readings counts as valid."""
 
 
 class InstrumentError(RuntimeError):
@@ -89,3 +97,22 @@ class SweepAborted(RuntimeError):
 
 class ReplayMismatch(RuntimeError):
     """A replayed session diverged: the driver sent something other than what was recorded."""
+
+
+class SweepStalled(InstrumentTimeout, InstrumentError):
+    """The Delta sweep stopped making progress: ``TRAC:POIN:ACT?`` did not grow for ``timeout_s`` while the sweep
+    had not finished. Both an :class:`InstrumentTimeout` (``command`` is the progress query) and an
+    :class:`InstrumentError` (``code`` 0: not from the instrument's error queue)."""
+
+    def __init__(self, stored: int, count: int, timeout_s: float) -> None:
+        self.stored = int(stored)
+        self.count = int(count)
+        self.code = 0
+        self.message = (
+            f"the Delta sweep stalled: no new reading for {timeout_s:g} s ({self.stored} of {self.count} readings "
+            "stored); check the Trigger Link cable and the 2182A"
+        )
+        self.others = ()
+        self.command = "TRAC:POIN:ACT?"
+        self.timeout_s = float(timeout_s)
+        RuntimeError.__init__(self, self.message)

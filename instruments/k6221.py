@@ -20,15 +20,17 @@ import numpy as np
 from contactrig.core.validation import check_int, check_range
 from instruments.delta import DeltaBlock, DeltaSettings, parse_buffer
 from instruments.errors import (
+    ComplianceWarning,
     InstrumentError,
     InstrumentTimeout,
     InvalidReadingsWarning,
     NanovoltmeterMissing,
     ReplyError,
     SweepAborted,
+    SweepStalled,
 )
 from instruments.pairs import Identity
-from instruments.transport import Transport, VisaTransport
+from instruments.transport import SerialSettings, Transport, VisaTransport
 
 __all__ = ["Keithley6221"]
 
@@ -41,6 +43,25 @@ COMPLIANCE = 1 << 3
 
 _XOFF = "\x13"
 _MAX_ERRORS = 50
+
+#: 6221 state the Delta readings depend on, pinned before every block (command, query, expected answer). A previous
+#: user may have left any of it set: the 6221's averaging filter acts on Delta readings, CALC1 math rescales them when
+#: the buffer is fed from CALC1, relative timestamps change the time axis, cold switching changes the timing.
+SOURCE_STATE: tuple[tuple[str, str, str], ...] = (
+    ("SOUR:DELT:CSW OFF", "SOUR:DELT:CSW?", "0"),
+    ("SENS:AVER:STAT OFF", "SENS:AVER:STAT?", "0"),
+    ("CALC1:STAT OFF", "CALC1:STAT?", "0"),
+    ("TRAC:FEED SENS1", "TRAC:FEED?", "SENS1"),
+    ("TRAC:TST:FORM ABS", "TRAC:TST:FORM?", "ABS"),
+)
+#: 2182A state (relayed): channel 1, digital and analog filters off (a digital filter averages conversions of
+#: opposite polarity), autozero on (its reset default). NPLC and range come from the settings.
+VOLTMETER_STATE: tuple[tuple[str, str, str], ...] = (
+    (":SENS:CHAN 1", ":SENS:CHAN?", "1"),
+    (":SENS:VOLT:DFIL:STAT OFF", ":SENS:VOLT:DFIL:STAT?", "0"),
+    (":SENS:VOLT:LPAS OFF", ":SENS:VOLT:LPAS?", "0"),
+    (":SYST:AZER ON", ":SYST:AZER?", "1"),
+)
 
 
 def _idn_complete(text: str) -> bool:
@@ -60,12 +81,32 @@ def _fmt(x: float) -> str:
     return format(float(x), ".9g")
 
 
+def _same_answer(reply: str, expected: str) -> bool:
+    """A state read-back matches: keywords compare on their short form (``SENS`` = ``SENS1``), numbers as numbers."""
+    r, e = reply.strip().strip('"').upper(), expected.upper()
+    if _is_number(r) and _is_number(e):
+        return math.isclose(float(r), float(e), rel_tol=1e-6)
+    return r == e or r.rstrip("1") == e.rstrip("1")
+
+
+def pinned_state() -> dict[str, dict[str, str]]:
+    """What every block sets on the 6221 and (relayed) the 2182A besides the block settings: command → expected
+    read-back. Stored in a session's start record."""
+    return {
+        "6221": {cmd: expected for cmd, _, expected in SOURCE_STATE},
+        "2182A": {cmd: expected for cmd, _, expected in VOLTMETER_STATE},
+    }
+
+
 class Keithley6221:
     """A 6221 (+2182A) behind ``transport``.
 
     clock/sleep: time source and sleep function (injected in tests and replays).
     poll_interval_s: longest sleep between status polls. arm_timeout_s: deadline for ``SOUR:DELT:ARM?``.
-    relay_timeout_s: deadline for a complete line from the 2182A. chunk_size: readings per ``TRAC:DATA:SEL?``:
+    relay_timeout_s: deadline for a complete line from the 2182A. stall_timeout_s: how long a running sweep may go
+    without a new reading (on top of three conversion periods) before it counts as stalled — the completion deadline
+    follows progress (``TRAC:POIN:ACT?``), so a long block never times out while readings keep arriving.
+    chunk_size: readings per ``TRAC:DATA:SEL?``:
     every reply stays short against the VISA timeout (a full 65536-reading buffer is ~1.8 MB, minutes over
     RS-232), and on the simulator chunks cost no more than one ``TRAC:DATA?``
     (tests/benchmarks/bench_delta_overhead.py).
@@ -81,6 +122,7 @@ class Keithley6221:
         poll_interval_s: float = 0.05,
         arm_timeout_s: float = 10.0,
         relay_timeout_s: float = 3.0,
+        stall_timeout_s: float = 10.0,
         chunk_size: int = 1000,
     ) -> None:
         self.transport = transport
@@ -89,8 +131,13 @@ class Keithley6221:
         self.poll_interval_s = check_range("poll_interval_s", poll_interval_s, 0.0, 60.0, lo_open=True, unit="s")
         self.arm_timeout_s = check_range("arm_timeout_s", arm_timeout_s, 0.0, 3600.0, lo_open=True, unit="s")
         self.relay_timeout_s = check_range("relay_timeout_s", relay_timeout_s, 0.0, 3600.0, lo_open=True, unit="s")
+        self.stall_timeout_s = check_range("stall_timeout_s", stall_timeout_s, 0.0, 86400.0, lo_open=True, unit="s")
         self.chunk_size = check_int("chunk_size", chunk_size, 1, 65536)
         self._closed = False
+        #: "idle" after SOUR:SWE:ABOR went out, "unknown" when it could not be sent, "" before any block
+        self.source_state = ""
+        #: the pinned state as read back before the last block (see :func:`pinned_state`)
+        self.state_read: dict[str, dict[str, str]] = {}
 
     # ------------------------------------------------------------------ opening and closing
     @classmethod
@@ -99,11 +146,18 @@ class Keithley6221:
         address: str,
         resource_manager: Any = None,
         timeout_ms: int = 5000,
+        *,
+        visa_library: str = "",
+        serial: SerialSettings | None = None,
         **kwargs: Any,
     ) -> Keithley6221:
-        """Open the 6221 at VISA ``address`` (GPIB, ``TCPIP0::<ip>::1394::SOCKET`` or serial) with LF
-        terminations and a ``timeout_ms`` VISA timeout. Use as a context manager."""
-        transport = VisaTransport.open(address, resource_manager, timeout_ms)
+        """Open the 6221 at VISA ``address`` (GPIB, ``TCPIP0::<ip>::1394::SOCKET`` or serial ``ASRL…``) with LF
+        terminations (over RS-232: those of ``serial``, whose parameters are set and whose baud rate sizes the
+        buffer chunks unless ``chunk_size`` is given) and a ``timeout_ms`` VISA timeout, on ``resource_manager`` or
+        a new one on ``visa_library`` (e.g. ``"@py"``). Use as a context manager."""
+        transport = VisaTransport.open(address, resource_manager, timeout_ms, visa_library=visa_library, serial=serial)
+        if transport.serial is not None and "chunk_size" not in kwargs:
+            kwargs["chunk_size"] = transport.serial.chunk_size(timeout_ms)
         try:
             return cls(transport, **kwargs)
         except BaseException:  # invalid driver options: nothing was sent, but the connection must not leak
@@ -131,6 +185,10 @@ class Keithley6221:
             self.abort()
         finally:
             self.transport.close()
+
+    def pinned_state(self) -> dict[str, dict[str, str]]:
+        """What every block sets besides its settings (see the module function :func:`pinned_state`)."""
+        return pinned_state()
 
     # ------------------------------------------------------------------ low level
     def write(self, command: str) -> None:
@@ -243,20 +301,10 @@ class Keithley6221:
 
     # ------------------------------------------------------------------ Delta block
     def configure_delta(self, s: DeltaSettings) -> None:
-        """Send the settings (2182A through the relay), clear and size the buffer, set the reading format."""
-        self.relay_write(f":SENS:VOLT:NPLC {_fmt(s.nplc)}")
-        if s.voltmeter_range_v is None:
-            self.relay_write(":SENS:VOLT:RANG:AUTO ON")
-        else:
-            self.relay_write(f":SENS:VOLT:RANG {_fmt(s.voltmeter_range_v)}")
-        # Read the NPLC back: proves the 2182A took the relayed settings (no blind sleep) and that nothing changed it.
-        reply = self.relay_query(":SENS:VOLT:NPLC?", complete=_is_number)
-        try:
-            nplc = float(reply)
-        except ValueError:
-            raise ReplyError(":SENS:VOLT:NPLC? (2182A)", reply, "a number") from None
-        if not math.isclose(nplc, s.nplc, rel_tol=1e-6):
-            raise ReplyError(":SENS:VOLT:NPLC? (2182A)", reply, f"the NPLC just sent, {s.nplc:g}")
+        """Send the settings (2182A through the relay) and pin every other state the readings depend on
+        (:data:`SOURCE_STATE`, :data:`VOLTMETER_STATE`), read all of it back, clear and size the buffer, set the
+        reading format."""
+        self._configure_voltmeter(s)
         if s.current_range_a is None:
             self.write("SOUR:CURR:RANG:AUTO ON")
         else:
@@ -269,9 +317,46 @@ class Keithley6221:
         self.write(f"SOUR:DELT:CAB {'ON' if s.compliance_abort else 'OFF'}")
         self.write("SOUR:SWE:COUN 1")
         self.write(f"UNIT {s.unit}")
+        for command, _, _ in SOURCE_STATE:
+            self.write(command)
+        query = ";:".join(q for _, q, _ in SOURCE_STATE)
+        self.state_read["6221"] = self._check_state(query, self.query(query), SOURCE_STATE, "")
         self.write("TRAC:CLE")
         self.write(f"TRAC:POIN {s.count:d}")
         self.write("FORM:ELEM READ,TST")
+
+    def _configure_voltmeter(self, s: DeltaSettings) -> None:
+        """2182A: pinned state, NPLC and range; all read back in one relayed query (proves the 2182A took the
+        relayed settings, with no blind sleep, and that nothing changed them)."""
+        for command, _, _ in VOLTMETER_STATE:
+            self.relay_write(command)
+        self.relay_write(f":SENS:VOLT:NPLC {_fmt(s.nplc)}")
+        if s.voltmeter_range_v is None:
+            self.relay_write(":SENS:VOLT:RANG:AUTO ON")
+        else:
+            self.relay_write(f":SENS:VOLT:RANG {_fmt(s.voltmeter_range_v)}")
+        expected = ((":SENS:VOLT:NPLC", ":SENS:VOLT:NPLC?", _fmt(s.nplc)), *VOLTMETER_STATE)
+        query = ";".join(q for _, q, _ in expected)
+        n = len(expected)
+
+        def complete(text: str) -> bool:
+            return len(text.split(";")) == n and all(p.strip() for p in text.split(";"))
+
+        reply = self.relay_query(query, complete=complete)
+        self.state_read["2182A"] = self._check_state(query, reply, expected, " (2182A)")
+
+    @staticmethod
+    def _check_state(query: str, reply: str, expected: tuple[tuple[str, str, str], ...], who: str) -> dict[str, str]:
+        """Compare a compound read-back with what was set; raise :class:`ReplyError` naming the first mismatch."""
+        parts = reply.split(";")
+        if len(parts) != len(expected):
+            raise ReplyError(query + who, reply, f"{len(expected)} answers separated by ';'")
+        for (command, q, want), got in zip(expected, parts, strict=True):
+            if not _same_answer(got, want):
+                raise ReplyError(
+                    q + who, got, f"{want} (just set with {command.split()[0]!r}: the setting did not take)"
+                )
+        return {command: got.strip() for (command, _, _), got in zip(expected, parts, strict=True)}
 
     def _arm(self) -> None:
         self.write("SOUR:DELT:ARM")
@@ -288,20 +373,33 @@ class Keithley6221:
             self.sleep(wait)
             wait = min(2 * wait, self.poll_interval_s)
 
+    def stall_window_s(self, s: DeltaSettings, stored: int) -> float:
+        """How long (s) the sweep may go without a new reading: the first needs three conversions, each later one
+        one conversion; both get ``stall_timeout_s`` on top for the instrument's own overhead (unknown, measured on
+        no hardware yet)."""
+        conversions = 3 if stored == 0 else 1
+        return 2.0 * conversions * s.conversion_period_s + self.stall_timeout_s
+
     def _wait_done(self, s: DeltaSettings) -> int:
-        """Poll the operation event register until sweep done or aborted; return the event bits."""
-        budget = s.deadline_s()
-        deadline = self.clock() + budget
+        """Poll the operation event register until sweep done or aborted; return the event bits.
+
+        The deadline follows progress: each poll also reads ``TRAC:POIN:ACT?``, and the sweep counts as stalled
+        (:class:`SweepStalled`) only when that count has not grown for :meth:`stall_window_s`.
+        """
         wait = min(self.poll_interval_s, max(0.002, s.conversion_period_s))
+        stored = 0
+        last_progress = self.clock()
         while True:
             bits = self.query_int("STAT:OPER:EVEN?")
             if bits & (SWEEP_DONE | SWEEP_ABORTED):
                 return bits
-            if self.clock() > deadline:
-                stored = self.query_int("TRAC:POIN:ACT?")
-                raise InstrumentTimeout(
-                    "STAT:OPER:EVEN?", budget, f"the Delta sweep did not finish ({stored} of {s.count} readings stored)"
-                )
+            now_stored = self.query_int("TRAC:POIN:ACT?")
+            now = self.clock()
+            window = self.stall_window_s(s, stored)
+            if now_stored > stored:
+                stored, last_progress = now_stored, now
+            elif now - last_progress > window:
+                raise SweepStalled(stored, s.count, window)
             self.sleep(wait)
 
     def read_buffer(self, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -330,36 +428,73 @@ class Keithley6221:
         """Run one Delta block and return its readings (see the module docstring for the exit guarantees).
 
         Sequence: presence check, abort, error queue must be empty (errors left by earlier commands raise
-        :class:`InstrumentError` before anything is configured), configure, check errors, arm (confirmed by
-        ``SOUR:DELT:ARM?``), clear the event register, ``INIT:IMM``, poll ``STAT:OPER:EVEN?`` with a deadline
-        derived from the settings, ``TRAC:POIN:ACT?``, chunked buffer read, drain ``SYST:ERR?``, abort.
+        :class:`InstrumentError` before anything is configured), configure and pin the state (read back), check
+        errors, arm (confirmed by ``SOUR:DELT:ARM?``), clear the operation and measurement event registers,
+        ``INIT:IMM``, poll ``STAT:OPER:EVEN?`` and ``TRAC:POIN:ACT?`` (deadline follows progress),
+        ``STAT:MEAS:EVEN?`` (compliance), chunked buffer read, drain ``SYST:ERR?``, abort.
+
+        Every error leaves with a note saying whether the source is idle (``SOUR:SWE:ABOR`` sent) or in an unknown
+        state (it could not be sent, e.g. the connection is gone); :attr:`source_state` says the same.
         """
         if not isinstance(settings, DeltaSettings):
             raise TypeError("run_delta expects a DeltaSettings")
         try:
-            self.require_voltmeter()
-            self.abort()
+            readings, stamps, compliance = self._take_block(settings)
+        except BaseException as exc:
+            exc.add_note(self._leave_idle())
+            raise
+        self._leave_idle()
+        return self._block(settings, readings, stamps, compliance)
+
+    def _take_block(self, settings: DeltaSettings) -> tuple[np.ndarray, np.ndarray, bool]:
+        """The instrument part of :meth:`run_delta`: readings, timestamps and the compliance flag."""
+        self.require_voltmeter()
+        self.abort()
+        self.check_errors()
+        self.configure_delta(settings)
+        self.check_errors()
+        self._arm()
+        self.query("STAT:OPER:EVEN?")  # reading clears the event register
+        self.query("STAT:MEAS:EVEN?")  # clears a compliance bit latched before this block (it must not leak in)
+        self.write("INIT:IMM")
+        bits = self._wait_done(settings)
+        stored = self.query_int("TRAC:POIN:ACT?")
+        meas = self.query_int("STAT:MEAS:EVEN?")
+        if bits & SWEEP_ABORTED:
             self.check_errors()
-            self.configure_delta(settings)
-            self.check_errors()
-            self._arm()
-            self.query("STAT:OPER:EVEN?")  # reading clears the event register
-            self.write("INIT:IMM")
-            bits = self._wait_done(settings)
-            stored = self.query_int("TRAC:POIN:ACT?")
-            if bits & SWEEP_ABORTED:
-                meas = self.query_int("STAT:MEAS:EVEN?")
-                self.check_errors()
-                reason = "compliance (compliance abort is on)" if meas & COMPLIANCE else "sweep aborted"
-                raise SweepAborted(reason, stored)
-            if stored != settings.count:
-                raise ReplyError("TRAC:POIN:ACT?", str(stored), f"{settings.count} stored readings")
-            readings, stamps = self.read_buffer(stored)
-            self.check_errors()
-        finally:
-            self._abort_quietly()
+            reason = "compliance (compliance abort is on)" if meas & COMPLIANCE else "sweep aborted"
+            raise SweepAborted(reason, stored)
+        if stored != settings.count:
+            raise ReplyError("TRAC:POIN:ACT?", str(stored), f"{settings.count} stored readings")
+        readings, stamps = self.read_buffer(stored)
+        self.check_errors()
+        return readings, stamps, bool(meas & COMPLIANCE)
+
+    def _leave_idle(self) -> str:
+        """``SOUR:SWE:ABOR``; return one line saying what state the source was left in."""
+        error = self._abort_quietly()
+        if error is None:
+            self.source_state = "idle"
+            return "the current source was left idle (SOUR:SWE:ABOR sent)"
+        self.source_state = "unknown"
+        return (
+            f"the current source state is UNKNOWN: SOUR:SWE:ABOR could not be sent ({error}); check the 6221's "
+            "front panel and press OUTPUT OFF"
+        )
+
+    @staticmethod
+    def _block(settings: DeltaSettings, readings: np.ndarray, stamps: np.ndarray, compliance: bool) -> DeltaBlock:
+        """The block, with a warning for invalid readings and for compliance."""
         n_invalid = int(np.count_nonzero(np.isnan(readings)))
-        if n_invalid:
+        if compliance:
+            warnings.warn(
+                f"the 6221 was in compliance ({settings.compliance_v:g} V) during this block of {readings.size} "
+                "readings: the source could not drive the set current, so the readings are wrong and none is "
+                "counted as valid — lower the current or raise the compliance",
+                ComplianceWarning,
+                stacklevel=3,
+            )
+        elif n_invalid:
             warnings.warn(
                 f"{n_invalid} of {readings.size} Delta readings invalid (+9.9E37: 2182A overflow or no reading); "
                 "they are counted and not averaged"
@@ -369,7 +504,7 @@ class Keithley6221:
                     else ""
                 ),
                 InvalidReadingsWarning,
-                stacklevel=2,
+                stacklevel=3,
             )
         return DeltaBlock(
             settings=settings,
@@ -377,15 +512,18 @@ class Keithley6221:
             timestamps_s=stamps,
             n_invalid=n_invalid,
             unit=settings.unit,
+            compliance=compliance,
         )
 
     def run_block(self, settings: DeltaSettings) -> DeltaBlock:
         """One block for a bench session (:class:`instruments.pairs.PairDriver`): :meth:`run_delta`."""
         return self.run_delta(settings)
 
-    def _abort_quietly(self) -> None:
-        """``SOUR:SWE:ABOR`` from a ``finally``: never masks the exception already under way."""
+    def _abort_quietly(self) -> Exception | None:
+        """``SOUR:SWE:ABOR`` on the way out: never masks the exception already under way; returns the error if it
+        could not be sent (close() tries again)."""
         try:
             self.abort()
-        except Exception:  # the original error matters more; close() tries again
-            pass
+        except Exception as exc:  # the original error matters more
+            return exc
+        return None

@@ -68,10 +68,11 @@ class PairDriver(Protocol):
 
 
 class DriverFactory(Protocol):
-    """Opens a pair's driver on ``transport``; time comes from ``clock`` and ``sleep`` (replay injects them)."""
+    """Opens a pair's driver on ``transport``; time comes from ``clock`` and ``sleep`` (replay injects them).
+    Driver options (e.g. ``chunk_size`` over a slow serial line) come as further keywords, only when there are any."""
 
     def __call__(
-        self, transport: Transport, *, clock: Callable[[], float], sleep: Callable[[float], None]
+        self, transport: Transport, *, clock: Callable[[], float], sleep: Callable[[float], None], **options: Any
     ) -> PairDriver: ...
 
 
@@ -172,11 +173,16 @@ def _delta_unit(settings: DeltaSettings) -> str:
 
 
 def _open_k6221(
-    transport: Transport, *, clock: Callable[[], float] = time.monotonic, sleep: Callable[[float], None] = time.sleep
+    transport: Transport,
+    *,
+    clock: Callable[[], float] = time.monotonic,
+    sleep: Callable[[float], None] = time.sleep,
+    **options: Any,
 ) -> Keithley6221:
+    """The Keithley driver; ``options`` are :class:`~instruments.k6221.Keithley6221` keywords (e.g. ``chunk_size``)."""
     from instruments.k6221 import Keithley6221
 
-    return Keithley6221(transport, clock=clock, sleep=sleep)
+    return Keithley6221(transport, clock=clock, sleep=sleep, **options)
 
 
 def _simulate_k6221(*, resistance_ohm: float | None = None, seed: int = 0, time_scale: float = 0.0) -> SimulatedPair:

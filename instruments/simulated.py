@@ -72,6 +72,10 @@ _BOOLEAN_HEADERS = {
     "SENS:VOLT:RANG:AUTO",
     "OUTP:LTE",
     "SENS:AVER:STAT",
+    "CALC1:STAT",
+    "SYST:AZER",
+    "SENS:VOLT:DFIL:STAT",
+    "SENS:VOLT:LPAS",
 }
 # Keyword parameters: long forms and spellings -> the short form the YAML table holds.
 _KEYWORDS = {
@@ -82,6 +86,15 @@ _KEYWORDS = {
     "MOVING": "MOV",
     "REPEAT": "REP",
     "GUAR": "GUARD",
+    "ABSOLUTE": "ABS",
+    "DELTA": "DELT",
+    "SENS": "SENS1",
+    "SENSE": "SENS1",
+    "SENSE1": "SENS1",
+    "CALC": "CALC1",
+    "CALCULATE": "CALC1",
+    "CALCULATE1": "CALC1",
+    "NEVER": "NEV",
 }
 _ELEMENTS = {
     "READ": "READ",
@@ -208,6 +221,16 @@ class SimulatedBench:
 
 
 # ---------------------------------------------------------------------------------------------------- devices
+def _moving_mean(x: np.ndarray, n: int) -> np.ndarray:
+    """Mean of the last ``n`` values at each position (fewer at the start), as an instrument's moving filter."""
+    if n <= 1 or x.size == 0:
+        return x
+    c = np.cumsum(np.concatenate(([0.0], x)))
+    idx = np.arange(1, x.size + 1)
+    lo = np.maximum(idx - n, 0)
+    return (c[idx] - c[lo]) / (idx - lo)
+
+
 def _load_definition() -> dict[str, Any]:
     text = resources.files("instruments").joinpath(DEFINITION).read_text(encoding="utf-8")
     return sim_parser._load(StringIO(text))
@@ -263,6 +286,18 @@ class _ScpiDevice(Device):
 
 class Simulated2182A(_ScpiDevice):
     """The 2182A behind the 6221's RS-232 port (reached only through the relay)."""
+
+    def convert(self, bench: SimulatedBench, t_s: np.ndarray, currents: np.ndarray, nplc: float) -> np.ndarray:
+        """The conversions of one Delta run (V; +9.9E37 over range): channel 2 sees no sample current, a digital
+        filter left on averages consecutive conversions (across polarities, which wrecks the Delta readings)."""
+        if int(self.prop("channel")) != 1:
+            currents = np.zeros_like(currents)
+        volts = bench.model.conversion_voltages(t_s, currents, nplc, bench.rng)
+        if self.prop("digital_filter"):
+            volts = _moving_mean(volts, int(self.prop("digital_filter_count")))
+        if not self.prop("range_auto"):
+            volts = np.where(np.abs(volts) > 1.2 * float(self.prop("range")), OVERFLOW, volts)
+        return volts
 
     def handle(self, message: str) -> str | None:
         replies = []
@@ -337,6 +372,9 @@ class SimulatedK6221(_ScpiDevice):
             "UNIT": self._keyword,
             "OUTP:ISH": self._keyword,
             "SENS:AVER:TCON": self._keyword,
+            "TRAC:TST:FORM": self._keyword,
+            "TRAC:FEED": self._keyword,
+            "TRAC:FEED:CONT": self._keyword,
             "FORM:ELEM": self._form_elem,
         }
 
@@ -524,26 +562,21 @@ class SimulatedK6221(_ScpiDevice):
         currents = np.where(np.arange(n_conv) % 2 == 0, high, low)
         loop_ohm = b.resistance_ohm + b.lead_resistance_ohm
         compliance = float(self.prop("compliance"))
-        aborted_at = None
         if max(abs(high), abs(low)) * loop_ohm > compliance:
-            self._meas_event |= 1 << 3
+            self._meas_event |= 1 << 3  # latched until STAT:MEAS:EVEN? reads it
             if self.prop("delta_cab"):
-                aborted_at = period
-                currents = currents[:0]
-            else:  # the source cannot drive more than compliance / loop resistance
-                limit = compliance / loop_ohm if loop_ohm > 0 else math.inf
-                currents = np.clip(currents, -limit, limit)
-        if aborted_at is not None:
-            b.instrument_time_s += period
-            return _Sweep(b.clock(), np.empty(0), np.empty(0), np.empty(0), period, aborted_at)
-        volts = b.model.conversion_voltages(t_inst, currents, nplc, b.rng)
-        if not self.voltmeter.prop("range_auto"):
-            volts = np.where(np.abs(volts) > 1.2 * float(self.voltmeter.prop("range")), OVERFLOW, volts)
+                b.instrument_time_s += period
+                return _Sweep(b.clock(), np.empty(0), np.empty(0), np.empty(0), period, period)
+            # the source cannot drive more than compliance / loop resistance
+            limit = compliance / loop_ohm if loop_ohm > 0 else math.inf
+            currents = np.clip(currents, -limit, limit)
+        volts = self.voltmeter.convert(b, t_inst, currents, nplc)
         deltas = delta_readings(np.where(volts >= OVERFLOW, 0.0, volts))
         over = volts >= OVERFLOW
         bad = over[:-2] | over[1:-1] | over[2:]
         if self.prop("unit") == "OHMS":
             deltas = deltas / ((high - low) / 2.0)
+        deltas = self._filtered(deltas)
         for i in b.faults.overflow_readings:
             if 0 <= i < count:
                 bad[i] = True
@@ -555,6 +588,23 @@ class SimulatedK6221(_ScpiDevice):
         # SOUR element: the source value at the last conversion of each reading (which value the 6221 reports is
         # not documented in the material we have; unverified).
         return _Sweep(b.clock(), deltas, ready - ready[0], ready, float(ready[-1]), None, currents[2:])
+
+    def _filtered(self, deltas: np.ndarray) -> np.ndarray:
+        """What the 6221 does to Delta readings before they reach the buffer: its averaging filter
+        (``SENS:AVER``, moving or repeating over ``SENS:AVER:COUN``) and, with the buffer fed from ``CALC1``, the
+        mX+b math. Off in a pinned session; a previous user may have left either on."""
+        out = deltas
+        if self.prop("filter_state"):
+            n = int(self.prop("filter_count"))
+            if self.prop("filter_type") == "REP":  # each reading replaced by the mean of its group of n
+                groups = np.arange(out.size) // n
+                sums = np.bincount(groups, weights=out)
+                out = (sums / np.bincount(groups))[groups]
+            else:
+                out = _moving_mean(out, n)
+        if self.prop("trace_feed") == "CALC1" and self.prop("calc1_state"):
+            out = float(self.prop("calc1_mmf")) * out + float(self.prop("calc1_mbf"))
+        return out
 
     def _read_oper(self, cmd: Command) -> str:
         value, self._oper_event = self._oper_event, 0
@@ -568,9 +618,12 @@ class SimulatedK6221(_ScpiDevice):
         sw = self._sweep
         assert sw is not None
         elems = str(self.prop("format_elements")).split(",")
+        stamps = sw.stamps
+        if self.prop("trace_tst_format") == "DELT":  # time since the previous reading
+            stamps = np.diff(sw.stamps, prepend=sw.stamps[:1])
         cols = {
             "READ": lambda: sw.readings[start:stop],
-            "TST": lambda: sw.stamps[start:stop],
+            "TST": lambda: stamps[start:stop],
             "RNUM": lambda: np.arange(start, stop, dtype=float),
             "SOUR": lambda: sw.source_a[start:stop],
         }

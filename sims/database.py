@@ -286,9 +286,9 @@ class ContactDatabase(Mapping[str, ContactCurve]):
 
 
 def _default_models() -> tuple[str, ...]:
-    from sims.models import model_names
+    from sims.models import default_model_names
 
-    return model_names(builtin_only=True)
+    return default_model_names()
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,8 @@ stability atlas and the CLI help — asks this registry instead of keeping a lis
 A :class:`ContactModel` says how to build its curve on the database's separation grid (``build``), how to show it
 (``label``, ``style``) and what it assumes (``elastic_only``: no hardness cap, so a plasticity index > 1 makes its
 answer doubtful; ``needs_surface``: it sums over the summits of a generated or measured composite surface, so the
-database generates one — models from statistics alone never do).
+database generates one — models from statistics alone never do; ``default``: built when a scene names no models —
+False for a costly reference, built only when asked for).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ if TYPE_CHECKING:
 __all__ = [
     "BUILTIN_MODULES",
     "ContactModel",
+    "default_model_names",
     "get_model",
     "model_label",
     "model_names",
@@ -53,6 +55,7 @@ class ContactModel:
     description: str = ""
     elastic_only: bool = False
     needs_surface: bool = True
+    default: bool = True
     style: dict[str, Any] = field(default_factory=dict)
 
 
@@ -75,9 +78,14 @@ def models() -> Iterator[ContactModel]:
 
 
 def model_names(*, builtin_only: bool = False) -> tuple[str, ...]:
-    """The keys of every registered model, in registration order (``builtin_only``: those contactrig ships, the
-    default of a scene's ``[database] models``; a model registered by a notebook or a test is built on request)."""
+    """The keys of every registered model, in registration order (``builtin_only``: those contactrig ships)."""
     return _REGISTRY.names(builtin_only=builtin_only)
+
+
+def default_model_names() -> tuple[str, ...]:
+    """The models a scene gets when its ``[database]`` names none: the built-in ones marked ``default`` (a costly
+    reference such as a boundary-element solution, or a notebook's model, is built only on request)."""
+    return tuple(k for k in _REGISTRY.names(builtin_only=True) if _REGISTRY.get(k).default)
 
 
 def get_model(key: str) -> ContactModel:

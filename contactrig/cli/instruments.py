@@ -1,7 +1,8 @@
 """``contactrig instruments …`` subcommands (registered by ``contactrig.cli.main``): a thin layer over the drivers.
 
 ``identify`` works with any registered instrument pair (``--pair``, :mod:`instruments.pairs`); ``delta`` runs one
-Delta block on the Keithley 6221/2182A.
+Delta block on the Keithley 6221/2182A; ``serve-sim`` serves the simulated bench on a TCP socket like the 6221's LAN
+port. ``--visa-library`` (e.g. ``@py`` for pyvisa-py) picks the VISA library wherever instruments are opened.
 
 Nothing heavy is imported at module level: pyvisa and numpy load only when a command runs.
 """
@@ -46,6 +47,28 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     delta.add_argument("--json", action="store_true", help="print readings and statistics as JSON")
     delta.set_defaults(handler=delta_command)
 
+    serve = sub.add_parser(
+        "serve-sim",
+        help="serve the simulated 6221/2182A on a TCP socket (LF-terminated, like the 6221's LAN port 1394)",
+        description=(
+            "Serve the simulated bench at TCPIP0::HOST::PORT::SOCKET until Ctrl-C. Only loopback hosts unless "
+            "--allow-remote (the simulator has no authentication)."
+        ),
+    )
+    serve.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
+    serve.add_argument("--port", type=int, default=1394, help="TCP port (default 1394; 0 = a free one)")
+    serve.add_argument("--allow-remote", action="store_true", help="allow a host other than loopback")
+    serve.add_argument("--seed", type=int, default=0, help="noise seed of the simulated bench")
+    serve.add_argument("--resistance", type=float, default=5e-3, metavar="OHM", help="sample resistance (5e-3)")
+    serve.add_argument(
+        "--time-scale",
+        type=float,
+        default=1.0,
+        metavar="X",
+        help="real s per instrument s (1 = real pace, 0 = instant)",
+    )
+    serve.set_defaults(handler=serve_sim_command)
+
 
 def _help(parser: argparse.ArgumentParser) -> int:
     parser.print_help()
@@ -57,6 +80,12 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--sim", action="store_true", help="use the simulated bench (default address GPIB0::12::INSTR)")
     p.add_argument("--timeout-ms", type=int, default=5000, help="VISA timeout in ms (default 5000)")
     p.add_argument("--seed", type=int, default=0, help="noise seed of the simulated bench (with --sim)")
+    p.add_argument(
+        "--visa-library",
+        default="",
+        metavar="LIB",
+        help="VISA library to open ADDRESS with, e.g. @py (pyvisa-py) or a path to NI-VISA (default: pyvisa's choice)",
+    )
 
 
 def _open(args: argparse.Namespace, pair: InstrumentPair) -> PairDriver:
@@ -75,14 +104,17 @@ def _open(args: argparse.Namespace, pair: InstrumentPair) -> PairDriver:
             "ADDRESS", address, "expected a VISA resource such as GPIB0::12::INSTR or TCPIP0::<ip>::1394::SOCKET"
         )
     if args.sim:
+        if args.visa_library:
+            raise SettingError("--visa-library", args.visa_library, "leave it out with --sim (the simulated bench)")
         address = address or SIM_DEFAULT_ADDRESS
         rm = pair.simulate(seed=args.seed, time_scale=0.0).resource_manager
     elif not address:
         what = f"give the {pair.source_name}'s VISA address, or --sim for the simulated bench"
         raise SettingError("ADDRESS", None, what)
-    transport = VisaTransport.open(address, rm, args.timeout_ms)
+    transport = VisaTransport.open(address, rm, args.timeout_ms, visa_library=args.visa_library)
+    options = {"chunk_size": transport.serial.chunk_size(args.timeout_ms)} if transport.serial is not None else {}
     try:
-        return pair.open_driver(transport, clock=time.monotonic, sleep=time.sleep)
+        return pair.open_driver(transport, clock=time.monotonic, sleep=time.sleep, **options)
     except BaseException:  # nothing was sent, but the connection must not leak
         transport.close()
         raise
@@ -122,6 +154,26 @@ def delta_command(args: argparse.Namespace) -> int:
     with _open(args, get_pair(DEFAULT_PAIR)) as k:
         block = k.run_block(settings)
     print(format_block(block, as_json=args.json))
+    return 0
+
+
+def serve_sim_command(args: argparse.Namespace) -> int:
+    """Serve the simulated bench until Ctrl-C (a clean stop: exit 0)."""
+    import sys
+
+    from contactrig.core.validation import check_int, check_range
+    from instruments.server import SimServer
+    from instruments.simulated import SimulatedBench
+
+    check_int("--seed", args.seed, 0, 2**63 - 1)
+    scale = check_range("--time-scale", args.time_scale, 0.0)
+    bench = SimulatedBench(resistance_ohm=args.resistance, seed=args.seed, time_scale=scale)
+    server = SimServer(args.host, args.port, bench=bench, allow_remote=args.allow_remote).start()
+    print(f"serving the simulated 6221/2182A at {server.address} (Ctrl-C stops)", flush=True)
+    try:
+        server.serve_until_stopped()
+    except KeyboardInterrupt:
+        print("stopped", file=sys.stderr, flush=True)
     return 0
 
 

@@ -37,6 +37,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     acq.add_argument("--resume", action="store_true", help="continue an incomplete session file where it stopped")
     acq.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    acq.add_argument(
+        "--visa-library",
+        default="",
+        metavar="LIB",
+        help="VISA library for the scene's address, e.g. @py (pyvisa-py); recorded in the start record",
+    )
     acq.set_defaults(handler=acquire_command)
 
     rep = subparsers.add_parser(
@@ -56,13 +62,33 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "import",
         help="convert a table of resistance per weight (like the seed paper's Tab. 1) into a session file",
         description=(
-            "TABLE is CSV with a header: first column the weight in kg, then one column per repeat. Use "
-            "`contactrig import --tab1` for the seed paper's Tab. 1 shipped with contactrig (mΩ)."
+            "TABLE is CSV with a header row: first the weight column (weight_kg, weight_g, load_N or weight [kg]; "
+            "load_N is divided by g = 9.80665 m/s²; no unit = kg), then one column per repeat (M1, M2, …). A repeat "
+            "header may carry its unit (M1_mohm, R [mΩ], R_ohm, R_uohm); otherwise --unit gives it; a header unit "
+            "that differs from --unit is an error. ',' ';' or tab separators and decimal commas (with ';'/tab) are "
+            "detected. Refused with a one-line error naming the file, row and column: non-numbers, NaN/inf, values "
+            "<= 0, empty cells, duplicate columns or weights, average columns, weights outside [0, 10000] kg, "
+            "resistances outside [10 nΩ, 1 Ω]. `contactrig import --tab1` imports the seed paper's Tab. 1 (mΩ)."
         ),
     )
     imp.add_argument("table", nargs="?", default=None, help="CSV table (omit with --tab1)")
     imp.add_argument("--tab1", action="store_true", help="import the seed paper's Tab. 1 (shipped, in mohm)")
-    imp.add_argument("--unit", choices=("ohm", "mohm", "uohm"), default=None, help="unit of the table's values")
+    imp.add_argument(
+        "--unit", choices=("ohm", "mohm", "uohm"), default=None,
+        help="unit of repeat columns whose header names none (required unless every header has one)",
+    )  # fmt: skip
+    imp.add_argument(
+        "--delimiter", choices=(",", ";", "tab", "comma", "semicolon"), default=None, metavar="SEP",
+        help="column separator: ',' (comma), ';' (semicolon) or tab (default: detected from the header row)",
+    )  # fmt: skip
+    imp.add_argument(
+        "--decimal", choices=(".", ","), default=None, metavar="MARK",
+        help="decimal mark: '.' or ',' (default: detected; ',' only with ';' or tab separators)",
+    )  # fmt: skip
+    imp.add_argument(
+        "--allow-missing", action="store_true",
+        help="read an empty repeat cell as a missing repeat (no block) instead of refusing it",
+    )  # fmt: skip
     imp.add_argument("-o", "--output", required=True, help="session file to write (HDF5)")
     imp.add_argument("--force", action="store_true", help="overwrite an existing output file")
     imp.add_argument("--operator", default="", help="who imports the table (recorded)")
@@ -82,13 +108,16 @@ def _speed(text: str) -> float:
 def acquire_command(args: argparse.Namespace) -> int:
     from analysis.simulated_session import DEFAULT_SIM_SPEED, SimulatedRigBench
     from daq.acquire import acquire
+    from daq.link import VisaBench
 
     if args.sim_speed is not None and not args.sim:
         raise ValueError("--sim-speed only applies to --sim")
     if args.resume and args.force:
         raise ValueError("--resume and --force contradict each other: --resume keeps the file, --force replaces it")
+    if args.visa_library and args.sim:
+        raise ValueError("--visa-library applies to the real bench, not to --sim")
     speed = args.sim_speed if args.sim_speed is not None else DEFAULT_SIM_SPEED
-    bench = SimulatedRigBench(speed) if args.sim else None  # None: the scene's VISA address
+    bench = SimulatedRigBench(speed) if args.sim else VisaBench(visa_library=args.visa_library)
     result = acquire(args.scene, args.output, bench=bench, yes=args.yes, resume=args.resume, force=args.force)
     print(
         f"{result.path}: {result.status}, {result.blocks_done} of {result.blocks_planned} blocks — {result.reason}",
@@ -117,7 +146,7 @@ def replay_command(args: argparse.Namespace) -> int:
 
 
 def import_command(args: argparse.Namespace) -> int:
-    from daq.table_import import import_table, tab1_path
+    from daq.table_import import import_table, read_table, tab1_path
 
     if args.tab1:
         if args.table is not None:
@@ -128,9 +157,16 @@ def import_command(args: argparse.Namespace) -> int:
     else:
         if args.table is None:
             raise ValueError("give a TABLE (CSV) to import, or --tab1 for the seed paper's Tab. 1")
-        if args.unit is None:
-            raise ValueError("--unit is required: ohm, mohm or uohm (the unit of the table's values)")
         table, unit = args.table, args.unit
-    out = import_table(table, args.output, unit=unit, force=args.force, operator=args.operator)
-    print(f"{out}: imported {table} ({unit})", file=sys.stderr)
+    options = {"delimiter": args.delimiter, "decimal": args.decimal, "allow_missing": args.allow_missing}
+    read = read_table(table, unit, **options)  # every error before the output file is created
+    out = import_table(table, args.output, unit=unit, force=args.force, operator=args.operator, **options)
+    for note in read.notes:
+        print(f"note: {note}", file=sys.stderr)
+    missing = int((read.resistance_ohm != read.resistance_ohm).sum())  # NaN: a missing repeat
+    gaps = f", {missing} missing repeat(s)" if missing else ""
+    print(
+        f"{out}: imported {table}: {read.weight_kg.size} weights × {len(read.columns)} repeats ({read.unit}{gaps})",
+        file=sys.stderr,
+    )
     return 0

@@ -243,3 +243,58 @@ def test_acquire_closes_the_link_when_setting_up_the_run_fails(plan, tmp_path, m
         acquire(plan.scene, tmp_path / "x.h5", yes=True, bench=VisaBench(rm), quiet=True)
     assert links and links[0].driver._closed and links[0].recorder.exchanges[-1].message == "SOUR:SWE:ABOR"
     assert not (tmp_path / "x.h5").exists()  # it held nothing
+
+
+@pytest.mark.filterwarnings("ignore::instruments.errors.ComplianceWarning")  # expected: compliance on purpose
+def test_compliance_block_is_flagged_in_file_session_and_live_line(plan, tmp_path):
+    """Compliance abort off, the source in compliance at the second weight only: that weight's blocks are flagged
+    in the file and on the loaded session, have no mean, and the live line says so; the others are untouched.
+    Replay reproduces the flags."""
+    import dataclasses
+
+    import numpy as np
+
+    from daq.engine import format_live_line
+    from daq.replay import replay_session
+
+    settings = dataclasses.replace(plan.block_settings)
+    object.__setattr__(settings, "compliance_abort", False)
+    object.__setattr__(settings, "compliance_v", 0.1)
+    plan = dataclasses.replace(plan, block_settings=settings)
+    link = make_link(plan)
+    bench = link.bench
+
+    def place(w):  # 0.01 A into 20 Ω + leads exceeds 0.1 V at the second weight
+        bench.resistance_ohm = 20.0 if w == plan.session.weights_kg[1] else 1e-3
+
+    link._place_weight = place
+    path = tmp_path / "c.h5"
+    outcome, _ = write_session(plan, path, link=link)
+    assert outcome.stop.status == "success", outcome.stop.reason
+    s = load_quietly(path)
+    second = s.summary.weight_kg == plan.session.weights_kg[1]
+    assert s.compliance.tolist() == second.tolist() and len(s.compliant_blocks) == plan.session.repeats
+    assert s.summary.mean_ohm[second].isna().all() and (s.summary.n[second] == 0).all()
+    assert np.isfinite(s.summary.mean_ohm[~second]).all()
+    assert not s.readings[s.readings.block.isin(s.compliant_blocks)].valid.any()
+    rec = next(r for r in outcome.blocks if r.compliance)
+    line = format_live_line(rec, 3, 6)
+    assert "COMPLIANCE" in line and "excluded" in line and "mΩ" not in line
+    assert replay_session(path).identical
+
+
+def test_start_record_keeps_the_pinned_state_and_how_the_instrument_was_reached(tmp_path):
+    from daq.acquire import acquire
+    from daq.link import VisaBench
+    from daq.session_file import load_session
+    from instruments.simulated import SimulatedBench, simulated_resource_manager
+
+    from .conftest import small_scene
+
+    rm = simulated_resource_manager(bench=SimulatedBench(resistance_ohm=5e-3, seed=1))
+    path = tmp_path / "s.h5"
+    acquire(small_scene(repeats="repeats = 1"), path, bench=VisaBench(rm), yes=True, quiet=True)
+    inst = load_session(path).start["instrument"]
+    assert inst["pinned_state"]["6221"]["SENS:AVER:STAT OFF"] == "0"
+    assert inst["pinned_state"]["2182A"][":SENS:VOLT:DFIL:STAT OFF"] == "0"
+    assert inst["visa_library"].startswith("BenchVisaLibrary") and inst["timeout_ms_effective"] == 500

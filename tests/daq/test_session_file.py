@@ -184,24 +184,89 @@ def test_garbage_and_foreign_files(tmp_path):
 def test_newer_schema_is_refused_with_advice(session_path):
     with h5py.File(session_path, "a") as h5:
         h5.attrs["contactrig_schema"] = SCHEMA_VERSION + 1
-    with pytest.raises(NewerSchemaError, match=r"schema 2.*upgrade contactrig"):
+    with pytest.raises(NewerSchemaError, match=rf"schema {SCHEMA_VERSION + 1}.*upgrade contactrig"):
         load_session(session_path)
 
 
 def test_older_schema_goes_through_upgrade_functions(session_path, monkeypatch):
     with h5py.File(session_path, "a") as h5:
-        h5.attrs["contactrig_schema"] = SCHEMA_VERSION - 1
+        h5.attrs["contactrig_schema"] = 0
     with pytest.raises(SessionFileError, match="no upgrade path"):
         load_session(session_path)
     calls = []
 
     def upgrade(raw):
-        calls.append(SCHEMA_VERSION - 1)
+        calls.append(0)
         return raw
 
-    monkeypatch.setitem(session_file.UPGRADES, SCHEMA_VERSION - 1, upgrade)
+    monkeypatch.setitem(session_file.UPGRADES, 0, upgrade)
     s = load_session(session_path)
-    assert calls == [SCHEMA_VERSION - 1] and s.schema_version == SCHEMA_VERSION - 1
+    assert calls == [0] and s.schema_version == 0
+
+
+def _as_schema_1(path):
+    """Turn a file written now into what schema 1 wrote: no compliance column, schema attribute 1."""
+    with h5py.File(path, "a") as h5:
+        del h5["entry/summary/compliance"]
+        h5.attrs["contactrig_schema"] = 1
+
+
+def test_schema_1_file_loads_with_no_block_flagged_and_its_checksums_hold(session_path, plan):
+    _as_schema_1(session_path)
+    s = load_session(session_path)  # checksums verified: schema 1's digests are unchanged for unflagged blocks
+    assert s.schema_version == 1 and len(s.summary) == plan.blocks_planned
+    assert s.summary["compliance"].dtype == bool and not s.compliance.any() and s.compliant_blocks == []
+
+
+def test_resuming_a_schema_1_file_upgrades_it_in_place(tmp_path):
+    path = tmp_path / "old.h5"
+    rows = _rows(4)
+    with SessionFile.create(path) as sf:
+        sf.write_start({"started": now_iso()}, "")
+        for rec in rows[:2]:
+            sf.append_block(rec)
+    _as_schema_1(path)
+    with SessionFile.open_for_resume(path) as sf:
+        for rec in rows[2:]:
+            sf.append_block(_compliant(rec) if rec.block == 3 else rec)
+        sf.write_stop(StopRecord("success", "done", now_iso(), 4, 4, 20))
+    s = load_session(path)
+    assert s.schema_version == SCHEMA_VERSION and s.compliant_blocks == [3]
+    with h5py.File(path, "r") as h5:
+        assert h5["entry/summary/compliance"].shape == (4,)
+        assert h5["entry/summary/compliance"].attrs["units"] == "1"
+
+
+def _compliant(rec):
+    return BlockRecord(
+        block=rec.block, run=rec.run, weight_kg=rec.weight_kg, repeat=rec.repeat, unit=rec.unit, reading=rec.reading,
+        time_s=rec.time_s, resistance_ohm=rec.resistance_ohm, valid=np.ones(rec.reading.size, bool),
+        started=rec.started, compliance=True,
+    )  # fmt: skip
+
+
+def test_compliant_block_is_flagged_excluded_and_checksummed(tmp_path):
+    path = tmp_path / "c.h5"
+    rows = _rows(3)
+    rows[1] = _compliant(rows[1])
+    with SessionFile.create(path) as sf:
+        sf.write_start({"started": now_iso()}, "")
+        for rec in rows:
+            sf.append_block(rec)
+        sf.write_stop(StopRecord("success", "done", now_iso(), 3, 3, 15))
+    s = load_session(path)
+    assert s.compliance.tolist() == [False, True, False] and s.compliant_blocks == [1]
+    row = s.summary.iloc[1]
+    # the readings are kept as taken, but none counts: no mean, every reading invalid
+    assert np.isnan(row.mean_ohm) and np.isnan(row.sd_ohm) and row.n == 0 and row.n_invalid == 5
+    assert not s.readings[s.readings.block == 1].valid.any()
+    np.testing.assert_array_equal(s.readings[s.readings.block == 1].reading, rows[1].reading)
+    assert np.isfinite(s.summary.mean_ohm[[0, 2]]).all()
+    # clearing the flag on disk (to slip the block back in) breaks its checksum
+    with h5py.File(path, "a") as h5:
+        h5["entry/summary/compliance"][1] = 0
+    with pytest.raises(ChecksumError, match="block 1"):
+        load_session(path)
 
 
 def test_existing_file_is_never_overwritten_without_force(session_path):

@@ -6,6 +6,15 @@ import pytest
 
 READ = object()  # marks an expected bare read in a script
 
+#: The 6221's pinned-state read-back query and the answer of an instrument that took every setting (spelled out
+#: here, from the manual's commands, not taken from the driver).
+SOURCE_STATE_QUERY = "SOUR:DELT:CSW?;:SENS:AVER:STAT?;:CALC1:STAT?;:TRAC:FEED?;:TRAC:TST:FORM?"
+SOURCE_READBACK = "0;0;0;SENS1;ABS"
+#: The 2182A's relayed read-back query (NPLC, channel, digital filter, analog filter, autozero) and its answer at
+#: NPLC 1.
+VOLTMETER_STATE_QUERY = ":SENS:VOLT:NPLC?;:SENS:CHAN?;:SENS:VOLT:DFIL:STAT?;:SENS:VOLT:LPAS?;:SYST:AZER?"
+VOLTMETER_READBACK = "+1.000000E+00;1;0;0;1"
+
 
 class FakeClock:
     """Monotonic clock advanced only by ``sleep``; ``on_sleep`` may inject an exception (e.g. Ctrl-C)."""
@@ -65,11 +74,18 @@ class ScriptedTransport:
 class ResponderTransport:
     """Answers queries from a table (value or callable); logs every command.
 
-    The 2182A relay answers NPLC = 1 (the default settings' read-back) unless the table says otherwise.
+    The 2182A relay answers the default settings' read-back (NPLC = 1 and the pinned state), and so does the 6221's
+    state read-back, unless the table says otherwise.
     """
 
     def __init__(self, replies: dict[str, object]) -> None:
-        self.replies = {"SYST:COMM:SER:ENT?": "+1.000000E+00\r", "*OPC?": "1", **replies}
+        self.replies = {
+            "SYST:COMM:SER:ENT?": VOLTMETER_READBACK + "\r",
+            SOURCE_STATE_QUERY: SOURCE_READBACK,
+            "*OPC?": "1",
+            "STAT:MEAS:EVEN?": "0",
+            **replies,
+        }
         self.sent: list[str] = []
         self.closed = False
 

@@ -141,3 +141,13 @@ def test_block_statistics_ignore_invalid():
         b.readings[0] = 0.0
     empty = DeltaBlock(s, np.array([np.nan]), np.zeros(1), 1, "V")
     assert math.isnan(empty.mean) and math.isnan(empty.sd)
+
+
+@pytest.mark.parametrize(("high", "low"), [(2e-3, 0.0), (2e-3, -1e-3), (1e-3, 1e-4)])
+def test_ohms_with_asymmetric_currents_is_refused_naming_unit(high, low):
+    with pytest.raises(SettingError) as err:
+        DeltaSettings(high_a=high, low_a=low, unit="OHMS")
+    assert err.value.field == "unit" and err.value.value == "OHMS" and "'V'" in err.value.allowed
+    # the same levels in V are fine, and symmetric levels in OHMS too
+    assert DeltaSettings(high_a=high, low_a=low, unit="V").unit == "V"
+    assert DeltaSettings(high_a=high, low_a=-high, unit="OHMS").unit == "OHMS"

@@ -6,14 +6,53 @@ import numpy as np
 import pytest
 
 from instruments.delta import DeltaSettings
-from instruments.errors import InstrumentError, InstrumentTimeout, NanovoltmeterMissing, ReplyError, SweepAborted
+from instruments.errors import (
+    InstrumentError,
+    InstrumentTimeout,
+    NanovoltmeterMissing,
+    ReplyError,
+    SweepAborted,
+    SweepStalled,
+)
 from instruments.k6221 import Keithley6221
 
-from .conftest import READ, ResponderTransport, ScriptedTransport
+from .conftest import (
+    READ,
+    SOURCE_READBACK,
+    SOURCE_STATE_QUERY,
+    VOLTMETER_READBACK,
+    VOLTMETER_STATE_QUERY,
+    ResponderTransport,
+    ScriptedTransport,
+)
 
 NO_ERROR = '0,"No error"'
 IDN_6221 = "KEITHLEY INSTRUMENTS INC.,MODEL 6221,4321987,D03  /700x"
 IDN_2182 = "KEITHLEY INSTRUMENTS INC.,MODEL 2182A,1234567,C02  /A02"
+
+
+def voltmeter_setup(nplc="1", rng=":SENS:VOLT:RANG:AUTO ON", readback=VOLTMETER_READBACK):
+    """The relayed 2182A part: pinned state, NPLC, range, one compound read-back."""
+    return [
+        ('SYST:COMM:SER:SEND ":SENS:CHAN 1"', None),
+        ('SYST:COMM:SER:SEND ":SENS:VOLT:DFIL:STAT OFF"', None),
+        ('SYST:COMM:SER:SEND ":SENS:VOLT:LPAS OFF"', None),
+        ('SYST:COMM:SER:SEND ":SYST:AZER ON"', None),
+        (f'SYST:COMM:SER:SEND ":SENS:VOLT:NPLC {nplc}"', None),
+        (f'SYST:COMM:SER:SEND "{rng}"', None),
+        (f'SYST:COMM:SER:SEND "{VOLTMETER_STATE_QUERY}"', None),
+        ("SYST:COMM:SER:ENT?", readback + "\r"),
+        ("*OPC?", "1"),
+    ]
+
+
+SOURCE_PINS = [
+    ("SOUR:DELT:CSW OFF", None),
+    ("SENS:AVER:STAT OFF", None),
+    ("CALC1:STAT OFF", None),
+    ("TRAC:FEED SENS1", None),
+    ("TRAC:TST:FORM ABS", None),
+]
 
 
 def head(count=3):
@@ -22,11 +61,7 @@ def head(count=3):
         ("SOUR:DELT:NVPR?", "1"),
         ("SOUR:SWE:ABOR", None),
         ("SYST:ERR?", NO_ERROR),
-        ('SYST:COMM:SER:SEND ":SENS:VOLT:NPLC 1"', None),
-        ('SYST:COMM:SER:SEND ":SENS:VOLT:RANG:AUTO ON"', None),
-        ('SYST:COMM:SER:SEND ":SENS:VOLT:NPLC?"', None),
-        ("SYST:COMM:SER:ENT?", "+1.000000E+00\r"),
-        ("*OPC?", "1"),
+        *voltmeter_setup(),
         ("SOUR:CURR:RANG:AUTO ON", None),
         ("SOUR:CURR:COMP 10", None),
         ("SOUR:DELT:HIGH 0.001", None),
@@ -36,6 +71,8 @@ def head(count=3):
         ("SOUR:DELT:CAB ON", None),
         ("SOUR:SWE:COUN 1", None),
         ("UNIT V", None),
+        *SOURCE_PINS,
+        (SOURCE_STATE_QUERY, SOURCE_READBACK),
         ("TRAC:CLE", None),
         (f"TRAC:POIN {count}", None),
         ("FORM:ELEM READ,TST", None),
@@ -44,6 +81,7 @@ def head(count=3):
         ("SOUR:DELT:ARM?", "0"),
         ("SOUR:DELT:ARM?", "1"),
         ("STAT:OPER:EVEN?", "0"),
+        ("STAT:MEAS:EVEN?", "8"),  # a compliance bit left latched by an earlier block: read (cleared), not used
         ("INIT:IMM", None),
     ]
 
@@ -53,8 +91,10 @@ def test_delta_block_exact_sequence(clock):
     script = [
         *head(3),
         ("STAT:OPER:EVEN?", "8"),  # sweeping
+        ("TRAC:POIN:ACT?", "1"),
         ("STAT:OPER:EVEN?", "1026"),  # done + idle
         ("TRAC:POIN:ACT?", "3"),
+        ("STAT:MEAS:EVEN?", "0"),  # no compliance during the block
         ("TRAC:DATA:SEL? 0,2", "+1.000000E-06,+0.000000E+00,+1.100000E-06,+2.300000E-02"),
         ("TRAC:DATA:SEL? 2,1", "+9.900000E+37,+4.600000E-02"),
         ("SYST:ERR?", NO_ERROR),
@@ -66,7 +106,7 @@ def test_delta_block_exact_sequence(clock):
     assert t.pairs == []
     np.testing.assert_array_equal(block.readings, [1e-6, 1.1e-6, np.nan])
     np.testing.assert_array_equal(block.timestamps_s, [0.0, 0.023, 0.046])
-    assert block.n_invalid == 1 and block.n == 2 and block.unit == "V"
+    assert block.n_invalid == 1 and block.n == 2 and block.unit == "V" and not block.compliance
     assert block.mean == pytest.approx(1.05e-6)
     assert len(clock.sleeps) == 2  # one after ARM? 0, one after the "sweeping" poll; no blind sleeps
 
@@ -74,7 +114,7 @@ def test_delta_block_exact_sequence(clock):
 def test_fixed_ranges_ohms_and_single_read(clock):
     s = DeltaSettings(
         high_a=2e-3,
-        low_a=-1e-3,
+        low_a=-2e-3,
         count=2,
         current_range_a=2e-3,
         voltmeter_range_v=0.1,
@@ -86,20 +126,18 @@ def test_fixed_ranges_ohms_and_single_read(clock):
         ("SOUR:DELT:NVPR?", "1"),
         ("SOUR:SWE:ABOR", None),
         ("SYST:ERR?", NO_ERROR),
-        ('SYST:COMM:SER:SEND ":SENS:VOLT:NPLC 5"', None),
-        ('SYST:COMM:SER:SEND ":SENS:VOLT:RANG 0.1"', None),
-        ('SYST:COMM:SER:SEND ":SENS:VOLT:NPLC?"', None),
-        ("SYST:COMM:SER:ENT?", "+5.000000E+00\r"),
-        ("*OPC?", "1"),
+        *voltmeter_setup("5", ":SENS:VOLT:RANG 0.1", "+5.000000E+00;1;0;0;1"),
         ("SOUR:CURR:RANG 0.002", None),
         ("SOUR:CURR:COMP 10", None),
         ("SOUR:DELT:HIGH 0.002", None),
-        ("SOUR:DELT:LOW -0.001", None),
+        ("SOUR:DELT:LOW -0.002", None),
         ("SOUR:DELT:DEL 0.002", None),
         ("SOUR:DELT:COUN 2", None),
         ("SOUR:DELT:CAB OFF", None),
         ("SOUR:SWE:COUN 1", None),
         ("UNIT OHMS", None),
+        *SOURCE_PINS,
+        (SOURCE_STATE_QUERY, "0;0;0;SENS;ABS"),  # a 6221 that answers the keyword without its suffix
         ("TRAC:CLE", None),
         ("TRAC:POIN 2", None),
         ("FORM:ELEM READ,TST", None),
@@ -107,9 +145,11 @@ def test_fixed_ranges_ohms_and_single_read(clock):
         ("SOUR:DELT:ARM", None),
         ("SOUR:DELT:ARM?", "1"),
         ("STAT:OPER:EVEN?", "0"),
+        ("STAT:MEAS:EVEN?", "0"),
         ("INIT:IMM", None),
         ("STAT:OPER:EVEN?", "2"),
         ("TRAC:POIN:ACT?", "2"),
+        ("STAT:MEAS:EVEN?", "0"),
         ("TRAC:DATA:SEL? 0,2", "5.0E-03,0,5.1E-03,0.1"),
         ("SYST:ERR?", NO_ERROR),
         ("SOUR:SWE:ABOR", None),
@@ -129,8 +169,10 @@ def test_missing_nanovoltmeter_names_both_cables(clock):
 
 
 def test_configuration_error_stops_before_arming_and_aborts(clock):
+    configured = head(3)
+    configured = configured[: configured.index(("FORM:ELEM READ,TST", None)) + 1]
     script = [
-        *head(3)[:20],
+        *configured,
         ("SYST:ERR?", '-222,"Data out of range"'),
         ("SYST:ERR?", '-113,"Undefined header"'),
         ("SYST:ERR?", NO_ERROR),
@@ -152,6 +194,7 @@ def test_keyboard_interrupt_while_waiting_aborts_and_propagates(clock):
             "SYST:ERR?": NO_ERROR,
             "SOUR:DELT:ARM?": "1",
             "STAT:OPER:EVEN?": lambda: next(states),
+            "TRAC:POIN:ACT?": "0",
         }
     )
 
@@ -182,7 +225,7 @@ def test_keyboard_interrupt_inside_transport_aborts(clock):
     assert t.sent[-1] == "SOUR:SWE:ABOR"
 
 
-def test_completion_deadline_names_the_command(clock):
+def test_stalled_sweep_is_a_clear_error_after_the_stall_window(clock):
     t = ResponderTransport(
         {
             "SOUR:DELT:NVPR?": "1",
@@ -193,11 +236,43 @@ def test_completion_deadline_names_the_command(clock):
         }
     )
     s = DeltaSettings(high_a=1e-3, count=10)
-    with pytest.raises(InstrumentTimeout) as err:
-        Keithley6221(t, clock=clock, sleep=clock.sleep).run_delta(s)
-    assert err.value.command == "STAT:OPER:EVEN?" and "4 of 10" in str(err.value)
-    assert clock.t >= s.deadline_s()
-    assert t.sent[-1] == "SOUR:SWE:ABOR"
+    k = Keithley6221(t, clock=clock, sleep=clock.sleep, stall_timeout_s=5.0)
+    with pytest.raises(SweepStalled) as err:
+        k.run_delta(s)
+    assert isinstance(err.value, InstrumentTimeout) and isinstance(err.value, InstrumentError)
+    assert err.value.command == "TRAC:POIN:ACT?" and "4 of 10" in str(err.value) and "stalled" in str(err.value)
+    # 4 readings came at once, then none: stalled one window (2 conversions + 5 s) after the progress was seen
+    window = 2 * s.conversion_period_s + 5.0
+    assert window < clock.t <= window + 0.1
+    assert t.sent[-1] == "SOUR:SWE:ABOR" and k.source_state == "idle"
+    assert any("left idle" in note for note in err.value.__notes__)
+
+
+def test_deadline_follows_progress_long_block_does_not_time_out(clock):
+    """10 000 readings arriving at 1 per 0.5 s of (fake) time take 5000 s: far beyond any fixed deadline computed
+    from the nominal conversion period (22 ms here), and never stalled, since the count keeps growing."""
+    s = DeltaSettings(high_a=1e-3, count=10_000)
+    slow = 0.5  # s per reading, 20× the nominal period
+
+    def stored():
+        return str(min(int(clock.t / slow), s.count))
+
+    def oper():
+        return "2" if int(stored()) >= s.count else "8"
+
+    t = ResponderTransport(
+        {
+            "SOUR:DELT:NVPR?": "1",
+            "SYST:ERR?": NO_ERROR,
+            "SOUR:DELT:ARM?": "1",
+            "STAT:OPER:EVEN?": oper,
+            "TRAC:POIN:ACT?": stored,
+            "TRAC:DATA:SEL? 0,10000": ",".join(["1.0E-06,0"] * 10_000),
+        }
+    )
+    k = Keithley6221(t, clock=clock, sleep=clock.sleep, poll_interval_s=5.0, stall_timeout_s=1.0, chunk_size=10_000)
+    block = k.run_delta(s)
+    assert block.n == 10_000 and clock.t >= 5000 > 10 * s.deadline_s()
 
 
 def test_arm_deadline(clock):
@@ -283,17 +358,58 @@ def test_relay_skips_leading_stray_terminator(clock):
 
 
 def test_voltmeter_setting_readback_mismatch(clock):
-    script = [
-        *head(3)[:5],
-        ('SYST:COMM:SER:SEND ":SENS:VOLT:NPLC?"', None),
-        ("SYST:COMM:SER:ENT?", "+2.000000E+00\r"),
-        ("*OPC?", "1"),
-        ("SOUR:SWE:ABOR", None),
-    ]
+    setup = voltmeter_setup(readback="+2.000000E+00;1;0;0;1")
+    script = [*head(3)[:3], *setup, ("SOUR:SWE:ABOR", None)]
     t = ScriptedTransport(script)
     with pytest.raises(ReplyError, match="NPLC"):
         Keithley6221(t, clock=clock, sleep=clock.sleep).run_delta(DeltaSettings(high_a=1e-3, count=3))
     assert t.pairs == []
+
+
+@pytest.mark.parametrize(
+    ("who", "readback", "name"),
+    [
+        ("2182A", "+1.000000E+00;1;1;0;1", "DFIL"),  # the digital filter stayed on
+        ("2182A", "+1.000000E+00;2;0;0;1", "CHAN"),
+        ("6221", "0;1;0;SENS1;ABS", "SENS:AVER"),  # the 6221's filter stayed on
+        ("6221", "0;0;0;CALC1;ABS", "TRAC:FEED"),
+        ("6221", "0;0;0;SENS1;DELT", "TRAC:TST:FORM"),
+    ],
+)
+def test_pinned_state_that_did_not_take_stops_before_arming(clock, who, readback, name):
+    replies = {"SOUR:DELT:NVPR?": "1", "SYST:ERR?": NO_ERROR, "SOUR:DELT:ARM?": "1"}
+    if who == "2182A":
+        replies["SYST:COMM:SER:ENT?"] = readback + "\r"
+    else:
+        replies[SOURCE_STATE_QUERY] = readback
+    t = ResponderTransport(replies)
+    with pytest.raises(ReplyError, match=name):
+        Keithley6221(t, clock=clock, sleep=clock.sleep).run_delta(DeltaSettings(high_a=1e-3, count=3))
+    assert "SOUR:DELT:ARM" not in t.sent and t.sent[-1] == "SOUR:SWE:ABOR"
+
+
+def test_compliance_bit_after_the_sweep_flags_the_block(clock):
+    meas = iter(["8", "8"])  # stale bit before INIT (cleared by reading), and set again during this block
+    t = ResponderTransport(
+        {
+            "SOUR:DELT:NVPR?": "1",
+            "SYST:ERR?": NO_ERROR,
+            "SOUR:DELT:ARM?": "1",
+            "STAT:OPER:EVEN?": "2",
+            "TRAC:POIN:ACT?": "2",
+            "STAT:MEAS:EVEN?": lambda: next(meas),
+            "TRAC:DATA:SEL? 0,2": "1.0E+00,0,1.0E+00,0.1",
+        }
+    )
+    from instruments.errors import ComplianceWarning
+
+    with pytest.warns(ComplianceWarning, match="compliance"):
+        block = Keithley6221(t, clock=clock, sleep=clock.sleep).run_delta(
+            DeltaSettings(high_a=1e-3, count=2, compliance_abort=False)
+        )
+    assert block.compliance and block.n == 0 and not block.valid.any() and np.isnan(block.mean)
+    assert t.sent.index("STAT:MEAS:EVEN?") < t.sent.index("INIT:IMM")  # cleared before INIT
+    assert t.sent.count("STAT:MEAS:EVEN?") == 2
 
 
 def test_relay_timeout_names_relayed_command(clock):

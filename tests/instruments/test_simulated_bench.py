@@ -10,7 +10,14 @@ import numpy as np
 import pytest
 
 from instruments.delta import DeltaSettings
-from instruments.errors import InstrumentError, InstrumentTimeout, NanovoltmeterMissing, ReplyError, SweepAborted
+from instruments.errors import (
+    ComplianceWarning,
+    InstrumentError,
+    InstrumentTimeout,
+    NanovoltmeterMissing,
+    ReplyError,
+    SweepAborted,
+)
 from instruments.k6221 import Keithley6221
 from instruments.simulated import (
     GPIB_ADDRESS,
@@ -98,7 +105,7 @@ def test_emf_and_drift_cancel_to_within_the_noise():
 def test_ohms_unit_and_asymmetric_currents_and_resistance_change():
     bench = SimulatedBench(resistance_ohm=8e-3, seed=2)
     with open_k(bench) as k:
-        ohms = k.run_delta(DeltaSettings(high_a=2e-3, low_a=0.0, count=30, unit="OHMS"))
+        ohms = k.run_delta(DeltaSettings(high_a=2e-3, count=30, unit="OHMS"))
         volts = k.run_delta(DeltaSettings(high_a=2e-3, low_a=0.0, count=30))
         bench.resistance_ohm = 2e-3  # between blocks, as the rig simulation will do
         later = k.run_delta(DeltaSettings(high_a=2e-3, low_a=0.0, count=30))
@@ -291,9 +298,104 @@ def test_compliance_abort_and_compliance_limit():
     with open_k(bench) as k:
         with pytest.raises(SweepAborted, match="compliance"):
             k.run_delta(DeltaSettings(high_a=1e-3, count=5, compliance_v=0.1))
-        block = k.run_delta(DeltaSettings(high_a=1e-3, count=5, compliance_v=0.1, compliance_abort=False))
-    # The source can only drive compliance/R: the sample then shows exactly the compliance voltage.
-    assert block.mean == pytest.approx(0.1, rel=1e-4)
+        with pytest.warns(ComplianceWarning):
+            block = k.run_delta(DeltaSettings(high_a=1e-3, count=5, compliance_v=0.1, compliance_abort=False))
+    # The source can only drive compliance/R: the sample then shows exactly the compliance voltage — wrong, and
+    # flagged: no reading counts, the block has no mean.
+    assert np.nanmean(block.readings) == pytest.approx(0.1, rel=1e-4)
+    assert block.compliance and block.n == 0 and math.isnan(block.mean)
+
+
+def test_compliance_with_abort_off_is_flagged_not_averaged_the_issue_case():
+    """200 Ω at 0.1 A with a 1 V compliance: I·R = 20 V, the readings say ≈ 1 V; the block must say so."""
+    bench = SimulatedBench(resistance_ohm=200.0, seed=1)
+    s = DeltaSettings(high_a=0.1, count=20, compliance_v=1.0, compliance_abort=False)
+    with open_k(bench) as k, pytest.warns(ComplianceWarning, match="compliance"):
+        block = k.run_delta(s)
+    assert np.nanmean(block.readings) < 0.1 * 200.0 / 10  # the readings are far below I·R = 20 V
+    assert block.compliance and not block.valid.any() and math.isnan(block.mean) and block.n == 0
+
+
+def test_stale_compliance_bit_does_not_leak_into_the_next_block():
+    """The bench latches the compliance bit until STAT:MEAS:EVEN? reads it. A bit latched before the block (a
+    previous user, or an earlier block read by someone else) must not flag a clean block."""
+    bench = SimulatedBench(resistance_ohm=200.0, seed=1, lead_resistance_ohm=0.0)
+    rm = simulated_resource_manager(bench)
+    r = rm.open_resource(GPIB_ADDRESS, read_termination="\n", write_termination="\n", timeout=500)
+    for cmd in ("SOUR:DELT:HIGH 0.01", "SOUR:CURR:COMP 1", "SOUR:DELT:CAB OFF", "SOUR:DELT:COUN 3", "TRAC:POIN 3"):
+        r.write(cmd)
+    r.write("SOUR:DELT:ARM")
+    r.write("INIT:IMM")  # 0.01 A × 200 Ω = 2 V > 1 V: compliance, latched and left unread
+    r.write("SOUR:SWE:ABOR")
+    bench.resistance_ohm = 5e-3
+    with Keithley6221.open(GPIB_ADDRESS, resource_manager=rm, timeout_ms=2000) as k:
+        block = k.run_delta(DeltaSettings(high_a=1e-3, count=10))
+    assert not block.compliance and block.n == 10 and block.mean == pytest.approx(5e-6, rel=1e-2)
+    # the latch itself: set by a sweep in compliance, cleared by reading
+    bench.resistance_ohm = 200.0
+    r.write("SOUR:DELT:CAB OFF;:SOUR:CURR:COMP 0.1;:SOUR:DELT:HIGH 0.1;:SOUR:DELT:COUN 3;:TRAC:POIN 3;:SOUR:DELT:ARM")
+    r.write("INIT:IMM")
+    assert int(r.query("STAT:MEAS:EVEN?")) & 8
+    assert not int(r.query("STAT:MEAS:EVEN?")) & 8
+
+
+def _previous_user(r):
+    """Leave the 6221 and the 2182A as a previous user might have: filters on, math on the buffer feed, relative
+    timestamps, channel 2, cold switching."""
+    for cmd in (
+        "SENS:AVER:STAT ON",
+        "SENS:AVER:COUN 5",
+        "CALC1:KMAT:MMF 2",
+        "CALC1:STAT ON",
+        "TRAC:FEED CALC1",
+        "TRAC:TST:FORM DELT",
+        "SOUR:DELT:CSW ON",
+        'SYST:COMM:SER:SEND ":SENS:VOLT:DFIL:STAT ON;:SENS:VOLT:DFIL:COUN 4"',
+        'SYST:COMM:SER:SEND ":SYST:AZER OFF"',
+    ):
+        r.write(cmd)
+    assert r.query("SYST:ERR?") == '0,"No error"'
+
+
+def test_previous_users_state_changes_the_readings_on_the_bench():
+    """The bench honours the state a session must pin (else the pinning test below could not fail)."""
+
+    def block(previous):
+        r = raw(SimulatedBench(resistance_ohm=5e-3, seed=4))
+        if previous:
+            _previous_user(r)
+        for cmd in ("SOUR:DELT:HIGH 0.001", "SOUR:DELT:COUN 20", "TRAC:POIN 20", "SOUR:DELT:ARM", "INIT:IMM"):
+            r.write(cmd)
+        v = np.array([float(x) for x in r.query("TRAC:DATA:SEL? 0,20").split(",")]).reshape(-1, 2)
+        return v[:, 0], v[:, 1]
+
+    clean, t_clean = block(False)
+    dirty, t_dirty = block(True)
+    assert np.mean(clean) == pytest.approx(5e-6, rel=1e-2)
+    assert abs(np.mean(dirty) / 5e-6 - 1) > 0.5  # filters across polarities and ×2 math: far off
+    assert np.all(np.diff(t_clean) > 0) and np.allclose(t_dirty[1:], t_dirty[1])  # relative stamps
+
+
+def test_session_pins_the_previous_users_state_and_reads_it_back():
+    bench = SimulatedBench(resistance_ohm=5e-3, seed=4)
+    rm = simulated_resource_manager(bench)
+    r = rm.open_resource(GPIB_ADDRESS, read_termination="\n", write_termination="\n", timeout=500)
+    _previous_user(r)
+    with Keithley6221.open(GPIB_ADDRESS, resource_manager=rm, timeout_ms=2000) as k:
+        block = k.run_delta(DeltaSettings(high_a=1e-3, count=20))
+        state = k.state_read
+    assert block.mean == pytest.approx(5e-6, rel=1e-2) and np.all(np.diff(block.timestamps_s) > 0)
+    assert state["6221"] == {
+        "SOUR:DELT:CSW OFF": "0",
+        "SENS:AVER:STAT OFF": "0",
+        "CALC1:STAT OFF": "0",
+        "TRAC:FEED SENS1": "SENS1",
+        "TRAC:TST:FORM ABS": "ABS",
+    }
+    assert state["2182A"][":SENS:VOLT:DFIL:STAT OFF"] == "0" and state["2182A"][":SYST:AZER ON"] == "1"
+    assert r.query("SENS:AVER:STAT?;:TRAC:FEED?;:CALC1:STAT?") == "0;SENS1;0"  # as the instrument holds it now
+    r.write('SYST:COMM:SER:SEND ":SENS:VOLT:DFIL:STAT?;:SENS:CHAN?"')
+    assert r.query("SYST:COMM:SER:ENT?") == "0;1\r"
 
 
 def test_third_party_style_sequence_long_forms_and_extra_elements():
