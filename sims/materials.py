@@ -11,6 +11,8 @@ Scene tables ``[materials.liner]`` and ``[materials.piston]`` (all SI):
 ``nu``        Poisson's ratio, in [0, 0.5)
 ``H_pa``      indentation hardness, Pa, in [1e3, 1e12]; the softer body's H drives the plastic asperity models
 ``yield_pa``  optional yield strength, Pa (Jackson–Green); default ``H_pa / 2.84`` (Jackson & Green's H/S_y limit)
+``resistivity_ohm_m``  optional electrical resistivity of the bulk, Ω·m, in [1e-9, 1] (metals 1.6e-8 … 2e-6); needed
+              only by the clean-metal constriction resistance (:mod:`analysis.resistance_model`: Holm, Barber)
 ``name``      optional free-text description
 """
 
@@ -31,7 +33,7 @@ __all__ = [
     "materials_from_scene",
 ]
 
-MATERIAL_KEYS = ("E_pa", "nu", "H_pa", "yield_pa", "name")
+MATERIAL_KEYS = ("E_pa", "nu", "H_pa", "yield_pa", "resistivity_ohm_m", "name")
 
 #: Jackson & Green (2005): hardness/yield-strength ratio at full plasticity (their H_G/S_y → 2.84).
 HARDNESS_TO_YIELD = 2.84
@@ -50,6 +52,7 @@ class Material:
     H_pa: float
     yield_pa: float | None = None
     name: str = ""
+    resistivity_ohm_m: float | None = None
 
     def __post_init__(self) -> None:
         check_range("E_pa", self.E_pa, 1e3, 1e13, unit="Pa")
@@ -57,6 +60,8 @@ class Material:
         check_range("H_pa", self.H_pa, 1e3, 1e12, unit="Pa")
         if self.yield_pa is not None:
             check_range("yield_pa", self.yield_pa, 1e3, 1e12, unit="Pa")
+        if self.resistivity_ohm_m is not None:
+            check_range("resistivity_ohm_m", self.resistivity_ohm_m, 1e-9, 1.0, unit="Ω·m")
         if self.H_pa > MAX_HARDNESS_TO_MODULUS * self.E_pa:
             lo = self.H_pa / MAX_HARDNESS_TO_MODULUS
             raise SettingError(
@@ -85,7 +90,12 @@ class Material:
             raise SettingError(f"{section}.name", name, "expected a string")
         try:
             return cls(
-                E_pa=table["E_pa"], nu=table["nu"], H_pa=table["H_pa"], yield_pa=table.get("yield_pa"), name=name
+                E_pa=table["E_pa"],
+                nu=table["nu"],
+                H_pa=table["H_pa"],
+                yield_pa=table.get("yield_pa"),
+                name=name,
+                resistivity_ohm_m=table.get("resistivity_ohm_m"),
             )
         except SettingError as exc:
             raise SettingError(f"{section}.{exc.field}", exc.value, exc.allowed) from None
@@ -118,11 +128,19 @@ class ContactMaterials:
         """Hardness of the softer body, Pa (seed eq. 13, 18, 21: H_m)."""
         return self.softer.H_pa
 
+    @property
+    def resistivity_sum_ohm_m(self) -> float | None:
+        """ρ1 + ρ2 [Ω·m] of the two bodies (Holm's and Barber's constriction resistance); None if either is unknown."""
+        r1, r2 = self.liner.resistivity_ohm_m, self.piston.resistivity_ohm_m
+        return None if r1 is None or r2 is None else float(r1) + float(r2)
+
     def as_dict(self) -> dict[str, Any]:
         """Plain values for provenance."""
         out: dict[str, Any] = {"E_star_pa": self.E_star, "H_pa": self.H}
         for label, m in (("liner", self.liner), ("piston", self.piston)):
             out[label] = {"E_pa": m.E_pa, "nu": m.nu, "H_pa": m.H_pa, "yield_pa": m.yield_strength_pa, "name": m.name}
+            if m.resistivity_ohm_m is not None:
+                out[label]["resistivity_ohm_m"] = m.resistivity_ohm_m
         return out
 
 

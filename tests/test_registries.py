@@ -58,7 +58,7 @@ def test_toy_model_and_figure_flow_through_every_stage(toy_registered, tmp_path)
     from analysis.pipeline import analyse_tab1
     from analysis.report import write_report
     from analysis.studies.atlas_cases import database_cases
-    from contactrig.cli.database import models_help
+    from contactrig.cli.options import models_help
     from sims.rig import sweep
 
     # registry → CLI help and the stability atlas, with no list to edit

@@ -11,6 +11,8 @@ import argparse
 import sys
 import warnings
 
+from contactrig.cli.options import add_models_option
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add this package's subcommands to ``subparsers``."""
@@ -20,8 +22,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Build the simulated contact database of a scene (seed §1, Fig. 2) and write it to HDF5.",
     )
     p.add_argument("scene", nargs="?", default=None, help="scene TOML file (default: the packaged default scene)")
-    p.add_argument("-o", "--output", required=True, help="HDF5 file to write")
-    p.add_argument("--models", default=None, help=models_help())
+    p.add_argument(
+        "-o", "--output", required=True,
+        help="HDF5 file to write (its folder is created; an existing file is refused without --force)",
+    )  # fmt: skip
+    p.add_argument("--force", action="store_true", help="overwrite existing output files (-o, --plot)")
+    add_models_option(p)
     p.add_argument("--n-separations", type=int, default=None, help="grid points per curve (default: the scene's)")
     p.add_argument(
         "--gt-heights",
@@ -34,27 +40,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=run_database)
 
 
-def models_help() -> str:
-    """``--models`` help from the model registry (the same text in every command that takes models)."""
-    from sims.models import model_names
-
-    return "comma-separated contact models (default: the scene's [database] models): " + ", ".join(model_names())
-
-
 def run_database(args: argparse.Namespace) -> int:
     """Handler of ``contactrig database``."""
+    from contactrig.core.files import refuse_existing
     from contactrig.core.scene import load_scene
     from daq.database_file import save_database
+    from daq.sweep_file import plasticity_warnings
     from sims.config import SimConfig
     from sims.database import build_database
 
+    refuse_existing([args.output] + ([args.plot] if args.plot else []), force=args.force)  # before any work
     config = SimConfig.from_scene(load_scene(args.scene))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # the same text is in provenance["warnings"], printed below
         db = build_database(config, args.models, n_separations=args.n_separations, gt_heights=args.gt_heights)
-    out = save_database(db, args.output)
+    out = save_database(db, args.output, force=args.force)
     prov = db.provenance
-    for w in prov.get("warnings", []):
+    for w in list(prov.get("warnings", [])) + plasticity_warnings(list(db), prov):
         print(f"warning: {w}", file=sys.stderr)
     gt = prov.get("greenwood_tripp", {})
     print(
@@ -74,5 +76,5 @@ def run_database(args: argparse.Namespace) -> int:
     if args.plot:
         from analysis.figures import write_database_figure
 
-        print(f"wrote {write_database_figure(db, args.plot)}")
+        print(f"wrote {write_database_figure(db, args.plot, force=args.force)}")
     return 0

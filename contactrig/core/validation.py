@@ -27,7 +27,10 @@ __all__ = [
 
 # The top-level tables of a scene file (see contactrig.core.scene); a setting path that starts with one of them is
 # a scene key and is shown as the user wrote it in the file: ``surfaces.liner.sq_m`` → ``[surfaces.liner] sq_m``.
-SCENE_TABLES = ("scene", "materials", "surfaces", "database", "rig", "circuit", "instrument", "delta", "session")
+SCENE_TABLES = (
+    *("scene", "materials", "surfaces", "database", "rig", "circuit", "instrument", "delta", "session"),
+    "press",  # the press specimen geometry (sims.press, issue #15)
+)
 _BODY_TABLES = ("materials", "surfaces")
 
 

@@ -41,6 +41,7 @@ import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK45, Radau
 
 from sims.rig.equilibrium import Equilibrium, RigLoadError, equilibrium
+from sims.rig.geometry import OutOfGeometryError
 from sims.rig.law import ContactLaw
 from sims.rig.loads import SkirtLoads
 from sims.rig.settings import STANDARD_GRAVITY, RigSettings
@@ -72,9 +73,10 @@ class Settle:
 
     ``t_s`` [s], ``min_separation_m`` [m], ``velocity_m_per_s`` [m/s]: the trajectory (at the steps, or at
     ``t_eval_s``). ``status`` as SciPy's ``solve_ivp``: 1 at rest (terminal event), 0 end of the interval reached
-    without rest, −1 step failure; and −2: evaluation budget ``max_evaluations`` exhausted. ``nfev``, ``njev``,
-    ``nlu``: right-hand-side and Jacobian evaluations, LU decompositions. ``warnings``: e.g. an explicit method on a
-    stiff case.
+    without rest, −1 step failure; −2: evaluation budget ``max_evaluations`` exhausted; −3: a step took the piston
+    outside the geometry (:class:`~sims.rig.geometry.OutOfGeometryError`: the skirt would cross the liner wall).
+    ``nfev``, ``njev``, ``nlu``: right-hand-side and Jacobian evaluations, LU decompositions. ``warnings``: e.g.
+    an explicit method on a stiff case.
     """
 
     method: str
@@ -424,7 +426,13 @@ def _integrate(problem: _Problem, t_eval_s: np.ndarray | None, max_evaluations: 
     notes: list[str] = []
     t_last, y_last = 0.0, solver.y.copy()
     while status is None:
-        message = solver.step() or ""
+        try:
+            message = solver.step() or ""
+        except OutOfGeometryError as exc:
+            status = -3
+            message = f"the state left the piston/liner geometry at t = {solver.t:.4g} s: {exc}"
+            notes.append(f"{name}: {problem.method} stopped: {message}")
+            break
         if solver.status == "failed":
             status = -1
             break

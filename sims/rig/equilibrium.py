@@ -287,9 +287,9 @@ def _roots(loads: SkirtLoads, load: np.ndarray, guess: np.ndarray | None, name: 
     """
     law = loads.law
     lo_limit, hi_limit, span = search_limits(law, loads.settings)
-    if guess is None:
-        lo = np.full(load.shape, float(law.h_min))
-        hi = np.full(load.shape, float(law.h_max))
+    if guess is None:  # the law's range, inside the region the geometry and the search allow
+        lo = np.full(load.shape, max(float(law.h_min), lo_limit))
+        hi = np.full(load.shape, min(max(float(law.h_max), lo_limit), hi_limit))
         step = np.full(load.shape, 0.25 * span)
     else:
         step = np.full(load.shape, 1e-3 * span)
@@ -345,7 +345,10 @@ class _Refinement:
         self.law, self.s, self.load = law, s, load
         self.n_theta, self.n_axial = s.n_theta, s.n_axial
         self.guess = guess
-        self.h_wide = float(law.h_min) if guess is None else float(np.min(guess))
+        # the widest contact zone to mesh: the law's deepest tabulated gap, but never beyond where the root search
+        # may go (a law tabulated deeper than the geometry allows would put the zone through the liner wall)
+        deepest = max(float(law.h_min), search_limits(law, s)[0])
+        self.h_wide = deepest if guess is None else float(np.min(guess))
         self.tail = True  # cells beyond the contact zone: dropped once a solution shows (tail_bound) they do not matter
         self.keep_tail = False  # set when levels without tail failed their check three times: no going back and forth
         self.refits = 0

@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 __all__ = [
+    "OutOfGeometryError",
     "axial_profile_m",
     "contact_edge_angle_rad",
     "contact_half_angle_rad",
@@ -34,6 +35,33 @@ __all__ = [
     "effective_radius_m",
     "gap_m",
 ]
+
+
+class OutOfGeometryError(ValueError):
+    """A minimum gap the offset-circle geometry cannot have: the piston's centre so far off the liner's that the
+    skirt would cross the liner wall (|e sin θ| > R_p, e = c − h0), where the exact gap is the square root of a
+    negative number. Raised where it occurs, never returned as NaN; ``h0_m`` is the offending minimum gap [m] and
+    ``piston_radius_m`` the bound on the eccentricity |c − h0| [m]."""
+
+    def __init__(self, h0_m: float, clearance_m: float, piston_radius_m: float) -> None:
+        self.h0_m = h0_m
+        self.piston_radius_m = piston_radius_m
+        super().__init__(
+            f"minimum gap h0 = {h0_m:.6g} m is outside the piston/liner geometry: the skirt would cross the liner "
+            f"wall (the eccentricity |c - h0| must stay below the piston radius {piston_radius_m:.6g} m; "
+            f"c = {clearance_m:.6g} m)"
+        )
+
+
+def _inside(e: np.ndarray, sin_theta: np.ndarray, rp: float, clearance_m: float) -> np.ndarray:
+    """(e sin θ)² after checking that the exact gap's square root is real (else :class:`OutOfGeometryError`)."""
+    s2 = (e * sin_theta) ** 2
+    bad = ~(s2 <= rp * rp)  # NaN counts as outside
+    if np.any(bad):
+        eb = np.broadcast_to(e, bad.shape)
+        worst = int(np.argmax(np.where(bad, np.nan_to_num(np.abs(eb), nan=np.inf), -np.inf)))
+        raise OutOfGeometryError(float(clearance_m - eb.flat[worst]), clearance_m, rp)
+    return s2
 
 
 def effective_radius_m(liner_radius_m: float, clearance_m: float) -> float:
@@ -56,7 +84,7 @@ def gap_m(
     if not exact:
         return np.asarray(h0 + e * (1.0 - np.cos(theta)))
     rp = liner_radius_m - clearance_m
-    s2 = (e * np.sin(theta)) ** 2
+    s2 = _inside(e, np.sin(theta), rp, clearance_m)
     return np.asarray(clearance_m - e * np.cos(theta) + s2 / (rp + np.sqrt(rp * rp - s2)))
 
 
@@ -74,7 +102,9 @@ def dgap_dh0(
     e = clearance_m - h0
     rp = liner_radius_m - clearance_m
     sin = np.sin(theta)
-    return np.asarray(np.cos(theta) - e * sin * sin / np.sqrt(rp * rp - (e * sin) ** 2))
+    s2 = _inside(e, sin, rp, clearance_m)
+    with np.errstate(divide="ignore"):  # |e sin θ| = R_p exactly: the skirt touches the wall edge-on
+        return np.asarray(np.cos(theta) - e * sin * sin / np.sqrt(rp * rp - s2))
 
 
 def axial_profile_m(y_m: ArrayLike, skirt_length_m: float, crown_m: float) -> np.ndarray:
@@ -119,6 +149,8 @@ def contact_edge_angle_rad(
         return estimate
     e = clearance_m - h0_m
     rp = liner_radius_m - clearance_m
+    if not abs(e) < rp:  # some angle would put the skirt through the liner wall
+        raise OutOfGeometryError(h0_m, clearance_m, rp)
     theta = estimate
     for _ in range(8):  # Newton on the exact gap from the small-clearance root; converges in 2–3 steps
         sin, cos = math.sin(theta), math.cos(theta)

@@ -129,6 +129,7 @@ def sweep(
     settings: RigSettings | None = None,
     roughness_m: float | None = None,
     composite_modulus_pa: float | None = None,
+    elastic: bool = False,
 ) -> SweepResult:
     """Contact area against weight for every model: static equilibrium per (model, weight).
 
@@ -143,7 +144,9 @@ def sweep(
     contact law) or a prebuilt ``database`` replace the database build (and its automatic extension when a load
     leaves the tabulated range). ``roughness_m`` [m] / ``composite_modulus_pa`` [Pa] (default: from the database or
     the configuration) drive the roughness-parameter check. Raises :class:`RigLoadError` when a law cannot carry a
-    load.
+    load. ``elastic=True`` (opt-in) couples the asperity law to the bodies' bulk elasticity
+    (:func:`sims.rig.elastic.apply_bulk_elasticity`): areas and peak pressures carry the computed change and the
+    roughness-parameter warnings become the computed effect (``provenance["bulk_elasticity"]``).
     """
     config = _config(config)
     settings = settings if settings is not None else config.rig
@@ -175,7 +178,14 @@ def sweep(
     notes = [note for name, law in law_map.items() if (note := preload_note(name, law, settings))]
     if notes:
         provenance["notes"] = notes
-    return _collect(batches, provenance, warnings)
+    result = _collect(batches, provenance, warnings)
+    if elastic:  # opt-in: bulk elasticity (sims.rig.elastic) replaces the roughness-parameter warnings by its effect
+        from sims.rig.elastic import apply_bulk_elasticity
+
+        modulus = composite_modulus_pa if composite_modulus_pa is not None else config.materials.E_star
+        models_el = apply_bulk_elasticity(result.models, law_map, settings, modulus, provenance, result.warnings)
+        result = replace(result, models=models_el)
+    return result
 
 
 def _config(config: Any) -> SimConfig:

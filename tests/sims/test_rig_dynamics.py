@@ -141,3 +141,45 @@ def test_settles_on_the_database_curve():
     assert run.stiff and run.method == "BDF" and run.settled
     assert abs(run.separation_error_m) <= 2e-6 * run.static.load_n / run.static.stiffness_n_per_m
     assert run.area_relative_error < 1e-5
+
+
+class _Saturating:
+    """A contact law whose pressure saturates at ``p_sat`` [Pa] (1 − e^(−(h_max − h)/λ)): carried near saturation,
+    an undamped release overshoots far below rest — here through the liner wall."""
+
+    h_min, h_max = -0.02, 1e-5
+
+    def __init__(self, p_sat: float, lam: float = 1e-3) -> None:
+        self.p, self.lam = p_sat, lam
+
+    def _x(self, h):
+        return np.clip(self.h_max - np.asarray(h, float), 0, None)
+
+    def pressure(self, h):
+        return self.p * (1 - np.exp(-self._x(h) / self.lam))
+
+    def dpressure_dh(self, h):
+        h = np.asarray(h, float)
+        return np.where(h < self.h_max, -self.p / self.lam * np.exp(-self._x(h) / self.lam), 0.0)
+
+    def area_fraction_at(self, h):
+        return np.clip(self._x(h) / 0.1, 0, 1)
+
+
+def test_a_state_outside_the_geometry_ends_the_run_with_a_named_status():
+    """Issue #11: an integrator step that takes the piston through the liner wall is status −3 with a message at
+    the point it happens, not a NaN that surfaces later as an error about an input the user never gave."""
+    import warnings
+
+    from contactrig.core.scene import load_scene
+    from sims.config import SimConfig
+
+    rig = SimConfig.from_scene(load_scene()).rig
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        run = settle(_Saturating(7e4), rig, 25.0, method="RK45", damping_n_s_per_m=0.0, max_evaluations=50_000)
+    assert run.status == -3 and not run.settled
+    assert "left the piston/liner geometry" in run.message and "liner wall" in run.message
+    assert np.all(np.isfinite(run.min_separation_m)) and np.all(np.isfinite(run.velocity_m_per_s))
+    # it really went deep: the last recorded state is past half the piston radius, with the bound 2c − R_l beyond
+    assert run.min_separation_m.min() < -0.5 * rig.piston_radius_m

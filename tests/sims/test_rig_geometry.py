@@ -110,3 +110,41 @@ def test_graded_edges():
     assert e[0] == 0.0 and e[-1] == 1.0 and np.all(np.diff(e) > 0)
     assert np.diff(e)[0] == pytest.approx(0.1)
     assert graded_edges(1.0, 1.0, 0.1).tolist() == [1.0]
+
+
+# ---- states outside the geometry are named where they occur, never NaN (issue #11) -----------------------------
+
+
+def _gap_by_ray(theta: float, h0: float, R_l: float, c: float) -> float:
+    """Independent gap: along the ray from the liner's centre at angle θ from the downward vertical, the distance
+    from the piston circle (centre e below, radius R_p) to the liner circle, found by bisection on the ray."""
+    from scipy.optimize import brentq
+
+    e, rp = c - h0, R_l - c
+    d = np.array([math.sin(theta), -math.cos(theta)])  # unit ray; the piston centre is at (0, −e)
+    inside = lambda r: float(np.hypot(*(r * d - np.array([0.0, -e]))) - rp)  # noqa: E731
+    return R_l - brentq(inside, 0.0, R_l + abs(e), xtol=1e-16, rtol=1e-15)
+
+
+@pytest.mark.parametrize("theta", [0.0, 0.3, math.pi / 2, 2.5, math.pi])
+def test_exact_gap_is_the_ray_distance_up_to_the_geometry_bound(theta):
+    from sims.rig.geometry import gap_m
+
+    R_l, c = 0.042, 40e-6
+    h0 = 2 * c - R_l + 1e-6  # 1 µm inside the deepest minimum gap the geometry allows
+    assert float(gap_m(theta, h0, R_l, c)) == pytest.approx(_gap_by_ray(theta, h0, R_l, c), abs=1e-12)
+
+
+def test_a_minimum_gap_beyond_the_liner_wall_is_a_named_error_not_nan():
+    from sims.rig.geometry import OutOfGeometryError, contact_edge_angle_rad, dgap_dh0, gap_m
+
+    R_l, c = 0.042, 40e-6
+    h0 = np.array([-1e-6, 2 * c - R_l - 1e-4])  # one good, one through the wall
+    theta = np.linspace(0, math.pi, 9)
+    for f in (gap_m, dgap_dh0):
+        with pytest.raises(OutOfGeometryError, match="outside the piston/liner geometry") as err:
+            f(theta, h0[:, None], R_l, c)
+        assert err.value.h0_m == pytest.approx(h0[1])
+        assert np.all(np.isfinite(f(theta, h0[0], R_l, c)))
+    with pytest.raises(OutOfGeometryError):
+        contact_edge_angle_rad(1e-6, float(h0[1]), R_l, c)

@@ -1,0 +1,273 @@
+"""Design of an experiment that tells the contact models apart (``contactrig design``), issue #15 §3.
+
+For a scene (the piston rig, or a press scene with ``[press]``), every contact model predicts
+
+    R_m(W) = R_s + σ_f / A_m(W) + R_c,m(W) + R_macro,m(W)          (:mod:`analysis.resistance_model`)
+
+with the film σ_f [Ω·m²] and series R_s [Ω] of the fit to seed Tab. 1 (a material/circuit property, the same in any
+geometry; R_s ≥ 0), and the clean-metal terms computed. A bench session under a plan (loads, repeats) is simulated
+as the simulated bench does (:mod:`daq` ``--sim``): each block is ``R_s + f·(R_m − R_s) + ε`` with a mean-one
+log-normal re-seating factor f (SD of ln f ``repeat_sd``, default 0.15 from Tab. 1's independent repeats) and the
+instrument noise ε of one Delta block (``noise_v_rms``/(|I|√count), 2182A at the scene's NPLC). Every simulated
+session is fitted with every model by the closed-form weighted least squares of (R_s, σ_f)
+(:func:`analysis.resistance_model.fit_film_series`, "relative" weighting), all sessions at once.
+
+For a pair (t, m) the probability of discrimination is P(χ²_m − χ²_t ≥ 10 | t true), and the pair is told apart by
+a plan when both directions reach ``target`` (90 %). Cost of a plan: loads × (placing time + repeats × block time)
+[s]. The cheapest plan reaching the target for a pair is reported, or "none". Monte-Carlo error of a probability
+p from N sessions: √(p(1−p)/N).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.interpolate import PchipInterpolator
+
+from analysis.resistance_model import elliptic_spot_resistance_ohm, fit_film_series, relative_sigma_ohm
+
+__all__ = ["DesignResult", "ModelCurves", "Plan", "design", "model_curves", "plan_scene_text", "simulate_plan"]
+
+DELTA_AIC = 10.0
+
+
+@dataclass(frozen=True)
+class ModelCurves:
+    """Predicted A(W) [m²] and clean-metal R(W) [Ω] per model on a weight grid [kg]; interpolated log-log."""
+
+    weight_kg: np.ndarray
+    area_m2: dict[str, np.ndarray]
+    clean_ohm: dict[str, np.ndarray]
+    geometry: str
+
+    def at(self, model: str, weights_kg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(A, R_clean) of ``model`` at ``weights_kg`` (within the grid)."""
+        lw = np.log(self.weight_kg)
+        x = np.log(np.asarray(weights_kg, dtype=float))
+        a = np.exp(PchipInterpolator(lw, np.log(self.area_m2[model]))(x))
+        c = np.exp(PchipInterpolator(lw, np.log(self.clean_ohm[model]))(x))
+        return a, c
+
+
+def model_curves(
+    scene: Any, weights_kg: Sequence[float] | np.ndarray, models: Sequence[str] | None = None
+) -> ModelCurves:
+    """A(W) and the clean-metal terms of every model for a rig or press scene at ``weights_kg`` [kg]."""
+    from sims.config import SimConfig
+    from sims.database import build_database
+    from sims.press import PressSettings, press_sweep
+
+    config = SimConfig.from_scene(scene)
+    names = list(models) if models is not None else list(config.database.models)
+    db = build_database(config, models=names)
+    rho = config.materials.resistivity_sum_ohm_m or 8.45e-7
+    e_star = float(config.materials.E_star)
+    press = PressSettings.from_scene(scene)
+    weights = np.asarray(weights_kg, dtype=float)
+    area: dict[str, np.ndarray] = {}
+    clean: dict[str, np.ndarray] = {}
+    if press is not None:
+        res = press_sweep(config, press, names, list(weights), laws={n: db[n] for n in names})
+        for n in names:
+            k = np.asarray(res.provenance["press"]["models"][n]["stiffness_n_per_m"])
+            radius = 0.5 * res.models[n].contact_width_m
+            area[n] = res.models[n].contact_area_m2
+            clean[n] = rho * e_star / (2 * k) + elliptic_spot_resistance_ohm(radius, radius, rho)
+        return ModelCurves(weights, area, clean, "press")
+    from analysis.resistance_model import rig_resistance_terms
+
+    for n in names:
+        terms = rig_resistance_terms(config, n, list(weights), law=db[n])
+        area[n], clean[n] = terms.area_m2, terms.clean_ohm
+    return ModelCurves(weights, area, clean, "rig")
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A candidate session: ``weights_kg`` [kg], ``repeats`` per weight, ``cost_s`` [s]."""
+
+    weights_kg: tuple[float, ...]
+    repeats: int
+    cost_s: float
+
+
+@dataclass(frozen=True)
+class DesignResult:
+    """Discrimination probability per plan and model pair, and the cheapest plan per pair.
+
+    ``probability[(t, m)]`` array over ``plans``: P(χ²_m − χ²_t ≥ 10 | t true); ``pair_score[(a, b)]`` the smaller
+    of the two directions; ``cheapest[(a, b)]`` index into ``plans`` or None; ``n_sessions`` per plan and model.
+    """
+
+    plans: list[Plan]
+    models: list[str]
+    probability: dict[tuple[str, str], np.ndarray] = field(repr=False)
+    pair_score: dict[tuple[str, str], np.ndarray] = field(repr=False)
+    cheapest: dict[tuple[str, str], int | None]
+    n_sessions: int
+    target: float
+    geometry: str
+    film_ohm_m2: float
+    series_ohm: float
+
+    def statement(self) -> str:
+        """Plain sentences: which pairs any plan tells apart, with the cheapest plan and its probability."""
+        told = {k: v for k, v in self.cheapest.items() if v is not None}
+        lines = [
+            f"{self.geometry}: {len(told)} of {len(self.cheapest)} model pairs can be told apart (ΔAIC ≥ "
+            f"{DELTA_AIC:g} in ≥ {100 * self.target:.0f} % of {self.n_sessions} simulated sessions, both ways)."
+        ]
+        for (a, b), i in self.cheapest.items():
+            if i is None:
+                best = float(self.pair_score[(a, b)].max())
+                lines.append(f"- {a} vs {b}: no plan reaches it (best {100 * best:.0f} %).")
+                continue
+            p = self.plans[i]
+            err = math.sqrt(max(self.pair_score[(a, b)][i] * (1 - self.pair_score[(a, b)][i]), 1e-12) / self.n_sessions)
+            lines.append(
+                f"- {a} vs {b}: {len(p.weights_kg)} loads {p.weights_kg[0]:g}–{p.weights_kg[-1]:g} kg × {p.repeats} "
+                f"repeats ({p.cost_s / 60:.0f} min): {100 * self.pair_score[(a, b)][i]:.0f} ± {100 * err:.0f} %."
+            )
+        return "\n".join(lines)
+
+
+def simulate_plan(
+    curves: ModelCurves,
+    plan: Plan,
+    truth: str,
+    film: float,
+    series: float,
+    rng: np.random.Generator,
+    n_sessions: int,
+    repeat_sd: float,
+    block_sd_ohm: float,
+) -> dict[str, np.ndarray]:
+    """χ² of every model for ``n_sessions`` simulated sessions of ``plan`` with model ``truth`` true."""
+    w = np.asarray(plan.weights_kg)
+    a_t, c_t = curves.at(truth, w)
+    contact = film / a_t + c_t
+    f = rng.lognormal(-0.5 * repeat_sd**2, repeat_sd, (n_sessions, w.size, plan.repeats))
+    values = series + f * contact[None, :, None] + block_sd_ohm * rng.standard_normal(f.shape)
+    mean = values.mean(-1)
+    sigma = relative_sigma_ohm(values)
+    out = {}
+    for m in curves.area_m2:
+        a_m, c_m = curves.at(m, w)
+        out[m] = fit_film_series(mean, sigma, a_m, c_m).chi2
+    return out
+
+
+def candidate_plans(
+    w_min: float,
+    w_max: float,
+    block_s: float,
+    place_s: float = 60.0,
+    loads: Sequence[int] = (4, 8, 16),
+    repeats: Sequence[int] = (3, 6, 12, 24, 48),
+) -> list[Plan]:
+    """Plans over [w_min, w_max] kg (log-spaced loads, full range and upper half-decade), sorted by cost."""
+    plans = []
+    for lo in (w_min, math.sqrt(w_min * w_max)):
+        for n in loads:
+            weights = tuple(float(f"{x:.4g}") for x in np.geomspace(lo, w_max, n))
+            for r in repeats:
+                plans.append(Plan(weights, r, n * (place_s + r * block_s)))
+    return sorted(plans, key=lambda p: p.cost_s)
+
+
+def design(
+    curves: ModelCurves,
+    plans: Sequence[Plan],
+    *,
+    film_ohm_m2: float = 2.2e-9,
+    series_ohm: float = 0.0,
+    n_sessions: int = 400,
+    repeat_sd: float = 0.15,
+    block_sd_ohm: float = 1e-7,
+    target: float = 0.9,
+    seed: int = 0,
+) -> DesignResult:
+    """Probability of discrimination for every plan and model pair (module docstring), vectorised per plan."""
+    rng = np.random.default_rng(seed)
+    models = list(curves.area_m2)
+    prob = {(t, m): np.zeros(len(plans)) for t in models for m in models if t != m}
+    for i, plan in enumerate(plans):
+        for t in models:
+            chi2 = simulate_plan(curves, plan, t, film_ohm_m2, series_ohm, rng, n_sessions, repeat_sd, block_sd_ohm)
+            for m in models:
+                if m != t:
+                    prob[(t, m)][i] = float(np.mean(chi2[m] - chi2[t] >= DELTA_AIC))
+    pair_score: dict[tuple[str, str], np.ndarray] = {}
+    cheapest: dict[tuple[str, str], int | None] = {}
+    for j, a in enumerate(models):
+        for b in models[j + 1 :]:
+            score = np.minimum(prob[(a, b)], prob[(b, a)])
+            pair_score[(a, b)] = score
+            ok = np.flatnonzero(score >= target)
+            cheapest[(a, b)] = int(ok[np.argmin([plans[int(k)].cost_s for k in ok])]) if ok.size else None
+    return DesignResult(
+        list(plans), models, prob, pair_score, cheapest, n_sessions, target, curves.geometry, film_ohm_m2, series_ohm
+    )
+
+
+def chosen_plan(result: DesignResult) -> Plan:
+    """The plan to run: the cheapest one that tells apart every pair that any plan can; else the best on average."""
+    reachable = [k for k, v in result.cheapest.items() if v is not None]
+    if reachable:
+        ok = np.all([result.pair_score[k] >= result.target for k in reachable], axis=0)
+        idx = np.flatnonzero(ok)
+        if idx.size:
+            return result.plans[int(idx[np.argmin([result.plans[i].cost_s for i in idx])])]
+    mean = np.mean(list(result.pair_score.values()), axis=0)
+    return result.plans[int(np.argmax(mean))]
+
+
+def plan_scene_text(scene_text: str, plan: Plan) -> str:
+    """The scene text with ``[session] repeats`` and ``weights_kg`` set to ``plan`` (other lines untouched)."""
+    found = re.search(r"^\[session\]", scene_text, flags=re.M)
+    if found is None:
+        return (
+            scene_text
+            + f"\n[session]\nrepeats = {plan.repeats}\nweights_kg = [{', '.join(f'{w:g}' for w in plan.weights_kg)}]\n"
+        )
+    start = found.start()
+    nxt = re.search(r"^\[", scene_text[start + 1 :], flags=re.M)
+    end = len(scene_text) if nxt is None else start + 1 + nxt.start()
+    body = scene_text[start:end]
+    body = re.sub(r"^weights_kg\s*=.*\n", "", body, flags=re.M)
+    weights = ", ".join(f"{w:g}" for w in plan.weights_kg)
+    body = re.sub(
+        r"^repeats\s*=\s*\d+",
+        f"repeats = {plan.repeats}   # chosen by contactrig design\n"
+        f"weights_kg = [{weights}]   # chosen by contactrig design",
+        body,
+        count=1,
+        flags=re.M,
+    )
+    return scene_text[:start] + body + scene_text[end:]
+
+
+def draw_map(result: DesignResult, path: str) -> None:
+    """Discrimination map: probability per plan (rows, by cost) and model pair (columns); saved to ``path``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    pairs = list(result.pair_score)
+    grid = np.array([result.pair_score[p] for p in pairs]).T
+    fig, ax = plt.subplots(figsize=(1.2 + 0.9 * len(pairs), 0.18 * len(result.plans) + 1.5))
+    im = ax.imshow(grid, aspect="auto", vmin=0, vmax=1, cmap="viridis")
+    ax.set_xticks(range(len(pairs)), [f"{a}\nvs {b}" for a, b in pairs], fontsize=6, rotation=90)
+    labels = [f"{len(p.weights_kg)}×{p.repeats} {p.weights_kg[0]:g}–{p.weights_kg[-1]:g} kg" for p in result.plans]
+    ax.set_yticks(range(len(labels)), labels, fontsize=5)
+    ax.set_title(f"{result.geometry}: P(ΔAIC ≥ {DELTA_AIC:g}, both ways)", fontsize=8)
+    fig.colorbar(im, ax=ax)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

@@ -1,0 +1,302 @@
+"""A physical contact-resistance model: film + clean-metal constriction + macroscopic constriction + series.
+
+The seed paper's eq. 23, ``R = ζh/A``, has no meaning as a constriction resistance (that scales as ρ/Σa, with no
+length h). It is the form of a surface-film resistance ``σ_f/A_real`` with ``σ_f = ζh`` [Ω·m²] (a film of
+resistivity ρ_f and thickness t has σ_f = ρ_f t; Holm, *Electric Contacts* §14). The model fitted here::
+
+    R(W) = R_s + σ_f / A(W) + R_c(W) + R_macro(W)                                          [Ω]
+
+* ``R_s`` [Ω] series resistance of leads, other contacts and bodies (fitted);
+* ``σ_f`` [Ω·m²] film resistance per unit real area (fitted; eq. 23's ζh);
+* ``R_c = (ρ1 + ρ2) E* / (2 K)`` clean-metal constriction of all micro-contacts, Barber, Proc. R. Soc. A 459
+  (2003) 53 (exact for elastic half-spaces, any spot shapes, small slopes): ``K`` the total normal stiffness of
+  the interface [N/m]. In the rig, the spots of each skirt element are in parallel, so ``K = Σ −p′(h_i) ΔA_i``
+  over the skirt (the database's slope, local normals), computed, not fitted;
+* ``R_macro`` [Ω] constriction of the nominal contact band (the bodies seen from outside the band), Holm's
+  elliptic spot of semi-axes ``a ≥ b``: ``(ρ1 + ρ2) K(e) / (2π a)``, ``e² = 1 − b²/a²`` (Holm §4; the circle gives
+  ``(ρ1 + ρ2)/(4a)``), with ``a = L/2`` and ``b`` half the nominal band width; computed.
+
+Holm's single spot (all of A in one circle, ``(ρ1+ρ2)/(4√(A/π))``, the ``holm`` conversion of :mod:`analysis.fit`)
+is an **upper bound** on the clean-metal constriction of any contact of real area A (Pólya & Szegő 1951: among
+plane sets of given area the disc has the least capacity, hence the largest constriction resistance); it is not a
+model of the rig, whose measured log slope (−0.92 in Tab. 1) it cannot follow (−0.5 by construction).
+
+The fit of ``R_s`` and ``σ_f`` is linear with the clean-metal terms as a known offset: weighted least squares in
+closed form (:func:`fit_film_series`), vectorised over any number of sessions (the design's Monte Carlo uses it).
+Weights as :mod:`analysis.fit`'s ``"relative"`` weighting: σ_i = c·R̄_i/√n_i, c the pooled relative SD.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.special import ellipk
+
+from contactrig.core.validation import SettingError, check_range
+
+__all__ = [
+    "FilmFit",
+    "RigResistanceTerms",
+    "barber_resistance_ohm",
+    "elliptic_spot_resistance_ohm",
+    "fit_film_series",
+    "fit_measured",
+    "holm_upper_bound_ohm",
+    "parallel_holm_ohm",
+    "rig_resistance_terms",
+    "tab1_statement",
+]
+
+
+def _positive(field_name: str, value: ArrayLike, unit: str) -> np.ndarray:
+    x = np.asarray(value, dtype=float)
+    if not np.all(np.isfinite(x)) or np.any(x <= 0):
+        raise SettingError(field_name, value if x.ndim == 0 else "array", f"expected finite values > 0 {unit}")
+    return x
+
+
+def barber_resistance_ohm(
+    stiffness_n_per_m: ArrayLike, resistivity_sum_ohm_m: float, composite_modulus_pa: float
+) -> np.ndarray:
+    """Barber (2003): clean-metal constriction ``R = (ρ1 + ρ2) E* / (2 dF/dδ)`` [Ω].
+
+    ``stiffness_n_per_m`` incremental normal stiffness dF/dδ [N/m] (> 0); ρ1 + ρ2 [Ω·m]; E* [Pa] (seed eq. 4).
+    """
+    k = _positive("stiffness_n_per_m", stiffness_n_per_m, "N/m")
+    rho = check_range("resistivity_sum_ohm_m", resistivity_sum_ohm_m, 0.0, None, lo_open=True, unit="Ω·m")
+    e = check_range("composite_modulus_pa", composite_modulus_pa, 0.0, None, lo_open=True, unit="Pa")
+    return rho * e / (2.0 * k)
+
+
+def elliptic_spot_resistance_ohm(
+    semi_axis_a_m: ArrayLike, semi_axis_b_m: ArrayLike, resistivity_sum_ohm_m: float
+) -> np.ndarray:
+    """Holm: constriction of one elliptic spot between two half-spaces, ``(ρ1+ρ2) K(e)/(2π a)`` [Ω], a ≥ b [m].
+
+    ``K`` the complete elliptic integral of the first kind of modulus ``e = √(1 − b²/a²)``; the circle gives
+    ``(ρ1+ρ2)/(4a)``; the axes may be given in either order.
+    """
+    a1 = _positive("semi_axis_a_m", semi_axis_a_m, "m")
+    b1 = _positive("semi_axis_b_m", semi_axis_b_m, "m")
+    a, b = np.maximum(a1, b1), np.minimum(a1, b1)
+    rho = check_range("resistivity_sum_ohm_m", resistivity_sum_ohm_m, 0.0, None, lo_open=True, unit="Ω·m")
+    return np.asarray(rho * ellipk(1.0 - (b / a) ** 2) / (2.0 * math.pi * a))
+
+
+def parallel_holm_ohm(spot_areas_m2: ArrayLike, resistivity_sum_ohm_m: float) -> float:
+    """Holm spots in parallel, each a circle of its area: ``1/R = Σ 4 a_i/(ρ1 + ρ2)``, ``a_i = √(A_i/π)`` [Ω]."""
+    areas = _positive("spot_areas_m2", spot_areas_m2, "m²").reshape(-1)
+    rho = check_range("resistivity_sum_ohm_m", resistivity_sum_ohm_m, 0.0, None, lo_open=True, unit="Ω·m")
+    return float(rho / (4.0 * np.sum(np.sqrt(areas / math.pi))))
+
+
+def holm_upper_bound_ohm(area_m2: ArrayLike, resistivity_sum_ohm_m: float) -> np.ndarray:
+    """Holm's single spot of the whole real area, ``(ρ1+ρ2)/(4√(A/π))`` [Ω]: an upper bound on the clean-metal
+    constriction of any contact of real area A (Pólya–Szegő; module docstring)."""
+    a = np.sqrt(_positive("area_m2", area_m2, "m²") / math.pi)
+    rho = check_range("resistivity_sum_ohm_m", resistivity_sum_ohm_m, 0.0, None, lo_open=True, unit="Ω·m")
+    return np.asarray(rho / (4.0 * a))
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# The rig's clean-metal terms from the contact solution.
+
+
+@dataclass(frozen=True)
+class RigResistanceTerms:
+    """The computed (not fitted) parts of R(W) for one contact model, per weight.
+
+    ``weight_kg`` [kg]; ``area_m2`` real area A(W) [m²]; ``stiffness_n_per_m`` K(W) = Σ −p′(h) ΔA [N/m];
+    ``band_width_m`` nominal band width [m]; ``barber_ohm`` R_c [Ω]; ``macro_ohm`` R_macro [Ω]; ``holm_bound_ohm``
+    Holm's single-spot upper bound [Ω]; ``resistivity_sum_ohm_m`` ρ1 + ρ2; ``composite_modulus_pa`` E*.
+    """
+
+    model: str
+    weight_kg: np.ndarray
+    area_m2: np.ndarray
+    stiffness_n_per_m: np.ndarray
+    band_width_m: np.ndarray
+    barber_ohm: np.ndarray
+    macro_ohm: np.ndarray
+    holm_bound_ohm: np.ndarray
+    resistivity_sum_ohm_m: float
+    composite_modulus_pa: float
+
+    @property
+    def clean_ohm(self) -> np.ndarray:
+        """Clean-metal part R_c + R_macro [Ω]."""
+        return self.barber_ohm + self.macro_ohm
+
+
+def _skirt_stiffness(batch: Any) -> np.ndarray:
+    """K = Σ −p′(h_i) ΔA_i [N/m] over the skirt mesh of a batch equilibrium, per weight (local normals)."""
+    h = batch.loads.gap(np.asarray(batch.min_separation_m, dtype=float))
+    dp = np.asarray(batch.loads.law.dpressure_dh(h.reshape(-1)), dtype=float).reshape(h.shape)
+    return np.asarray(np.einsum("...ty,ty->...", -dp, batch.mesh.area_m2))
+
+
+def rig_resistance_terms(
+    config: Any, model: str, weights_kg: Sequence[float] | None = None, *, law: Any = None
+) -> RigResistanceTerms:
+    """The clean-metal terms of the rig for ``model`` at ``weights_kg`` [kg] (default the scene's).
+
+    ``config`` a :class:`sims.config.SimConfig` whose materials give ``resistivity_ohm_m`` for both bodies;
+    ``law`` a prebuilt contact law (else the model's curve is built). Rigid rig, :func:`sims.rig.batch_equilibrium`.
+    """
+    from sims.rig import batch_equilibrium
+
+    rho = config.materials.resistivity_sum_ohm_m
+    if rho is None:
+        raise SettingError("materials.liner.resistivity_ohm_m", None, "both bodies' resistivities are needed")
+    if law is None:
+        from sims.database import build_database
+
+        law = build_database(config, models=[model])[model]
+    weights = tuple(config.rig.weights_kg if weights_kg is None else weights_kg)
+    batch = batch_equilibrium(law, config.rig, weights, name=model)
+    e_star = float(config.materials.E_star)
+    stiffness = _skirt_stiffness(batch)
+    area = np.asarray(batch.contact_area_m2, dtype=float)
+    width = np.asarray(batch.contact_width_m, dtype=float)
+    return RigResistanceTerms(
+        model=model,
+        weight_kg=np.asarray(weights, dtype=float),
+        area_m2=area,
+        stiffness_n_per_m=stiffness,
+        band_width_m=width,
+        barber_ohm=barber_resistance_ohm(stiffness, rho, e_star),
+        macro_ohm=elliptic_spot_resistance_ohm(0.5 * config.rig.skirt_length_m, 0.5 * width, rho),
+        holm_bound_ohm=holm_upper_bound_ohm(area, rho),
+        resistivity_sum_ohm_m=rho,
+        composite_modulus_pa=e_star,
+    )
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# The linear fit of R_s and σ_f, closed form, vectorised over sessions.
+
+
+@dataclass(frozen=True)
+class FilmFit:
+    """Weighted least squares of ``R − R_clean = R_s + σ_f/A`` (leading axes: sessions; last axis: weights).
+
+    ``series_ohm`` R_s [Ω], ``film_ohm_m2`` σ_f [Ω·m²], their standard errors ``*_se`` (from the weights:
+    ``σ_i`` known up to the pooled relative scatter), ``chi2`` [-], ``dof``, ``aic`` = χ² + 2·2,
+    ``predicted_ohm`` the fitted R(W) [Ω], ``shares`` dict of each term's share of the fitted R per weight.
+    """
+
+    series_ohm: np.ndarray
+    film_ohm_m2: np.ndarray
+    series_se: np.ndarray
+    film_se: np.ndarray
+    chi2: np.ndarray
+    dof: int
+    aic: np.ndarray
+    predicted_ohm: np.ndarray = field(repr=False)
+    shares: dict[str, np.ndarray] = field(repr=False, default_factory=dict)
+
+
+def fit_film_series(
+    mean_ohm: ArrayLike,
+    sigma_ohm: ArrayLike,
+    area_m2: ArrayLike,
+    clean_ohm: ArrayLike,
+    *,
+    barber_ohm: ArrayLike | None = None,
+) -> FilmFit:
+    """Closed-form WLS of ``R̄_i = R_s + σ_f/A_i + R_clean,i`` with weights ``1/σ_i²``.
+
+    ``mean_ohm``, ``sigma_ohm`` shape (..., m) [Ω] (any leading axes: many sessions at once); ``area_m2`` and
+    ``clean_ohm`` shape (m,) or broadcastable [m², Ω]. Normal equations of the two parameters solved directly
+    (the determinant is positive for ≥ 2 distinct areas). ``barber_ohm`` splits the clean share in the report.
+    """
+    y = np.asarray(mean_ohm, dtype=float) - np.asarray(clean_ohm, dtype=float)
+    v = 1.0 / np.asarray(sigma_ohm, dtype=float) ** 2
+    x = 1.0 / _positive("area_m2", area_m2, "m²")
+    x = np.broadcast_to(x, y.shape)
+    s, sx, sxx = v.sum(-1), (v * x).sum(-1), (v * x * x).sum(-1)
+    sy, sxy = (v * y).sum(-1), (v * x * y).sum(-1)
+    det = s * sxx - sx * sx
+    film = (s * sxy - sx * sy) / det
+    series = (sxx * sy - sx * sxy) / det
+    fit_y = series[..., None] + film[..., None] * x
+    chi2 = np.sum(v * (y - fit_y) ** 2, axis=-1)
+    predicted = fit_y + np.asarray(clean_ohm, dtype=float)
+    clean = np.broadcast_to(np.asarray(clean_ohm, dtype=float), predicted.shape)
+    shares = {
+        "series": np.broadcast_to(series[..., None], predicted.shape) / predicted,
+        "film": film[..., None] * x / predicted,
+        "clean_metal": clean / predicted,
+    }
+    if barber_ohm is not None:
+        shares["barber"] = np.broadcast_to(np.asarray(barber_ohm, dtype=float), predicted.shape) / predicted
+    m = y.shape[-1]
+    return FilmFit(
+        series_ohm=series,
+        film_ohm_m2=film,
+        series_se=np.sqrt(sxx / det),
+        film_se=np.sqrt(s / det),
+        chi2=chi2,
+        dof=m - 2,
+        aic=chi2 + 4.0,
+        predicted_ohm=predicted,
+        shares=shares,
+    )
+
+
+def relative_sigma_ohm(values_ohm: ArrayLike) -> np.ndarray:
+    """σ_i = c·R̄_i/√n_i with c the pooled relative SD of the repeats (``analysis.fit``'s "relative" weighting).
+
+    ``values_ohm`` shape (..., m, r) [Ω], r ≥ 2 repeats at every weight; returns shape (..., m).
+    """
+    vals = np.asarray(values_ohm, dtype=float)
+    n = vals.shape[-1]
+    mean = vals.mean(-1)
+    rel2 = vals.var(-1, ddof=1) / mean**2
+    c = np.sqrt(rel2.mean(-1))
+    return np.asarray(c[..., None] * mean / math.sqrt(n))
+
+
+def fit_measured(curve: Any, terms: RigResistanceTerms) -> FilmFit:
+    """Fit a :class:`analysis.measured.MeasuredCurve` (complete repeats) with the clean terms of ``terms``."""
+    if curve.weight_kg.shape != terms.weight_kg.shape or not np.allclose(curve.weight_kg, terms.weight_kg):
+        raise SettingError("weight_kg", curve.weight_kg.tolist(), "expected the weights the terms were computed at")
+    n = curve.n
+    rel = curve.sd_ohm / curve.mean_ohm
+    c = math.sqrt(float(np.sum((n - 1) * rel**2) / np.sum(n - 1)))
+    sigma = c * curve.mean_ohm / np.sqrt(n)
+    return fit_film_series(curve.mean_ohm, sigma, terms.area_m2, terms.clean_ohm, barber_ohm=terms.barber_ohm)
+
+
+def tab1_statement(config: Any = None, model: str = "greenwood_tripp", curve: Any = None) -> str:
+    """The plain sentence for the Tab. 1 report: fitted σ_f, R_s and the clean-metal fraction (default scene).
+
+    ``config`` a :class:`sims.config.SimConfig` (None → the default scene), ``curve`` a measured curve (None →
+    seed Tab. 1 via :func:`analysis.measured.load_tab1`).
+    """
+    if config is None:
+        from contactrig.core.scene import load_scene
+        from sims.config import SimConfig
+
+        config = SimConfig.from_scene(load_scene(None))
+    if curve is None:
+        from analysis.measured import load_tab1
+
+        curve = load_tab1()
+    terms = rig_resistance_terms(config, model, [float(w) for w in curve.weight_kg])
+    fit = fit_measured(curve, terms)
+    clean = fit.shares["clean_metal"]
+    return (
+        f"With the {model} contact area, Tab. 1 is R = R_s + σ_f/A + clean metal with σ_f = "
+        f"{float(fit.film_ohm_m2):.2e} ± {float(fit.film_se):.1e} Ω·m² (a surface film; eq. 23's ζh) and R_s = "
+        f"{1e3 * float(fit.series_ohm):.2f} ± {1e3 * float(fit.series_se):.2f} mΩ; the clean-metal constriction "
+        f"(Barber, ρ1+ρ2 = {terms.resistivity_sum_ohm_m:.3g} Ω·m, plus the band's macro-constriction "
+        f"{1e3 * float(terms.macro_ohm.mean()):.3f} mΩ) is only {100 * float(clean.min()):.1f}–"
+        f"{100 * float(clean.max()):.1f} % of the measured resistance, so Tab. 1 measures a film (or the circuit), "
+        "not metal-to-metal constriction."
+    )

@@ -1,0 +1,42 @@
+"""Options shared by several commands, declared once so they read and behave the same everywhere."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def models_help(default: str = "the scene's [database] models") -> str:
+    """``--models`` help from the model registry."""
+    from sims.models import model_names
+
+    return (
+        f"contact models, comma-separated or the option repeated (default: {default}); registered: "
+        + ", ".join(model_names())
+    )
+
+
+def _split(values: list[str] | None) -> list[str] | None:
+    if values is None:
+        return None
+    return [m for v in values for m in (s.strip() for s in v.split(",")) if m]
+
+
+class _Models(argparse.Action):
+    """``--models a,b`` = ``--models a --models b`` (one value per option, so a scene file after it is never taken
+    for a model); unknown names are refused at once, naming the registered ones."""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: object,
+                 option_string: str | None = None) -> None:  # fmt: skip
+        from sims.database import check_models
+
+        before = getattr(namespace, self.dest, None) or []
+        names = _split([*before, *(values if isinstance(values, list) else [str(values)])]) or []
+        try:
+            setattr(namespace, self.dest, list(check_models("--models", names)))
+        except ValueError as exc:
+            parser.error(str(exc))
+
+
+def add_models_option(parser: argparse.ArgumentParser, default: str = "the scene's [database] models") -> None:
+    """The one ``--models`` option (``args.models``: a list of registered keys, or None for the default)."""
+    parser.add_argument("--models", metavar="NAME,NAME", action=_Models, default=None, help=models_help(default))

@@ -1,0 +1,51 @@
+"""The press geometry (sims.press): rough sphere on a flat with bulk elasticity, against Hertz (σ → 0)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from sims.press import PressSettings, press_equilibrium
+
+
+class _StiffLayer:
+    """p = k (−h)^1.5: an asperity layer whose compliance → 0 (σ → 0)."""
+
+    h_min, h_max = -1e-6, 0.0
+
+    def __init__(self, k: float) -> None:
+        self.k = k
+
+    def pressure(self, h: np.ndarray) -> np.ndarray:
+        return self.k * np.maximum(-np.asarray(h, dtype=float), 0.0) ** 1.5
+
+    def dpressure_dh(self, h: np.ndarray) -> np.ndarray:
+        return -1.5 * self.k * np.maximum(-np.asarray(h, dtype=float), 0.0) ** 0.5
+
+    def area_fraction_at(self, h: np.ndarray) -> np.ndarray:
+        return np.minimum(1.0, np.maximum(-np.asarray(h, dtype=float), 0.0) / 1e-9)
+
+
+def test_press_smooth_limit_is_hertz() -> None:
+    """Johnson's rough sphere with σ → 0: peak p0 = 3W/(2πa²) and contact radius a = (3WR/(4E*))^(1/3)."""
+    settings = PressSettings(sphere_radius_m=0.05, weights_kg=(10.0,), n_rings=120)
+    e_star, load = 49.1e9, 10.0 * 9.80665
+    a = (3 * load * 0.05 / (4 * e_star)) ** (1 / 3)
+    p0 = 3 * load / (2 * math.pi * a * a)
+    law = _StiffLayer(p0 / (1e-3 * a * a / 0.05) ** 1.5)
+    c = press_equilibrium(law, settings, 10.0, e_star)
+    assert c.solution.success and c.solution.nit > 0
+    assert c.peak_pressure_pa == pytest.approx(p0, rel=0.01)
+    assert c.nominal_radius_m == pytest.approx(a, rel=0.04)
+    assert c.solution.load_n == pytest.approx(load, rel=1e-9)
+
+
+def test_press_settings_are_validated() -> None:
+    from contactrig.core.validation import SettingError
+
+    with pytest.raises(SettingError, match="sphere_radius_m"):
+        PressSettings(sphere_radius_m=-1.0)
+    with pytest.raises(SettingError, match="press"):
+        PressSettings.from_table({"radius": 1.0})
