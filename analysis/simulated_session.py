@@ -6,7 +6,8 @@ series term, and a re-seating factor on the contact term,
     R_b = R_s + f_b · ζ · h_R / A(W),     f_b = exp(σ·z_b − σ²/2),  z_b ~ N(0, 1)
 
 (:class:`analysis.circuit.CircuitSettings`: ζ, h_R and R_s from the scene's ``[circuit]``), with A(W) the real
-contact area the rig simulation (``sims.rig.sweep``) finds at that weight for the one model ``[session].sim_model``.
+contact area the specimen simulation (:func:`sims.specimen.sweep_specimen`: the rig, or the press of a press scene)
+finds at that weight for the one model ``[session].sim_model``.
 
 Why f_b: on the real bench the contact is made again for every repeat (the weight is lifted and re-placed, the
 piston re-seats, oxide and contamination films differ), so repeats at one weight scatter far more than the
@@ -64,15 +65,15 @@ def simulated_resistances(plan: SessionPlan) -> dict[str, Any]:
     """
     from analysis.circuit import CircuitSettings
     from sims.config import SimConfig
-    from sims.rig import sweep
+    from sims.specimen import sweep_specimen
 
     model = plan.session.sim_model
     weights = list(plan.session.weights_kg)
-    result = sweep(SimConfig.from_scene(plan.scene), models=[model], weights_kg=weights)
+    result = sweep_specimen(SimConfig.from_scene(plan.scene), models=[model], weights_kg=weights)
     area = np.asarray(result.models[model].contact_area_m2, dtype=float)
     if area.shape != (len(weights),) or not np.all(np.isfinite(area)) or np.any(area <= 0):
         raise RuntimeError(
-            f"the rig simulation gave no positive contact area for every weight with model {model!r} "
+            f"the specimen simulation gave no positive contact area for every weight with model {model!r} "
             f"(areas {area.tolist()} m²): the simulated bench cannot compute R = R_s + ζh/A"
         )
     circuit = CircuitSettings.from_scene(plan.scene)

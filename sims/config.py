@@ -16,6 +16,7 @@ if TYPE_CHECKING:
     from contactrig.core.scene import Scene
     from sims.database import DatabaseSettings
     from sims.materials import ContactMaterials
+    from sims.press import PressSettings
     from sims.rig.settings import RigSettings
     from sims.surface import SurfaceSpec
 
@@ -31,6 +32,7 @@ class SimConfig:
     piston: SurfaceSpec
     database: DatabaseSettings
     rig: RigSettings
+    press: PressSettings | None = None  # a press scene (sphere on flat) when the scene has [press]; else the rig's
     name: str = "unnamed"
     source: str = "<string>"
     text: str = field(default="", repr=False)
@@ -40,6 +42,7 @@ class SimConfig:
         """Parse the simulation tables of ``scene`` (each table once; errors name the scene key)."""
         from sims.database import DatabaseSettings
         from sims.materials import materials_from_scene
+        from sims.press import PressSettings
         from sims.rig.settings import RigSettings
         from sims.surface import surfaces_from_scene
 
@@ -50,10 +53,21 @@ class SimConfig:
             piston=piston,
             database=DatabaseSettings.from_scene(scene),
             rig=RigSettings.from_scene(scene),
+            press=PressSettings.from_scene(scene),
             name=scene.name,
             source=scene.source,
             text=scene.text,
         )
+
+    @property
+    def specimen(self) -> str:
+        """``"press"`` (a rough sphere on a rough flat, ``[press]``) or ``"rig"`` (the piston in its liner)."""
+        return "press" if self.press is not None else "rig"
+
+    @property
+    def weights_kg(self) -> tuple[float, ...]:
+        """The specimen's load sweep [kg]: ``[press] weights_kg`` or ``[rig] weights_kg``."""
+        return tuple(self.press.weights_kg if self.press is not None else self.rig.weights_kg)
 
     def with_changes(self, **changes: Any) -> SimConfig:
         """A copy with some parts replaced (``database=…``, ``rig=…``), as :func:`dataclasses.replace`."""

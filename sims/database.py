@@ -405,12 +405,15 @@ def asperity_sums(
 @dataclass(frozen=True)
 class Summits:
     """Summits of the composite surface z_liner + z_piston, highest first: heights (m) and mean-curvature radii
-    (m, seed eq. 8), the map's nominal area A0 (m²), and the separation grid the summation models share (m)."""
+    (m, seed eq. 8), the map's nominal area A0 (m²), and the separation grid the summation models share (m); with
+    the composite height map itself (m, pitch ``pixel_m``) for models that solve the whole topography (BEM)."""
 
     height_m: NDArray[np.float64]
     radius_m: NDArray[np.float64]
     area_m2: float
     separation_m: NDArray[np.float64]
+    composite_m: NDArray[np.float64] | None = field(default=None, repr=False)
+    pixel_m: float = math.nan
 
 
 @dataclass
@@ -525,7 +528,7 @@ def _composite_summits(
     if float(zs[0]) <= h_lo:
         raise SettingError("database.h_min_sigma", st.h_min_sigma, "is above the highest summit")
     h = np.linspace(h_lo, float(zs[0]), st.n_separations)
-    return Summits(zs, data.radius_m[order], data.area_m2, h)
+    return Summits(zs, data.radius_m[order], data.area_m2, h, composite_m=composite, pixel_m=liner.pixel_m)
 
 
 def _with_overrides(

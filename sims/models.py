@@ -35,7 +35,7 @@ __all__ = [
 ]
 
 # Modules whose import registers the built-in models (imported lazily, on the first look-up).
-BUILTIN_MODULES = ("sims.greenwood_tripp", "sims.asperity")
+BUILTIN_MODULES = ("sims.greenwood_tripp", "sims.asperity", "sims.bem_database")
 
 
 @dataclass(frozen=True)

@@ -274,10 +274,14 @@ def test_cli_database(tmp_path) -> None:
     assert main(["database", str(scene), "-o", str(out), "--models", "greenwood_tripp,hertz"]) == 0
     assert list(load_database(out)) == ["greenwood_tripp", "hertz"]
     assert load_database(out)["greenwood_tripp"].parameters["heights"] == "summits"
-    assert main(["database", str(scene), "-o", str(out), "--models", "greenwood_tripp", "--gt-heights", "seed"]) == 0
+    argv = ["database", str(scene), "-o", str(out), "--models", "greenwood_tripp", "--gt-heights", "seed"]
+    assert main(argv) == 2  # an existing file is never replaced without --force
+    assert main([*argv, "--force"]) == 0
     back = load_database(out)["greenwood_tripp"]
     assert back.parameters["heights"] == "seed" and back.parameters["offset_m"] == 0.0
-    assert main(["database", str(scene), "-o", str(out), "--models", "nope"]) == 2
+    with pytest.raises(SystemExit) as usage:  # an unknown model is a usage error: one line, exit 2
+        main(["database", str(scene), "-o", str(out), "--models", "nope"])
+    assert usage.value.code == 2
 
 
 def test_cli_plot(tmp_path) -> None:
