@@ -11,6 +11,9 @@
    M4–M6 are arithmetic copies of them);
 5. write the figures and ``report.md`` into the output directory.
 
+Every file the demo writes is checked before it starts: an existing one (an earlier demo's ``session.h5``, say) is
+refused unless ``force`` (``--force``); the folder is created when missing (:mod:`contactrig.core.files`).
+
 Because the bench was built from one model with known R_s and ζ, the report shows whether the fit recovers them
 (within intervals that reflect the Tab. 1-like repeat scatter) — an end-to-end check of the whole chain.
 """
@@ -40,20 +43,26 @@ class DemoResult:
     analyses: list[Any] = field(repr=False, default_factory=list)
 
 
+#: Titles of the demo's analyses (one report section and one set of figure files each).
+TITLES = ("Simulated session", "Seed paper Tab. 1", "Seed paper Tab. 1 (M1, M2, M3)")
+
+
 def run_demo(
     directory: str | Path = "contactrig-demo",
     *,
     n_boot: int = 2000,
     stream: TextIO | None = None,
+    force: bool = False,
 ) -> DemoResult:
-    """Run the demo into ``directory`` (created; existing demo files in it are replaced). Progress goes to
-    ``stream`` (None: stdout)."""
+    """Run the demo into ``directory`` (created when missing; files of an earlier demo in it are refused unless
+    ``force``). Progress goes to ``stream`` (None: stdout)."""
     import warnings
 
     from analysis.measured import MeasuredCurve
     from analysis.pipeline import analyse, analyse_tab1, simulate
-    from analysis.report import output_directory, write_report
+    from analysis.report import output_directory, report_outputs, write_report
     from analysis.simulated_session import SimulatedRigBench
+    from contactrig.core.files import refuse_existing
     from contactrig.core.scene import load_scene
     from contactrig.core.validation import check_int
     from daq import load_session
@@ -63,6 +72,7 @@ def run_demo(
 
     check_int("bootstrap", n_boot, 0, 1_000_000)
     out = output_directory(directory)
+    refuse_existing([out / "sim.h5", out / "session.h5", *report_outputs(out, TITLES)], force=force)
     say = stream if stream is not None else sys.stdout
     timings: dict[str, float] = {}
     t_all = time.perf_counter()
@@ -75,12 +85,12 @@ def run_demo(
     scene = load_scene(None)
     t0 = time.perf_counter()
     sweep_result, database = simulate(scene, None)
-    sim_path = save_sweep(sweep_result, out / "sim.h5")
+    sim_path = save_sweep(sweep_result, out / "sim.h5", force=force)
     step(f"simulate {len(sweep_result.models)} models", t0)
 
     t0 = time.perf_counter()
     session_path = out / "session.h5"
-    acq = acquire(scene, session_path, bench=SimulatedRigBench(math.inf), yes=True, quiet=True, force=True, stream=say)
+    acq = acquire(scene, session_path, bench=SimulatedRigBench(math.inf), yes=True, quiet=True, force=force, stream=say)
     step(f"acquire ({acq.blocks_done} blocks, {acq.status})", t0)
 
     t0 = time.perf_counter()
@@ -106,11 +116,13 @@ def run_demo(
     }
     analyses = [
         analyse(
-            curve, sweep_result, scene, title="Simulated session", n_boot=n_boot, measured_info=measured_info,
+            curve, sweep_result, scene, title=TITLES[0], n_boot=n_boot, measured_info=measured_info,
             sim_info=sim_info, database=database,
         ),
-        analyse_tab1(sweep_result, scene, sim_info=sim_info, n_boot=n_boot),
-        analyse_tab1(sweep_result, scene, series=["M1", "M2", "M3"], sim_info=sim_info, n_boot=n_boot),
+        analyse_tab1(sweep_result, scene, sim_info=sim_info, n_boot=n_boot, title=TITLES[1]),
+        analyse_tab1(
+            sweep_result, scene, series=["M1", "M2", "M3"], sim_info=sim_info, n_boot=n_boot, title=TITLES[2]
+        ),
     ]  # fmt: skip
     step("fit session and Tab. 1", t0)
 
@@ -128,14 +140,14 @@ def run_demo(
         "Verdicts:",
         "",
     ]
-    lines += [f"- {a.title}: {a.comparison.statement}" for a in analyses]
+    lines += [f"- {a.title}: {_verdict(a)}" for a in analyses]
     lines += ["", "Timings before figures: " + ", ".join(f"{k} {v:.2f} s" for k, v in timings.items())]
-    report = write_report(analyses, out, title="contactrig demo", preamble="\n".join(lines))
+    report = write_report(analyses, out, title="contactrig demo", preamble="\n".join(lines), force=force)
     step("figures and report", t0)
     timings["total"] = time.perf_counter() - t_all
     print(f"  {'total':<34} {timings['total']:6.2f} s", file=say, flush=True)
     for a in analyses:
-        print(f"{a.title}: {a.comparison.statement}", file=say)
+        print(f"{a.title}: {_verdict(a)}", file=say)
     return DemoResult(
         directory=out,
         report=report,
@@ -145,6 +157,11 @@ def run_demo(
         replay=rep.as_dict(),
         analyses=analyses,
     )
+
+
+def _verdict(a: Any) -> str:
+    """The comparison's statement, or why there is none."""
+    return a.comparison.statement if a.comparison is not None else "; ".join(a.left_out)
 
 
 def _magnitude_line(session: Any, tab1: Any) -> str:

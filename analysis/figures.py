@@ -26,6 +26,8 @@ import numpy as np
 
 from analysis.fit import regressor_label
 from analysis.measured import MeasuredCurve
+from analysis.resistance import resistance_unit
+from contactrig.core.files import atomic_write, output_folder
 from contactrig.core.registry import Registry
 from contactrig.core.validation import SettingError, check_choice
 from sims.models import get_model, model_label, model_names, models
@@ -41,6 +43,7 @@ __all__ = [
     "figure_specs",
     "get_figure",
     "model_style",
+    "planned_figures",
     "register",
     "save_figure",
     "save_figure_file",
@@ -123,23 +126,25 @@ def _figure(ncols: int = 1, nrows: int = 1, size: tuple[float, float] = (6.0, 4.
     return fig, axes
 
 
-def save_figure(fig: Any, directory: str | Path, stem: str, formats: Sequence[str] = ("png", "svg")) -> list[Path]:
-    """Write ``fig`` as ``directory/stem.<fmt>`` for each of ``formats`` (png, svg, pdf); returns the paths."""
-    out = Path(directory)
-    if out.exists() and not out.is_dir():
-        raise SettingError("output", str(out), "expected a directory; a file of that name exists")
-    out.mkdir(parents=True, exist_ok=True)
+def save_figure(
+    fig: Any, directory: str | Path, stem: str, formats: Sequence[str] = ("png", "svg"), *, force: bool = False
+) -> list[Path]:
+    """Write ``fig`` as ``directory/stem.<fmt>`` for each of ``formats`` (png, svg, pdf); returns the paths. The
+    folder is created when missing; an existing file is refused unless ``force`` (:mod:`contactrig.core.files`)."""
+    out = output_folder(directory)
     for fmt in formats:
         check_choice("format", fmt, _FORMATS)
-    return [save_figure_file(fig, out / f"{stem}.{fmt}") for fmt in formats]
+    return [save_figure_file(fig, out / f"{stem}.{fmt}", force=force) for fmt in formats]
 
 
-def save_figure_file(fig: Any, path: str | Path) -> Path:
-    """Write ``fig`` to ``path``, the format from its suffix (.png, .svg or .pdf); returns the path."""
+def save_figure_file(fig: Any, path: str | Path, *, force: bool = False) -> Path:
+    """Write ``fig`` to ``path`` atomically, the format from its suffix (.png, .svg or .pdf); returns the path. An
+    existing file is refused unless ``force``."""
     path = Path(path)
     fmt = path.suffix[1:].lower()
     check_choice("format", fmt, _FORMATS)
-    fig.savefig(path, format=fmt, metadata=_metadata(fmt))
+    with atomic_write(path, force=force) as tmp:
+        fig.savefig(tmp, format=fmt, metadata=_metadata(fmt))
     return path
 
 
@@ -181,28 +186,32 @@ def figure_database(curves: Mapping[str, Any], sigma_m: float | None = None) -> 
     return fig
 
 
-def write_database_figure(curves: Mapping[str, Any], path: str | Path, sigma_m: float | None = None) -> Path:
+def write_database_figure(
+    curves: Mapping[str, Any], path: str | Path, sigma_m: float | None = None, *, force: bool = False
+) -> Path:
     """Seed Fig. 2 of a contact database (``sims.database.ContactDatabase`` or any name → curve mapping) drawn by
-    :func:`figure_database` and written to ``path`` (.png, .svg or .pdf); returns the path."""
-    return save_figure_file(figure_database(curves, sigma_m=sigma_m), path)
+    :func:`figure_database` and written to ``path`` (.png, .svg or .pdf; refused if it exists, unless ``force``)."""
+    return save_figure_file(figure_database(curves, sigma_m=sigma_m), path, force=force)
 
 
 # ---- seed Fig. 9: measured R against weight ------------------------------------------------------------------
 def figure_measured(curve: MeasuredCurve, title: str = "") -> Any:
-    """Seed Fig. 9: every repeat (thin lines with markers, one per series) and the mean ± SD over repeats [mΩ]."""
+    """Seed Fig. 9: every repeat (thin lines with markers, one per series) and the mean ± SD over repeats, in the
+    unit the data call for (µΩ, mΩ or Ω: :func:`analysis.resistance.resistance_unit`)."""
     fig, axes = _figure()
     ax = axes[0, 0]
     w = curve.weight_kg
-    v = curve.values_ohm * 1e3
+    k_unit, unit = resistance_unit(curve.values_ohm)
+    v = curve.values_ohm * k_unit
     for k, label in enumerate(curve.repeat_labels):
         ok = np.isfinite(v[:, k])
         ax.plot(
             w[ok], v[ok, k], "o-", color="#9a9a9a", lw=0.7, ms=3, alpha=0.8,
             label=f"repeats ({len(curve.repeat_labels)})" if k == 0 else None, gid=f"repeat-{label}",
         )  # fmt: skip
-    sd = np.nan_to_num(curve.sd_ohm * 1e3)
-    ax.errorbar(w, curve.mean_ohm * 1e3, yerr=sd, fmt="s-", color=MEASURED_COLOUR, capsize=3, label="mean ± SD")
-    ax.set(xlabel="weight W [kg]", ylabel="resistance R [mΩ]", title=title or "Measured resistance (seed Fig. 9)")
+    sd = np.nan_to_num(curve.sd_ohm * k_unit)
+    ax.errorbar(w, curve.mean_ohm * k_unit, yerr=sd, fmt="s-", color=MEASURED_COLOUR, capsize=3, label="mean ± SD")
+    ax.set(xlabel="weight W [kg]", ylabel=f"resistance R [{unit}]", title=title or "Measured resistance (seed Fig. 9)")
     ax.set_ylim(bottom=0)
     ax.legend()
     return fig
@@ -254,27 +263,29 @@ def figure_normalised(
 # ---- fits ---------------------------------------------------------------------------------------------------
 def figure_fit(comparison: Any, title: str = "") -> Any:
     """Fits R = R_s + s·x(A) (seed eq. 23 plus R_s): measured mean ± σ (the fit's weighting) and each model's fitted
-    R [mΩ] against weight [kg] (top); residuals (measured − fitted)/σ, dimensionless, per model (bottom)."""
+    R (unit from the data) against weight [kg] (top; an unphysical fit is marked so);
+    residuals (measured − fitted)/σ, dimensionless, per model (bottom)."""
     fig, axes = _figure(1, 2, size=(6.0, 5.6), sharex=True, height_ratios=[2.2, 1.0])
     top, bottom = axes[0, 0], axes[1, 0]
     first = next(iter(comparison.fits.values())).points
     w = first.weight_kg
+    k_unit, unit = resistance_unit(first.measured_ohm)
     top.errorbar(
-        w, first.measured_ohm * 1e3, yerr=first.sigma_ohm * 1e3, fmt="s", color=MEASURED_COLOUR, capsize=3,
+        w, first.measured_ohm * k_unit, yerr=first.sigma_ohm * k_unit, fmt="s", color=MEASURED_COLOUR, capsize=3,
         label="measured mean ± σ", zorder=3,
     )  # fmt: skip
     n = len(comparison.fits)
     width = 0.6 * (np.min(np.diff(w)) if w.size > 1 else 1.0) / max(n, 1)
     for i, name in enumerate(comparison.ranking):
         f = comparison.fits[name]
-        label = f"{model_label(name)}: ΔAIC {comparison.delta_aic[name]:.1f}"
+        label = f"{model_label(name)}: ΔAIC {comparison.delta_aic[name]:.1f}" + ("" if f.physical else " UNPHYSICAL")
         style = {**model_style(name), "label": label}
-        top.plot(w, f.points.fitted_ohm * 1e3, mfc="none", **style)
+        top.plot(w, f.points.fitted_ohm * k_unit, mfc="none", **style)
         bottom.bar(w + (i - (n - 1) / 2) * width, f.points.normalised_residuals, width, color=style["color"])
     bottom.axhline(0.0, color="k", lw=0.8)
     for y in (-2.0, 2.0):
         bottom.axhline(y, color="k", lw=0.6, ls=":")
-    top.set(ylabel="resistance R [mΩ]", title=title or "Fit R = R_s + s·h/A(W) per model")
+    top.set(ylabel=f"resistance R [{unit}]", title=title or "Fit R = R_s + s·h/A(W) per model")
     bottom.set(xlabel="weight W [kg]", ylabel="residual / σ [–]")
     top.legend()
     return fig
@@ -389,17 +400,32 @@ def get_figure(key: str) -> FigureSpec:
     return _FIGURES.get(key)
 
 
+def planned_figures(directory: str | Path, prefix: str = "", formats: Sequence[str] = ("png", "svg")) -> list[Path]:
+    """Every file :func:`write_figures` may write (checked for existing files before any work is done)."""
+    pre = f"{prefix}-" if prefix else ""
+    return [Path(directory) / f"{pre}{spec.stem}.{fmt}" for spec in figure_specs() for fmt in formats]
+
+
 def write_figures(
-    analysis: Any, directory: str | Path, prefix: str = "", formats: Sequence[str] = ("png", "svg")
+    analysis: Any,
+    directory: str | Path,
+    prefix: str = "",
+    formats: Sequence[str] = ("png", "svg"),
+    *,
+    force: bool = False,
 ) -> dict[str, list[Path]]:
     """Draw every registered figure of ``analysis`` into ``directory`` as ``[prefix-]stem.<fmt>``; returns key →
-    written paths. A figure whose ``draw`` returns None (data missing) is left out of the result."""
+    written paths. A figure whose ``draw`` returns None (data missing) is left out of the result. Every file is
+    checked first: an existing one is refused unless ``force`` (nothing is drawn then)."""
+    from contactrig.core.files import refuse_existing
+
+    refuse_existing(planned_figures(directory, prefix, formats), force=force)
     out: dict[str, list[Path]] = {}
     pre = f"{prefix}-" if prefix else ""
     for spec in figure_specs():
         fig = spec.draw(analysis)
         if fig is not None:
-            out[spec.key] = save_figure(fig, directory, f"{pre}{spec.stem}", formats)
+            out[spec.key] = save_figure(fig, directory, f"{pre}{spec.stem}", formats, force=force)
     return out
 
 
@@ -418,15 +444,18 @@ def _draw_database(a: Any) -> Any:
 
 
 def _draw_normalised(a: Any) -> Any:
-    n_min = int(np.min(a.curve.n))
+    used = a.fit_curve if a.fit_curve is not None else a.curve
+    n_min = int(np.min(used.n))
     fig = figure_normalised(
         a.measured_norm, a.simulated_norm, title=f"{a.title}: normalised (seed Fig. 12)",
         dof=n_min - 1 if n_min >= 2 else math.inf,
     )  # fmt: skip
+    if a.comparison is None:
+        return fig
     ax = fig.axes[0]
     best = a.comparison.ranking[0]
     ax.plot(
-        a.curve.weight_kg, a.fitted_norm()[best], color="k", lw=1.0, ls=(0, (2, 2)),
+        a.comparison.best.points.weight_kg, a.fitted_norm()[best], color="k", lw=1.0, ls=(0, (2, 2)),
         label=f"best fit incl. R_s ({model_label(best)})",
     )  # fmt: skip
     ax.legend()
@@ -434,6 +463,8 @@ def _draw_normalised(a: Any) -> Any:
 
 
 def _draw_fit(a: Any) -> Any:
+    if a.comparison is None:
+        return None
     return figure_fit(a.comparison, title=f"{a.title}: R = R_s + s·x(A), x = {regressor_label(a.conversion)}")
 
 
@@ -463,6 +494,7 @@ for _spec in (
         _draw_fit,
         section="fit",
         caption="Top: measured mean ± σ and each model's fit; bottom: residuals (measured − fitted)/σ.",
+        missing="no fit: the data allow none (fewer than 3 weights with >= 2 repeats)",
     ),
 ):
     register(_spec)

@@ -34,6 +34,17 @@ t needs ±t_{r−1} (2.57 for r = 6): its coverage is P(|T_{r−1}| ≤ 1.96·�
 what the first version measured (0.81–0.88). The studentized interval divides each resample's deviation by that
 resample's own standard error, which restores the t tails: measured 0.95 ± 0.01 with 6 series.
 
+When a bootstrap interval cannot be computed honestly it is reported as not available, with the reason
+(:func:`_bootstrap_availability`): too few distinct resamples (r series have C(2r−1, r) distinct resamples: 10 for
+3 series, 35 for 4, while a 95 % interval needs its 2.5 % tails resolved, ≥ 2/(1 − level) = 40), too many degenerate
+resamples (one series drawn r times has no spread, so its studentized t is infinite: probability r^(1−r), 11 % for
+3 series), or a non-finite interval.
+
+A fit is **unphysical** when the series resistance is significantly below zero (its t upper limit < 0) or the scale
+significantly ≤ 0 (resistance would grow with the area). Unphysical fits are ranked after every physical fit whatever
+their AIC, flagged in the ranking (``ModelFit.unphysical`` says why) and named in the verdict; they are never "best"
+while a physical fit exists.
+
 Model choice: χ², AIC = χ² + 2k and BIC = χ² + k ln n (Gaussian errors with known σ; k = 2 for every model, so
 ΔAIC = ΔBIC = Δχ²; χ² uses the σ_i above and ignores the correlation between weights that paired series
 carry — the parameter covariance includes it). Goodness of fit: with σ estimated from pooled scatter
@@ -52,8 +63,9 @@ from typing import Any
 import numpy as np
 
 from analysis.measured import MeasuredCurve
-from analysis.resistance import CONVERSIONS
+from analysis.resistance import CONVERSIONS, resistance_unit
 from contactrig.core.validation import SettingError, check_choice, check_int, check_range
+from sims.models import model_label
 
 __all__ = [
     "WEIGHTINGS",
@@ -210,6 +222,54 @@ def _quantiles(x: np.ndarray, probs: tuple[float, float]) -> np.ndarray:
     return np.quantile(x, probs, axis=0, method="inverted_cdf")
 
 
+#: A resample's standard error below this fraction of the sample's is zero up to rounding (one series drawn r times).
+_DEGENERATE = 1e-9
+
+
+def _distinct_resamples(curve: MeasuredCurve, mode: str) -> float:
+    """How many different resamples exist: multisets of r out of r series (C(2r−1, r)), or the product of these over
+    the weights when resampling within each weight."""
+    if mode == "series":
+        r = curve.values_ohm.shape[1]
+        return float(math.comb(2 * r - 1, r))
+    total = 1.0
+    for n in curve.n:
+        total *= float(math.comb(2 * int(n) - 1, int(n)))
+    return total
+
+
+def _units_text(curve: MeasuredCurve, mode: str) -> str:
+    if mode == "series":
+        return f"{curve.values_ohm.shape[1]} series"
+    return f"{int(np.min(curve.n))} repeats per weight"
+
+
+def _bootstrap_availability(
+    curve: MeasuredCurve, mode: str, level: float, boot: np.ndarray | None, ci: np.ndarray, degenerate: float
+) -> str:
+    """Why the bootstrap interval is not available ("" when it is): no resamples, too few distinct resamples to
+    resolve the tails, too many degenerate resamples (infinite studentized t), or a non-finite interval."""
+    units = _units_text(curve, mode)
+    if boot is None:
+        return "not computed (no bootstrap resamples were asked for)"
+    needed = math.ceil(2.0 / (1.0 - level))
+    distinct = _distinct_resamples(curve, mode)
+    if distinct < needed:
+        return (
+            f"not available with {units}: only {distinct:.0f} distinct resamples exist, and a {level:.0%} interval "
+            f"needs ≥ {needed} to resolve its {(1 - level) / 2:.1%} tails"
+        )
+    tail = (1.0 - level) / 2.0
+    if degenerate >= tail:
+        return (
+            f"not available with {units}: {degenerate:.1%} of the resamples have no spread (one series drawn every "
+            f"time), so their studentized t is infinite; a {level:.0%} interval needs fewer than {tail:.1%}"
+        )
+    if not np.all(np.isfinite(ci)):
+        return f"not available with {units}: the bootstrap distribution is degenerate (non-finite interval)"
+    return ""
+
+
 def _bootstrap_ci(
     curve: MeasuredCurve, wls: np.ndarray, p: np.ndarray, res: _Resamples, level: float, interval: str
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -232,8 +292,9 @@ def _bootstrap_ci(
         return boot, _quantiles(boot, probs)
     se = _repeat_se(curve, wls, res.mode)
     dev = boot - p
+    ok = se_b > _DEGENERATE * se  # a resample of one series: spread zero up to rounding, t infinite
     with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.where(se_b > 0, dev / np.where(se_b > 0, se_b, 1.0), np.sign(dev) * np.inf)
+        t = np.where(ok, dev / np.where(ok, se_b, 1.0), np.sign(dev) * np.inf)
     t = np.nan_to_num(t, nan=0.0, posinf=np.inf, neginf=-np.inf)
     tq = _quantiles(t, probs)
     with np.errstate(invalid="ignore"):
@@ -304,14 +365,18 @@ class TIntervals(_Result):
 
 @dataclass(frozen=True)
 class BootstrapIntervals(_Result):
-    """Bootstrap intervals per parameter (NaN when ``n_boot`` = 0). ``method``: "studentized" (bootstrap-t) or
-    "percentile"; ``resampling``: the repeats resampled as whole "series" or "within" each weight."""
+    """Bootstrap intervals per parameter. ``method``: "studentized" (bootstrap-t) or "percentile"; ``resampling``:
+    the repeats resampled as whole "series" or "within" each weight. ``available`` false (intervals NaN) when they
+    cannot be computed honestly — no resamples, too few distinct resamples, too many degenerate ones — and ``note``
+    says which, e.g. "not available with 3 series: only 10 distinct resamples exist, …"."""
 
     R_series_ohm: tuple[float, float]
     scale: tuple[float, float]
     method: str
     n_boot: int
     resampling: str
+    available: bool = True
+    note: str = ""
 
 
 @dataclass(frozen=True)
@@ -382,7 +447,8 @@ class ModelFit(_Result):
     ``model``, ``conversion`` (x = h/A or the Holm form), ``weighting`` (σ per weight); ``estimate``
     (:class:`Estimate`), ``intervals`` (:class:`Intervals`: t and bootstrap), ``goodness`` (:class:`GoodnessOfFit`),
     ``diagnostics`` (:class:`Diagnostics`), ``points`` (:class:`FitPoints`, per weight). ``boot_params`` (B, 2) the
-    bootstrap estimates (None without bootstrap; not exported by :meth:`as_dict`).
+    bootstrap estimates (None without bootstrap; not exported by :meth:`as_dict`). ``unphysical``: why the fit is
+    unphysical, in words (empty: physical; module docstring).
     """
 
     model: str
@@ -394,6 +460,12 @@ class ModelFit(_Result):
     diagnostics: Diagnostics
     points: FitPoints
     boot_params: np.ndarray | None = field(default=None, repr=False, metadata={"export": False})
+    unphysical: tuple[str, ...] = ()
+
+    @property
+    def physical(self) -> bool:
+        """False when a parameter is significantly outside its physical range (``unphysical`` says which)."""
+        return not self.unphysical
 
 
 def _t_quantile(level: float, dof: float) -> float:
@@ -526,16 +598,36 @@ def _intervals(
     )
     boot: np.ndarray | None = None
     ci = np.full((2, 2), math.nan)
+    degenerate = 0.0
     if resamples is not None:
         boot, ci = _bootstrap_ci(curve, wls, p, resamples, ci_level, boot_interval)
+        if boot_interval == "studentized":
+            degenerate = _degenerate_fraction(curve, wls, resamples)
+    why = _bootstrap_availability(curve, bootstrap, ci_level, boot, ci, degenerate)
+    if why:
+        ci = np.full((2, 2), math.nan)
     b = BootstrapIntervals(
         R_series_ohm=(float(ci[0, 0]), float(ci[1, 0])),
         scale=(float(ci[0, 1]), float(ci[1, 1])),
         method=boot_interval,
         n_boot=0 if boot is None else int(boot.shape[0]),
         resampling=bootstrap,
+        available=not why,
+        note=why,
     )
     return Intervals(level=ci_level, t=t, bootstrap=b), boot
+
+
+def _degenerate_fraction(curve: MeasuredCurve, wls: np.ndarray, res: _Resamples) -> float:
+    """Share of resamples whose own standard error of R_s is zero up to rounding (studentized t infinite)."""
+    se = _repeat_se(curve, wls, res.mode)[0]
+    if res.mode == "series":
+        q = (curve.values_ohm.T @ wls.T)[:, 0]
+        se_b = q[res.cols].std(axis=1, ddof=1) / math.sqrt(q.size)
+    else:
+        assert res.var_of_mean is not None
+        se_b = np.sqrt(res.var_of_mean @ (wls[0] ** 2))
+    return float(np.mean(~(se_b > _DEGENERATE * se)))
 
 
 def _fit_arrays(
@@ -607,7 +699,26 @@ def _fit_arrays(
         diagnostics=diagnostics,
         points=points,
         boot_params=boot,
+        unphysical=_unphysical(est, intervals, curve),
     )
+
+
+def _unphysical(est: Estimate, intervals: Intervals, curve: MeasuredCurve) -> tuple[str, ...]:
+    """Why the fit is physically impossible (empty when it is not): R_s significantly < 0, s significantly ≤ 0."""
+    out = []
+    factor, unit = resistance_unit(curve.mean_ohm)
+    hi_r, hi_s, lvl = intervals.t.R_series_ohm[1], intervals.t.scale[1], f"{intervals.level:.0%}"
+    if hi_r < 0:
+        out.append(
+            f"R_s = {est.R_series_ohm * factor:.3g} ± {est.R_series_se * factor:.2g} {unit} is significantly below "
+            f"zero ({lvl} upper limit {hi_r * factor:.3g} {unit}): a series resistance cannot be negative"
+        )
+    if hi_s <= 0:
+        out.append(
+            f"s = {est.scale:.3g} ± {est.scale_se:.2g} Ω·m is significantly ≤ 0 ({lvl} upper limit {hi_s:.3g}): "
+            "the resistance would grow with the contact area"
+        )
+    return tuple(out)
 
 
 def _prepare(
@@ -731,15 +842,19 @@ def compare_models(
             ci_level=ci_level, boot_interval=boot_interval,
         )  # fmt: skip
     names = list(fits)
-    ranking = tuple(sorted(names, key=lambda n: fits[n].goodness.aic))
+    # physical fits first, by AIC; an unphysical fit is never ranked above a physical one
+    ranking = tuple(sorted(names, key=lambda n: (not fits[n].physical, fits[n].goodness.aic)))
     best = ranking[0]
     delta = {n: fits[n].goodness.aic - fits[best].goodness.aic for n in names}
-    raw = {n: math.exp(-0.5 * delta[n]) for n in names}
+    lowest = min(fits[n].goodness.aic for n in names)  # an unphysical fit may have a lower AIC than the best
+    raw = {n: math.exp(-0.5 * (fits[n].goodness.aic - lowest)) for n in names}
     total = sum(raw.values())
     weights = {n: raw[n] / total for n in names}
 
     first: dict[str, float] = {}
-    if boot is not None and len(names) > 1:
+    candidates = [n for n in names if fits[n].physical] or names
+    if boot is not None and len(candidates) > 1:
+        names = candidates
         chi2s = []
         for n in names:
             f = fits[n]
@@ -758,6 +873,7 @@ def compare_models(
         decisive = 1.0
     else:
         decisive = math.nan
+    names = list(fits)
 
     discriminates, statement = _statement(fits, ranking, delta, first, decisive, n_boot if boot is not None else 0)
     return ModelComparison(
@@ -783,43 +899,75 @@ def _statement(
     decisive: float,
     n_boot: int,
 ) -> tuple[bool, str]:
+    """The verdict in words, models by their display labels (:func:`sims.models.model_label`)."""
     best = ranking[0]
     fb = fits[best].goodness
-    parts = []
-    close: list[str] = []
-    if len(ranking) == 1:
-        parts.append(f"Only one model ({best}) was fitted: nothing to discriminate.")
-        discriminates = False
-    else:
-        close = [n for n in ranking[1:] if delta[n] < DELTA_AIC_INDISTINGUISHABLE]
-        runner = ranking[1]
-        if close:
-            listed = ", ".join(f"{n} (ΔAIC = {delta[n]:.2g})" for n in close)
-            parts.append(
-                f"The data do not discriminate between {best} (lowest AIC, χ² = {fb.chi2:.2f}) and {listed}: "
-                f"ΔAIC < {DELTA_AIC_INDISTINGUISHABLE:g}. Every model has 2 parameters, so ΔAIC = Δχ²."
-            )
-        else:
-            parts.append(
-                f"{best} has the lowest AIC (χ² = {fb.chi2:.3g}); the runner-up {runner} is at ΔAIC = "
-                f"{delta[runner]:.3g} (≥ 2: less support; ≥ 10: essentially none)."
-            )
-        if n_boot:
-            parts.append(
-                f"Resampling the repeats ({n_boot} bootstrap resamples), {best} has the lowest χ² in "
-                f"{first.get(best, 0.0):.0%} of them, and by Δχ² ≥ {DELTA_AIC_INDISTINGUISHABLE:g} in {decisive:.0%}."
-            )
-        discriminates = not close and (decisive >= 0.95 if n_boot else True)
-    if fb.dof > 0 and fb.p_value < 0.01:
+    physical = [n for n in ranking if fits[n].physical]
+    parts, close, discriminates = _ranking_phrases(fits, physical, delta, first, decisive, n_boot)
+    parts += _unphysical_phrases(fits, ranking, physical)
+    misfit = fb.dof > 0 and fb.p_value < 0.01
+    if misfit:
         parts.append(
             f"No model fits within the repeat scatter: the best has χ²/dof = {fb.reduced_chi2:.2f} "
             f"(p = {fb.p_value:.2g}), so the ranking compares misfits and confirms none of the models."
         )
         discriminates = False
+    if not physical:
+        parts.append("Verdict: no model gives a physical fit; no model is confirmed.")
+        return False, " ".join(parts)
     if discriminates:
         parts.append("Verdict: the data discriminate between the models.")
-    elif fb.dof > 0 and fb.p_value < 0.01 and len(ranking) > 1 and not close:
+    elif misfit and len(physical) > 1 and not close:
         parts.append("Verdict: a robust ranking of models none of which fits; no model is confirmed.")
     else:
         parts.append("Verdict: the models are not distinguishable with these data.")
     return discriminates, " ".join(parts)
+
+
+def _ranking_phrases(
+    fits: dict[str, ModelFit],
+    physical: list[str],
+    delta: dict[str, float],
+    first: dict[str, float],
+    decisive: float,
+    n_boot: int,
+) -> tuple[list[str], list[str], bool]:
+    """What the ranking of the physical fits says: (phrases, models within ΔAIC < 2 of the best, discriminates)."""
+    if not physical:
+        return [], [], False
+    best = physical[0]
+    lb, fb = model_label(best), fits[best].goodness
+    if len(fits) == 1:
+        return [f"Only one model ({lb}) was fitted: nothing to discriminate."], [], False
+    if len(physical) == 1:
+        return [f"{lb} is the only model whose fit is physical (χ² = {fb.chi2:.3g})."], [], True
+    close = [n for n in physical[1:] if delta[n] < DELTA_AIC_INDISTINGUISHABLE]
+    runner = physical[1]
+    if close:
+        listed = ", ".join(f"{model_label(n)} (ΔAIC = {delta[n]:.2g})" for n in close)
+        parts = [
+            f"The data do not discriminate between {lb} (lowest AIC, χ² = {fb.chi2:.2f}) and {listed}: "
+            f"ΔAIC < {DELTA_AIC_INDISTINGUISHABLE:g}. Every model has 2 parameters, so ΔAIC = Δχ²."
+        ]
+    else:
+        parts = [
+            f"{lb} has the lowest AIC (χ² = {fb.chi2:.3g}); the runner-up {model_label(runner)} is at ΔAIC = "
+            f"{delta[runner]:.3g} (≥ 2: less support; ≥ 10: essentially none)."
+        ]
+    if n_boot:
+        parts.append(
+            f"Resampling the repeats ({n_boot} bootstrap resamples), {lb} has the lowest χ² in "
+            f"{first.get(best, 0.0):.0%} of them, and by Δχ² ≥ {DELTA_AIC_INDISTINGUISHABLE:g} in {decisive:.0%}."
+        )
+    return parts, close, not close and (decisive >= 0.95 if n_boot else True)
+
+
+def _unphysical_phrases(fits: dict[str, ModelFit], ranking: tuple[str, ...], physical: list[str]) -> list[str]:
+    """The unphysical fits, named with why; ranked after the physical ones whatever their AIC."""
+    bad = [n for n in ranking if not fits[n].physical]
+    if not bad:
+        return []
+    listed = "; ".join(f"{model_label(n)}: {fits[n].unphysical[0].split(' (')[0]}" for n in bad)
+    if not physical:
+        return [f"Every fit is UNPHYSICAL ({listed})."]
+    return [f"UNPHYSICAL fits, ranked after every physical fit whatever their AIC — {listed}."]

@@ -6,6 +6,19 @@ load them first. When no simulation file is given, the rig is simulated for the 
 recorded in the session (the packaged default scene when the session has none), so the areas need no
 interpolation; a given sweep is interpolated in log–log onto the measured weights
 (:func:`analysis.fit.area_at_weights`).
+
+Three checks run on every path (``fit``, ``figures``, ``report``, ``demo`` and notebooks alike), in :func:`analyse`:
+
+* **Same scene.** The fingerprint of the measurement's scene (:func:`daq.sweep_file.config_fingerprint`) is compared
+  with the simulation's (:func:`daq.sweep_file.sweep_fingerprint`); a difference is a ``ValueError`` naming every
+  key that differs (``[rig] clearance_m differs: session 2e-05, simulation 2.5e-05``), and a simulation that records
+  no fingerprint cannot be checked and is refused too. ``allow_mismatch=True`` (``--allow-mismatch``) goes on and
+  records the override in :attr:`Analysis.fingerprint` (the report shows it).
+* **What the data allow.** Weights with a single repeat (a partial last weight) are left out of the fit and of the
+  normalised curve (weighting ``"blocks"`` excepted), and fewer than 3 usable weights mean no fit at all
+  (:attr:`Analysis.comparison` None); :attr:`Analysis.left_out` says what was left out and why. Fig. 9 is always drawn.
+* **Model validity.** The simulation's warnings and :func:`daq.sweep_file.validity_warnings` (plasticity index > 1
+  with an elastic-only model, nominal pressure above the hardness) travel in :attr:`Analysis.warnings`.
 """
 
 from __future__ import annotations
@@ -21,6 +34,10 @@ from analysis.circuit import CircuitSettings
 from analysis.fit import ModelComparison, area_at_weights, compare_models, regressor
 from analysis.measured import MeasuredCurve, load_tab1
 from analysis.normalisation import NormalisedCurve, normalise_measured, normalise_simulated
+from contactrig.core.fingerprint import differences, has_tables
+
+#: Fewest weights a fit is made with (two parameters and one degree of freedom for the goodness of fit).
+MIN_FIT_WEIGHTS = 3
 
 __all__ = ["Analysis", "analyse", "analyse_session", "analyse_tab1", "simulate"]
 
@@ -32,7 +49,10 @@ class Analysis:
     ``areas_m2[name]`` each model's contact area at ``curve.weight_kg``; ``measured_norm`` and
     ``simulated_norm[name]`` R/R₀ (simulated: the chosen conversion, so A₀/A for eq. 23); ``comparison`` the fits;
     ``measured_info`` / ``sim_info`` provenance of both inputs; ``database`` the contact database when it was built
-    here (for seed Fig. 2), else None.
+    here (for seed Fig. 2), else None. ``comparison`` is None when the data allow no fit (``left_out`` says why);
+    ``fit_curve`` the weights the fit and the normalised curve use; ``warnings`` the simulation's and the models'
+    validity warnings; ``left_out`` what was left out of the analysis and why; ``fingerprint`` both inputs'
+    fingerprints, their ``differences`` and whether a mismatch was ``allowed`` (module docstring).
     """
 
     title: str
@@ -43,14 +63,20 @@ class Analysis:
     areas_m2: dict[str, np.ndarray]
     measured_norm: NormalisedCurve
     simulated_norm: dict[str, NormalisedCurve]
-    comparison: ModelComparison
+    comparison: ModelComparison | None
     conversion: str
     measured_info: dict[str, Any] = field(default_factory=dict)
     sim_info: dict[str, Any] = field(default_factory=dict)
     database: Any = None
+    fit_curve: MeasuredCurve | None = None
+    warnings: tuple[str, ...] = ()
+    left_out: tuple[str, ...] = ()
+    fingerprint: dict[str, Any] = field(default_factory=dict)
 
     def fitted_norm(self) -> dict[str, np.ndarray]:
-        """Each model's fitted R(W)/R(W₀), series resistance included."""
+        """Each model's fitted R(W)/R(W₀), series resistance included (empty without a fit)."""
+        if self.comparison is None:
+            return {}
         return {n: f.points.fitted_ohm / f.points.fitted_ohm[0] for n, f in self.comparison.fits.items()}
 
 
@@ -83,25 +109,30 @@ def analyse(
     measured_info: dict[str, Any] | None = None,
     sim_info: dict[str, Any] | None = None,
     database: Any = None,
+    allow_mismatch: bool = False,
 ) -> Analysis:
-    """Normalise, fit and rank every model of ``sweep_result`` against ``curve`` (module docstring)."""
+    """Check, normalise, fit and rank every model of ``sweep_result`` against ``curve`` (module docstring)."""
+    measured_info, sim_info = dict(measured_info or {}), dict(sim_info or {})
+    fingerprint = check_same_scene(scene, sweep_result, measured_info, sim_info, allow_mismatch=allow_mismatch)
     circuit = CircuitSettings.from_scene(scene)
     areas: dict[str, np.ndarray] = {}
     for name, m in sweep_result.models.items():
         areas[name] = area_at_weights(np.asarray(m.weight_kg), np.asarray(m.contact_area_m2), curve.weight_kg)
-    comparison = compare_models(
-        curve, areas, height_m=circuit.contact_height_m, conversion=conversion, weighting=weighting,
-        ci_level=ci_level, n_boot=n_boot, seed=seed, boot_interval=boot_interval,
-    )  # fmt: skip
+    fit_curve, keep, left_out = _fittable(curve, weighting)
+    comparison = None
+    if fit_curve is not None:
+        comparison = compare_models(
+            fit_curve, {n: a[keep] for n, a in areas.items()}, height_m=circuit.contact_height_m,
+            conversion=conversion, weighting=weighting, ci_level=ci_level, n_boot=n_boot, seed=seed,
+            boot_interval=boot_interval,
+        )  # fmt: skip
+    measured_norm, norm_keep, norm_notes = _normalised(curve, keep)
     sim_norm = {
-        n: normalise_simulated(curve.weight_kg, regressor(a, circuit.contact_height_m, conversion))
+        n: normalise_simulated(
+            curve.weight_kg[norm_keep], regressor(a[norm_keep], circuit.contact_height_m, conversion)
+        )
         for n, a in areas.items()
     }
-    try:
-        measured_norm = normalise_measured(curve)
-    except ValueError:
-        # single repeats: ratios without uncertainty rather than no Fig. 12 at all
-        measured_norm = normalise_simulated(curve.weight_kg, curve.mean_ohm)
     return Analysis(
         title=title or curve.source or "measurement",
         curve=curve,
@@ -113,10 +144,116 @@ def analyse(
         simulated_norm=sim_norm,
         comparison=comparison,
         conversion=conversion,
-        measured_info=dict(measured_info or {}),
-        sim_info=dict(sim_info or {}),
+        measured_info=measured_info,
+        sim_info=sim_info,
         database=database,
+        fit_curve=fit_curve,
+        warnings=tuple(model_warnings(sweep_result)),
+        left_out=tuple(left_out + norm_notes),
+        fingerprint=fingerprint,
     )
+
+
+def _sim_ratio(weight_kg: np.ndarray, area_m2: np.ndarray, height_m: float, conversion: str) -> NormalisedCurve:
+    return normalise_simulated(weight_kg, regressor(area_m2, height_m, conversion))
+
+
+def model_warnings(sweep_result: Any) -> list[str]:
+    """The simulation's own warnings and where its models are used outside their validity
+    (:func:`daq.sweep_file.validity_warnings`), each once."""
+    from daq.sweep_file import validity_warnings
+
+    out: list[str] = []
+    for w in list(getattr(sweep_result, "warnings", []) or []) + validity_warnings(sweep_result):
+        if w not in out:
+            out.append(w)
+    return out
+
+
+def scene_fingerprint(scene: Any) -> dict[str, Any]:
+    """The fingerprint of what a simulation of ``scene`` would be computed from
+    (:func:`daq.sweep_file.config_fingerprint`)."""
+    from contactrig.core.fingerprint import fingerprint
+    from contactrig.core.validation import SettingError
+    from daq.sweep_file import config_fingerprint
+    from sims.config import SimConfig
+
+    try:
+        return config_fingerprint(SimConfig.from_scene(scene))
+    except SettingError:  # e.g. a measured height map a recorded scene names but does not carry: its tables as written
+        tables = {t: scene.data.get(t) for t in ("materials", "surfaces", "database", "rig")}
+        return fingerprint(tables, scene_text=scene.text)
+
+
+def check_same_scene(
+    scene: Any, sweep_result: Any, measured_info: dict[str, Any], sim_info: dict[str, Any], *, allow_mismatch: bool
+) -> dict[str, Any]:
+    """Compare the measurement's scene with the simulation's fingerprint; refuse a difference or an unverifiable
+    simulation unless ``allow_mismatch``. Returns what was compared, the differences and whether they were allowed."""
+    from daq.sweep_file import sweep_fingerprint
+
+    measured = scene_fingerprint(scene)
+    simulated = sweep_fingerprint(getattr(sweep_result, "provenance", {}) or {})
+    kind = "session" if measured_info.get("kind", "session") == "session" else "table"
+    where_m = measured_info.get("path") or "the measurement"
+    where_s = sim_info.get("source") or "the simulation"
+    if not has_tables(simulated):
+        diffs = [f"{where_s} records no fingerprint of the scene it was simulated for"]
+        message = (
+            f"cannot check that {where_s} was simulated for the scene of {where_m}: it records no fingerprint "
+            "(written by an older contactrig?); re-run contactrig simulate, or pass --allow-mismatch"
+        )
+    else:
+        diffs = differences(measured, simulated, (kind, "simulation"))
+        shown = "; ".join(diffs[:6]) + (f"; and {len(diffs) - 6} more" if len(diffs) > 6 else "")
+        message = (
+            f"{where_s} was simulated for a different scene than {where_m}: {shown}; pass --allow-mismatch to "
+            "compare them anyway"
+        )
+    if diffs and not allow_mismatch:
+        raise ValueError(message)
+    return {"measured": measured, "simulation": simulated, "differences": diffs, "allowed": bool(diffs)}
+
+
+def _fittable(curve: MeasuredCurve, weighting: str) -> tuple[MeasuredCurve | None, np.ndarray, list[str]]:
+    """The weights a fit can use (>= 2 repeats unless weighting by the blocks' own errors), as a curve, the mask
+    over ``curve``'s weights, and what was left out and why; no curve when fewer than 3 weights remain."""
+    keep = np.ones(curve.weight_kg.size, bool) if weighting == "blocks" else curve.n >= 2
+    notes = [
+        f"{w:g} kg has {int(n)} repeat: left out of the fit and of the normalised curve (Fig. 12), shown in Fig. 9 "
+        "(a weight needs >= 2 repeats for its scatter)"
+        for w, n, k in zip(curve.weight_kg, curve.n, keep, strict=True)
+        if not k
+    ]
+    if int(np.sum(keep)) < MIN_FIT_WEIGHTS:
+        notes.append(
+            f"no fit: {int(np.sum(keep))} weight(s) usable, a two-parameter fit with a goodness-of-fit test needs "
+            f">= {MIN_FIT_WEIGHTS}; the fit table, fit figure and verdict are left out"
+        )
+        return None, keep, notes
+    if bool(np.all(keep)):
+        return curve, keep, notes
+    sub = MeasuredCurve(
+        curve.weight_kg[keep], curve.values_ohm[keep], repeat_labels=curve.repeat_labels,
+        block_sem_ohm=None if curve.block_sem_ohm is None else curve.block_sem_ohm[keep], paired=True,
+        source=curve.source, provenance=curve.provenance,
+    )  # fmt: skip
+    return sub, keep, notes
+
+
+def _normalised(curve: MeasuredCurve, keep: np.ndarray) -> tuple[NormalisedCurve, np.ndarray, list[str]]:
+    """R/R₀ of the weights with an uncertainty (``keep``); with none, every weight's ratio without one (said so)."""
+    if np.any(keep):
+        sub = curve if bool(np.all(keep)) else MeasuredCurve(
+            curve.weight_kg[keep], curve.values_ohm[keep], repeat_labels=curve.repeat_labels, paired=True,
+        )  # fmt: skip
+        try:
+            return normalise_measured(sub), keep, []
+        except ValueError:
+            pass
+    every = np.ones(curve.weight_kg.size, bool)
+    note = "normalised curve (Fig. 12) without error bars: single repeats carry no scatter to propagate"
+    return normalise_simulated(curve.weight_kg, curve.mean_ohm), every, [note]
 
 
 def _scene_for(session: Any) -> Any:

@@ -3,6 +3,13 @@
 :func:`write_report` takes one or more :class:`~analysis.pipeline.Analysis` objects (one section each), draws
 their figures into ``DIR/figures`` (PNG for the report, SVG beside it) and writes ``DIR/report.md``. A session
 without a stop record gets an **INCOMPLETE SESSION** banner at the top of the file and of its section.
+
+Each section also says what it was computed from and what may make it wrong: the fingerprints of the measurement's
+scene and of the simulation (and, in bold, a mismatch passed with ``--allow-mismatch``), the simulation's and the
+models' validity warnings, what the data did not allow (weights left out, no fit), unphysical fits and bootstrap
+intervals that are not available, with the reason. Resistances are shown in the unit the data call for
+(:func:`analysis.resistance.resistance_unit`). Output files follow :mod:`contactrig.core.files`: the folder is
+created, an existing file is refused unless ``force``, every file is written atomically.
 """
 
 from __future__ import annotations
@@ -16,23 +23,28 @@ from typing import Any
 
 import numpy as np
 
-from analysis.figures import FigureSpec, figure_specs, write_figures
+from analysis.figures import FigureSpec, figure_specs, planned_figures, write_figures
 from analysis.fit import regressor_label
+from analysis.resistance import resistance_unit
+from contactrig.core.files import output_folder, refuse_existing, write_text_atomic
 from contactrig.core.provenance import software_version, to_json
 from sims.models import model_label
 
-__all__ = ["output_directory", "render_markdown", "write_report"]
+__all__ = ["output_directory", "render_markdown", "report_outputs", "write_report"]
 
 
 def output_directory(directory: str | Path) -> Path:
-    """Create ``directory`` (and parents) for output; a file of that name is an error naming it."""
-    from contactrig.core.validation import SettingError
+    """The output folder, created with its parents when missing (:func:`contactrig.core.files.output_folder`)."""
+    return output_folder(directory)
 
+
+def report_outputs(directory: str | Path, titles: Sequence[str], formats: Sequence[str] = ("png", "svg")) -> list[Path]:
+    """Every file :func:`write_report` may write for analyses titled ``titles``: ``report.md`` and the figures."""
     out = Path(directory)
-    if out.exists() and not out.is_dir():
-        raise SettingError("output", str(out), "expected a directory; a file of that name exists")
-    out.mkdir(parents=True, exist_ok=True)
-    return out
+    files = [out / "report.md"]
+    for title in titles:
+        files += planned_figures(out / "figures", _slug(title), formats)
+    return files
 
 
 def _slug(text: str) -> str:
@@ -71,22 +83,25 @@ def _banner(info: dict[str, Any]) -> str:
 def _measured_section(a: Any) -> str:
     c = a.curve
     nm = a.measured_norm
+    k, unit = resistance_unit(c.mean_ohm)
+    ratio = {float(w): f"{r:.5g} ± {e:.2g}" for w, r, e in zip(nm.weight_kg, nm.ratio, nm.se, strict=True)}
     rows = []
     for i, w in enumerate(c.weight_kg):
         rows.append(
             [
                 f"{w:g}",
                 int(c.n[i]),
-                _g(c.mean_ohm[i] * 1e3),
-                _g(c.sd_ohm[i] * 1e3, 3),
-                _g(c.sem_ohm[i] * 1e3, 3),
-                f"{nm.ratio[i]:.5g} ± {nm.se[i]:.2g}",
+                _g(c.mean_ohm[i] * k),
+                _g(c.sd_ohm[i] * k, 3),
+                _g(c.sem_ohm[i] * k, 3),
+                ratio.get(float(w), "left out"),
             ]
         )
     paired = "series (correlation across weights included)" if nm.paired else "independent repeats"
+    headers = ["weight [kg]", "repeats", f"mean R [{unit}]", f"SD [{unit}]", f"SEM [{unit}]", "R/R₀ ± SE"]
     return (
-        _table(["weight [kg]", "repeats", "mean R [mΩ]", "SD [mΩ]", "SEM [mΩ]", "R/R₀ ± SE"], rows)
-        + f"\n\nRepeats treated as {paired}. R₀ = {nm.reference_ohm * 1e3:.4g} ± {nm.reference_se_ohm * 1e3:.2g} mΩ; "
+        _table(headers, rows)
+        + f"\n\nRepeats treated as {paired}. R₀ = {nm.reference_ohm * k:.4g} ± {nm.reference_se_ohm * k:.2g} {unit}; "
         "R₀/R₀ = 1 exactly.\n"
     )
 
@@ -101,37 +116,53 @@ def _interval(ci: tuple[float, float], factor: float = 1.0) -> str:
     return f"[{_g(ci[0] * factor, 3)}, {_g(ci[1] * factor, 3)}]"
 
 
-def _fit_row(cmp: Any, name: str) -> list[str]:
+def _boot_cell(boot: Any, ci: tuple[float, float], factor: float = 1.0) -> str:
+    """A bootstrap interval, or what the reason says (e.g. "not available with 3 series")."""
+    if boot.available:
+        return _interval(ci, factor)
+    return boot.note.split(":")[0]
+
+
+def _fit_row(cmp: Any, name: str, k: float) -> list[str]:
     f = cmp.fits[name]
     est, t, boot, gof = f.estimate, f.intervals.t, f.intervals.bootstrap, f.goodness
     return [
-        model_label(name),
-        f"{est.R_series_ohm * 1e3:.4g} ± {est.R_series_se * 1e3:.2g}",
-        _interval(t.R_series_ohm, 1e3),
-        _interval(boot.R_series_ohm, 1e3),
+        model_label(name) + ("" if f.physical else " — **UNPHYSICAL**"),
+        f"{est.R_series_ohm * k:.4g} ± {est.R_series_se * k:.2g}",
+        _interval(t.R_series_ohm, k),
+        _boot_cell(boot, boot.R_series_ohm, k),
         f"{est.scale:.4g} ± {est.scale_se:.2g}",
-        _interval(boot.scale),
+        _boot_cell(boot, boot.scale),
         f"{gof.chi2:.3g}",
         f"{gof.reduced_chi2:.3g}",
         _g(gof.p_value, 2),
         f"{gof.aic:.2f}",
         f"{cmp.delta_aic[name]:.3g}",
         f"{cmp.akaike_weights[name]:.2f}",
-        f"{cmp.first_fraction.get(name, math.nan):.0%}" if cmp.first_fraction else "–",
-        f"{gof.rmse_ohm * 1e3:.3g}",
+        _first(cmp, name),
+        f"{gof.rmse_ohm * k:.3g}",
     ]
+
+
+def _first(cmp: Any, name: str) -> str:
+    if not cmp.first_fraction:
+        return "–"
+    return f"{cmp.first_fraction[name]:.0%}" if name in cmp.first_fraction else "– (unphysical)"
 
 
 def _fit_section(a: Any) -> str:
     cmp = a.comparison
+    if cmp is None:
+        return "No fit: " + "; ".join(n for n in a.left_out if n.startswith("no fit")).removeprefix("no fit: ") + "\n"
     first = next(iter(cmp.fits.values()))
     lvl = round(first.intervals.level * 100)
-    rows = [_fit_row(cmp, name) for name in cmp.ranking]
+    k, unit = resistance_unit(first.points.measured_ohm)
+    rows = [_fit_row(cmp, name, k) for name in cmp.ranking]
     headers = [
         "model",
-        "R_s ± SE [mΩ]",
-        f"R_s {lvl}% t-CI",
-        f"R_s {lvl}% bootstrap",
+        f"R_s ± SE [{unit}]",
+        f"R_s {lvl}% t-CI [{unit}]",
+        f"R_s {lvl}% bootstrap [{unit}]",
         "s ± SE [Ω·m]",
         f"s {lvl}% bootstrap",
         "χ²",
@@ -141,7 +172,7 @@ def _fit_section(a: Any) -> str:
         "ΔAIC",
         "Akaike w",
         "first in bootstrap",
-        "RMSE [mΩ]",
+        f"RMSE [{unit}]",
     ]
     boot = first.intervals.bootstrap
     text = _table(headers, rows)
@@ -155,6 +186,9 @@ def _fit_section(a: Any) -> str:
         f"**{cmp.statement}**\n"
     )
     notes = [f"- {model_label(n)}: {note}" for n in cmp.ranking for note in cmp.fits[n].diagnostics.warnings]
+    notes += [f"- {model_label(n)}: UNPHYSICAL: {why}" for n in cmp.ranking for why in cmp.fits[n].unphysical]
+    if not boot.available:
+        notes.append(f"- bootstrap intervals {boot.note}")
     diag = [_diagnostics_line(n, cmp.fits[n].diagnostics) for n in cmp.ranking]
     if notes:
         text += "\nNotes:\n\n" + "\n".join(notes) + "\n"
@@ -226,11 +260,40 @@ def _provenance(a: Any) -> str:
     prov = a.sim_info.get("provenance") or {}
     if prov.get("software_version"):
         lines.append(f"- simulation software version: {prov['software_version']}")
+    lines += _fingerprint_lines(a.fingerprint)
     for w in info.get("warnings", []):
         lines.append(f"- data note: {w}")
-    for w in a.sim_info.get("warnings", [])[:10]:
-        lines.append(f"- simulation warning: {w}")
     return "\n".join(lines) + "\n"
+
+
+def _fingerprint_lines(fp: dict[str, Any]) -> list[str]:
+    """What the analysis was computed from (hashes of the scene tables on both sides) and any mismatch allowed."""
+    if not fp:
+        return []
+    lines = []
+    for side in ("measured", "simulation"):
+        tables = (fp.get(side) or {}).get("tables") or {}
+        hashes = ", ".join(f"{name} {t.get('sha256', '')[:12]}" for name, t in sorted(tables.items()))
+        version = (fp.get(side) or {}).get("software_version")
+        lines.append(
+            f"- fingerprint of the {side} scene: {hashes or 'none recorded'}"
+            + (f" (contactrig {version})" if version else "")
+        )
+    if fp.get("allowed"):
+        lines.append(
+            "- **SCENE MISMATCH ALLOWED (--allow-mismatch)**: the simulation is not of the measurement's scene — "
+            + "; ".join(fp.get("differences", []))
+        )
+    return lines
+
+
+def _warnings_section(a: Any) -> str:
+    """Model-validity and simulation warnings, and what the data did not allow (empty when there is nothing)."""
+    lines = [f"- **warning**: {w}" for w in a.warnings]
+    lines += [f"- **left out**: {n}" for n in a.left_out]
+    if a.fingerprint.get("allowed"):
+        lines.append("- **scene mismatch allowed**: " + "; ".join(a.fingerprint.get("differences", [])))
+    return "\n".join(lines) + "\n" if lines else ""
 
 
 def render_markdown(
@@ -257,6 +320,9 @@ def render_markdown(
         if banner:
             parts.append(banner)
         parts.append("### Provenance\n\n" + _provenance(a))
+        caveats = _warnings_section(a)
+        if caveats:
+            parts.append("### Warnings and what was left out\n\n" + caveats)
         parts += _sections(a, figs, directory)
     return "\n".join(parts)
 
@@ -306,15 +372,15 @@ def write_report(
     title: str = "contactrig analysis report",
     preamble: str = "",
     formats: Sequence[str] = ("png", "svg"),
+    force: bool = False,
 ) -> Path:
-    """Draw the figures of every analysis into ``directory/figures`` and write ``directory/report.md``."""
+    """Draw the figures of every analysis into ``directory/figures`` and write ``directory/report.md``.
+
+    Every file is checked first (:func:`report_outputs`): an existing one is refused unless ``force``."""
     out = output_directory(directory)
+    refuse_existing(report_outputs(out, [a.title for a in analyses], formats), force=force)
     figs = []
     for a in analyses:
-        figs.append(write_figures(a, out / "figures", prefix=_slug(a.title), formats=formats))
+        figs.append(write_figures(a, out / "figures", prefix=_slug(a.title), formats=formats, force=force))
     text = render_markdown(analyses, figs, out, title=title, preamble=preamble)
-    path = out / "report.md"
-    tmp = path.with_name(path.name + ".partial")
-    tmp.write_text(text, encoding="utf-8")
-    tmp.replace(path)
-    return path
+    return write_text_atomic(out / "report.md", text, force=force)

@@ -42,10 +42,29 @@ __all__ = [
     "holm_resistance_ohm",
     "holm_single_spot_resistance_ohm",
     "mean_inverse_distance_rectangle_per_m",
+    "resistance_unit",
 ]
 
 #: Named conversions from a real contact area A to a resistance (see :func:`area_to_resistance_ohm`).
 CONVERSIONS = ("bulk", "holm")
+
+#: Display units of resistance, largest first: (factor to multiply ohms by, unit).
+_RESISTANCE_UNITS = ((1.0, "Ω"), (1e3, "mΩ"), (1e6, "µΩ"))
+
+
+def resistance_unit(values_ohm: np.ndarray | float | list[float]) -> tuple[float, str]:
+    """The display unit for resistances like ``values_ohm`` [Ω]: ``(factor, unit)`` with ``value_ohm * factor`` in
+    ``unit`` — Ω, mΩ or µΩ, the largest in which the median magnitude of the finite values is ≥ 1 (µΩ below 1 mΩ;
+    mΩ when no value is finite). The one choice every figure axis and report table makes."""
+    x = np.abs(np.asarray(values_ohm, dtype=float)).reshape(-1)
+    x = x[np.isfinite(x) & (x > 0)]
+    if x.size == 0:
+        return 1e3, "mΩ"
+    typical = float(np.median(x))
+    for factor, unit in _RESISTANCE_UNITS:
+        if typical * factor >= 1.0:
+            return factor, unit
+    return _RESISTANCE_UNITS[-1]
 
 
 def _positive_array(field: str, value: np.ndarray | float, unit: str) -> np.ndarray:

@@ -3,7 +3,11 @@
 Layout: root attributes ``format`` = "contactrig-contact-database", ``format_version`` = 1 and ``provenance`` (JSON:
 scene name and text, materials, surface statistics, software version); one group per model with datasets
 ``separation_m`` (units "m"), ``pressure_pa`` ("Pa") and ``area_fraction`` ("1"), and the model's parameters as the
-group's JSON attribute ``parameters``. Written to a temporary file in the same folder, then renamed.
+group's JSON attribute ``parameters``; root attribute ``validity_warnings`` (JSON list: elastic-only models built with
+a plasticity index > 1) and ``fingerprint`` (JSON: hashed materials, surfaces and database
+settings the curves were built from, :func:`daq.sweep_file.database_fingerprint`). Written to a temporary file in the
+same folder, then renamed (:func:`contactrig.core.files.atomic_write`: nothing is left behind on failure); an existing
+file is replaced only with ``force``.
 """
 
 from __future__ import annotations
@@ -14,6 +18,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from contactrig.core.files import atomic_write
 from contactrig.core.provenance import to_json
 from contactrig.core.validation import SettingError
 from sims.database import ContactCurve, ContactDatabase
@@ -24,24 +29,23 @@ FORMAT = "contactrig-contact-database"
 _UNITS = {"separation_m": "m", "pressure_pa": "Pa", "area_fraction": "1"}
 
 
-def save_database(db: ContactDatabase, path: str | Path) -> Path:
-    """Write ``db`` to HDF5 at ``path`` (layout in the module docstring); returns the path."""
-    p = Path(path)
-    tmp = p.with_name(p.name + ".part")
-    try:
-        with h5py.File(tmp, "w") as f:
-            f.attrs["format"] = FORMAT
-            f.attrs["format_version"] = 1
-            f.attrs["provenance"] = to_json(db.provenance)
-            for name, curve in db.curves.items():
-                g = f.create_group(name)
-                for key, unit in _UNITS.items():
-                    g.create_dataset(key, data=np.asarray(getattr(curve, key))).attrs["units"] = unit
-                g.attrs["parameters"] = to_json(curve.parameters)
-        tmp.replace(p)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return p
+def save_database(db: ContactDatabase, path: str | Path, *, force: bool = False) -> Path:
+    """Write ``db`` to HDF5 at ``path`` (layout in the module docstring) atomically; an existing file is refused
+    unless ``force``. Returns the path."""
+    from daq.sweep_file import database_fingerprint, plasticity_warnings
+
+    with atomic_write(path, force=force) as tmp, h5py.File(tmp, "w") as f:
+        f.attrs["format"] = FORMAT
+        f.attrs["format_version"] = 1
+        f.attrs["provenance"] = to_json(db.provenance)
+        f.attrs["fingerprint"] = to_json(database_fingerprint(db.provenance), sort_keys=True)
+        f.attrs["validity_warnings"] = to_json(plasticity_warnings(list(db.curves), db.provenance))
+        for name, curve in db.curves.items():
+            g = f.create_group(name)
+            for key, unit in _UNITS.items():
+                g.create_dataset(key, data=np.asarray(getattr(curve, key))).attrs["units"] = unit
+            g.attrs["parameters"] = to_json(curve.parameters)
+    return Path(path)
 
 
 def load_database(path: str | Path) -> ContactDatabase:

@@ -35,9 +35,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from contactrig.core.validation import SettingError, check_choice, check_int, check_range
-from sims import bem
 
 if TYPE_CHECKING:
+    from sims import bem
     from sims.config import SimConfig
     from sims.database import BuildContext, ContactCurve
 
@@ -139,6 +139,8 @@ def _pressure_ramp(
     z: NDArray[np.float64], pixel_m: float, E_star: float, hardness: float | None, st: BemCurveSettings
 ) -> NDArray[np.float64]:
     """Mean pressures to solve at, Pa, increasing (see the module doc)."""
+    from sims import bem  # the solver is imported when a curve is built, not when the registry lists the models
+
     slope = rms_slope_spectral(z, pixel_m)
     p_hi = st.max_area_fraction * E_star * slope / _KAPPA_GUESS
     p_hi = min(p_hi, 0.95 * bem.full_contact_pressure(z, pixel_m, E_star))
@@ -152,6 +154,8 @@ def _pressure_ramp(
 def _solve_points(
     z: NDArray[np.float64], pixel_m: float, E_star: float, hardness: float | None, st: BemCurveSettings
 ) -> list[bem.ContactSummary]:
+    from sims import bem
+
     out: list[bem.ContactSummary] = []
     for p in _pressure_ramp(z, pixel_m, E_star, hardness, st):
         res = bem.solve_contact(
@@ -194,6 +198,7 @@ def bem_curve(
     pressures, approach, mean gap ū, counted and corrected areas, contact spots, iterations, residuals, plastic
     fraction, grid, and the Fourier refinement factor.
     """
+    from sims import bem
     from sims.database import ContactCurve
 
     st = settings or BemCurveSettings()

@@ -11,7 +11,10 @@ import json
 import sys
 from typing import Any
 
+from contactrig.cli.options import add_models_option
+
 _TAB1 = "tab1"
+_FOLDER = "created when missing; existing files are refused without --force"
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -43,7 +46,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("session", metavar="SESSION.h5", help=f"session file, or '{_TAB1}' for the seed paper's Tab. 1")
     common.add_argument("--sim", metavar="SIM.h5", help="rig sweep file (default: simulate the session's scene now)")
-    common.add_argument("--models", nargs="+", metavar="NAME", help="only these models (default: all in the sweep)")
+    add_models_option(common, default="all in the sweep")
     common.add_argument(
         "--conversion", choices=("bulk", "holm"), default="bulk",
         help="area → resistance: bulk = seed eq. 23 ζh/A (default), holm = one Holm spot ζ√π/(2√A)",
@@ -59,6 +62,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )  # fmt: skip
     common.add_argument("--bootstrap", type=int, default=2000, metavar="N", help="bootstrap resamples (0: none)")
     common.add_argument("--seed", type=int, default=0, help="bootstrap random seed")
+    common.add_argument(
+        "--allow-mismatch", action="store_true",
+        help="compare even when the simulation's scene differs from the session's (refused otherwise; the "
+        "override is recorded in the output)",
+    )  # fmt: skip
 
     f = subparsers.add_parser(
         "fit",
@@ -73,20 +81,25 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         parents=[common],
         help="draw every figure of the analysis.figures registry (PNG and a vector format)",
     )
-    g.add_argument("-o", "--output", required=True, metavar="DIR", help="directory for the figures")
+    g.add_argument("-o", "--output", required=True, metavar="DIR", help=f"folder for the figures ({_FOLDER})")
     g.add_argument("--format", choices=("svg", "pdf"), default="svg", help="vector format written beside the PNG")
+    g.add_argument("--force", action="store_true", help="overwrite existing figure files")
     g.set_defaults(handler=_figures)
 
     r = subparsers.add_parser("report", parents=[common], help="Markdown report with tables, figures, provenance")
-    r.add_argument("-o", "--output", required=True, metavar="DIR", help="directory for report.md and figures/")
+    r.add_argument(
+        "-o", "--output", required=True, metavar="DIR", help=f"folder for report.md and figures/ ({_FOLDER})"
+    )
+    r.add_argument("--force", action="store_true", help="overwrite an existing report and its figures")
     r.set_defaults(handler=_report)
 
     d = subparsers.add_parser(
         "demo",
         help="the main job in one command: simulate, acquire on the simulated bench, replay, fit, figures, report",
     )
-    d.add_argument("-o", "--output", default="contactrig-demo", metavar="DIR", help="output directory")
+    d.add_argument("-o", "--output", default="contactrig-demo", metavar="DIR", help=f"output folder ({_FOLDER})")
     d.add_argument("--bootstrap", type=int, default=2000, metavar="N", help="bootstrap resamples (0: none)")
+    d.add_argument("--force", action="store_true", help="overwrite the files of an earlier demo in DIR")
     d.set_defaults(handler=_demo)
 
 
@@ -136,6 +149,7 @@ def _analysis(args: argparse.Namespace) -> Any:
         "n_boot": args.bootstrap,
         "seed": args.seed,
         "boot_interval": args.interval,
+        "allow_mismatch": args.allow_mismatch,
     }
     if args.session == _TAB1:
         from analysis.pipeline import analyse_tab1
@@ -149,62 +163,104 @@ def _analysis(args: argparse.Namespace) -> Any:
 def _fit(args: argparse.Namespace) -> int:
     a = _analysis(args)
     cmp = a.comparison
+    if cmp is None:
+        raise ValueError("; ".join(n for n in a.left_out if n.startswith("no fit")))
     if args.json:
         d = cmp.as_dict()
         d["measured"] = {k: v for k, v in a.measured_info.items() if k in ("path", "kind", "complete", "status")}
         d["simulation"] = a.sim_info.get("source")
+        d["warnings"] = list(a.warnings)
+        d["left_out"] = list(a.left_out)
+        d["scene_mismatch"] = {
+            "differences": a.fingerprint.get("differences", []),
+            "allowed": a.fingerprint.get("allowed"),
+        }
         print(json.dumps(d, indent=2))
+        _print_caveats(a)
         return 0
-    from sims.models import model_label
-
     if not a.measured_info.get("complete", True):
         print("INCOMPLETE SESSION: no stop record; analysing the blocks on disk", file=sys.stderr)
-    best = cmp.best
-    boot = best.intervals.bootstrap
-    print(f"{a.title}: {cmp.n_weights} weights × {cmp.n_repeats} repeats; simulation: {a.sim_info.get('source')}")
-    print(f"R = R_s + s·x(A), conversion {a.conversion}, weighting {best.weighting}, "
-          f"{boot.n_boot} bootstrap resamples ({boot.resampling})")  # fmt: skip
-    print(f"{'model':<20} {'R_s [mΩ]':>18} {'s [Ω·m]':>22} {'χ²/dof':>8} {'AIC':>8} {'ΔAIC':>7} {'RMSE [mΩ]':>10}")
-    for name in cmp.ranking:
-        e, g = cmp.fits[name].estimate, cmp.fits[name].goodness
-        print(
-            f"{model_label(name):<20} {e.R_series_ohm * 1e3:>9.4g} ± {e.R_series_se * 1e3:<6.2g}"
-            f" {e.scale:>12.4g} ± {e.scale_se:<7.2g} {g.reduced_chi2:>8.3g} {g.aic:>8.5g}"
-            f" {cmp.delta_aic[name]:>7.3g} {g.rmse_ohm * 1e3:>10.3g}"
-        )
-    t_ci, b_ci = best.intervals.t.R_series_ohm, boot.R_series_ohm
-    print(f"{model_label(best.model)}: R_s {round(best.intervals.level * 100)}% t-interval [{t_ci[0] * 1e3:.3g}, "
-          f"{t_ci[1] * 1e3:.3g}] mΩ, {boot.method} bootstrap [{b_ci[0] * 1e3:.3g}, {b_ci[1] * 1e3:.3g}] mΩ; "
-          f"goodness of fit against {best.goodness.reference}")  # fmt: skip
+    _print_fit_table(a)
     print(cmp.statement)
-    for w in a.measured_info.get("warnings", []):
-        print(f"note: {w}", file=sys.stderr)
+    _print_caveats(a)
     return 0
 
 
-def _figures(args: argparse.Namespace) -> int:
-    from analysis.figures import figure_specs, write_figures
-    from analysis.report import output_directory
+def _print_fit_table(a: Any) -> None:
+    from analysis.resistance import resistance_unit
+    from sims.models import model_label
 
-    output_directory(args.output)
+    cmp = a.comparison
+    best = cmp.best
+    boot = best.intervals.bootstrap
+    k, unit = resistance_unit(best.points.measured_ohm)
+    print(f"{a.title}: {cmp.n_weights} weights × {cmp.n_repeats} repeats; simulation: {a.sim_info.get('source')}")
+    print(f"R = R_s + s·x(A), conversion {a.conversion}, weighting {best.weighting}, "
+          f"{boot.n_boot} bootstrap resamples ({boot.resampling})")  # fmt: skip
+    r_head, rmse_head = f"R_s [{unit}]", f"RMSE [{unit}]"
+    print(f"{'model':<20} {r_head:>18} {'s [Ω·m]':>22} {'χ²/dof':>8} {'AIC':>8} {'ΔAIC':>7} {rmse_head:>10}")
+    for name in cmp.ranking:
+        f = cmp.fits[name]
+        e, g = f.estimate, f.goodness
+        print(
+            f"{model_label(name):<20} {e.R_series_ohm * k:>9.4g} ± {e.R_series_se * k:<6.2g}"
+            f" {e.scale:>12.4g} ± {e.scale_se:<7.2g} {g.reduced_chi2:>8.3g} {g.aic:>8.5g}"
+            f" {cmp.delta_aic[name]:>7.3g} {g.rmse_ohm * k:>10.3g}" + ("" if f.physical else "  UNPHYSICAL")
+        )
+    t_ci, b_ci = best.intervals.t.R_series_ohm, boot.R_series_ohm
+    boot_text = f"[{b_ci[0] * k:.3g}, {b_ci[1] * k:.3g}] {unit}" if boot.available else boot.note
+    print(f"{model_label(best.model)}: R_s {round(best.intervals.level * 100)}% t-interval [{t_ci[0] * k:.3g}, "
+          f"{t_ci[1] * k:.3g}] {unit}, {boot.method} bootstrap {boot_text}; "
+          f"goodness of fit against {best.goodness.reference}")  # fmt: skip
+
+
+def _print_caveats(a: Any) -> None:
+    """Everything that qualifies the result, on stderr: data notes, what was left out, model-validity warnings,
+    unphysical fits, an allowed scene mismatch."""
+    for w in a.measured_info.get("warnings", []):
+        print(f"note: {w}", file=sys.stderr)
+    for n in a.left_out:
+        print(f"left out: {n}", file=sys.stderr)
+    for w in a.warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    if a.comparison is not None:
+        from sims.models import model_label
+
+        for name in a.comparison.ranking:
+            for why in a.comparison.fits[name].unphysical:
+                print(f"warning: {model_label(name)} fit is UNPHYSICAL: {why}", file=sys.stderr)
+    if a.fingerprint.get("allowed"):
+        diffs = "; ".join(a.fingerprint.get("differences", []))
+        print(f"warning: scene mismatch allowed (--allow-mismatch): {diffs}", file=sys.stderr)
+
+
+def _figures(args: argparse.Namespace) -> int:
+    from analysis.figures import figure_specs, planned_figures, write_figures
+    from contactrig.core.files import output_folder, refuse_existing
+
+    formats = ("png", args.format)
+    refuse_existing(planned_figures(output_folder(args.output), "", formats), force=args.force)  # before any work
     a = _analysis(args)
-    written = write_figures(a, args.output, formats=("png", args.format))
+    written = write_figures(a, args.output, formats=formats, force=args.force)
     for spec in figure_specs():
         if spec.key in written:
             print(f"{spec.key}: " + ", ".join(str(p) for p in written[spec.key]))
         else:
             print(f"{spec.key}: not drawn ({spec.missing or 'no data for it in this analysis'})", file=sys.stderr)
+    _print_caveats(a)
     return 0
 
 
 def _report(args: argparse.Namespace) -> int:
-    from analysis.report import output_directory, write_report
+    from analysis.report import write_report
+    from contactrig.core.files import check_new_file, output_folder
 
-    output_directory(args.output)
+    check_new_file(output_folder(args.output) / "report.md", force=args.force)  # before any work
     a = _analysis(args)
-    path = write_report([a], args.output)
+    path = write_report([a], args.output, force=args.force)
     if not a.measured_info.get("complete", True):
         print("INCOMPLETE SESSION: the report says so at the top", file=sys.stderr)
+    _print_caveats(a)
     print(f"report: {path}")
     return 0
 
@@ -212,6 +268,6 @@ def _report(args: argparse.Namespace) -> int:
 def _demo(args: argparse.Namespace) -> int:
     from analysis.demo import run_demo
 
-    result = run_demo(args.output, n_boot=args.bootstrap, stream=sys.stdout)
+    result = run_demo(args.output, n_boot=args.bootstrap, stream=sys.stdout, force=args.force)
     print(f"report: {result.report}")
     return 0

@@ -14,6 +14,8 @@ from typing import Any
 
 __all__ = ["parse_list", "register"]
 
+from contactrig.cli.options import add_models_option
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``simulate`` to ``subparsers``."""
@@ -30,12 +32,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--weights", metavar="KG,KG,...", help="added weights in kg, overriding the scene's [rig].weights_kg"
     )
+    add_models_option(p)
     p.add_argument(
-        "--models",
-        metavar="NAME,NAME,...",
-        help="contact models to simulate (default: the scene's [database].models); only these are built",
-    )
-    p.add_argument("-o", "--output", metavar="FILE.h5", help="write the sweep to this HDF5 file")
+        "-o", "--output", metavar="FILE.h5",
+        help="write the sweep to this HDF5 file (its folder is created; an existing file is refused without --force)",
+    )  # fmt: skip
+    p.add_argument("--force", action="store_true", help="overwrite an existing output file")
     p.add_argument("--json", action="store_true", help="print the result as JSON on stdout")
     p.set_defaults(handler=_simulate)
 
@@ -56,20 +58,23 @@ def parse_list(option: str, text: str, kind: type = float) -> list[Any]:
 
 
 def _simulate(args: argparse.Namespace) -> int:
+    from contactrig.core.files import check_new_file
     from contactrig.core.scene import load_scene
-    from daq.sweep_file import save_sweep
+    from daq.sweep_file import save_sweep, validity_warnings
     from sims.config import SimConfig
     from sims.rig import check_weights, sweep
 
+    if args.output:
+        check_new_file(args.output, force=args.force)  # refused before simulating anything
     config = SimConfig.from_scene(load_scene(args.scene))
     weights = check_weights(parse_list("--weights", args.weights), "--weights") if args.weights is not None else None
-    models = parse_list("--models", args.models, str) if args.models is not None else None
-    result = sweep(config, models=models, weights_kg=weights)
+    result = sweep(config, models=args.models, weights_kg=weights)
+    warnings = list(result.warnings) + [w for w in validity_warnings(result) if w not in result.warnings]
     if args.output:
-        path = save_sweep(result, args.output)
+        path = save_sweep(result, args.output, force=args.force)
         print(f"wrote {path}", file=sys.stderr if args.json else sys.stdout)
     if args.json:
-        print(json.dumps(result.to_json_dict()))
+        print(json.dumps({**result.to_json_dict(), "warnings": warnings}))
         return 0
     for name, m in result.models.items():
         print(f"{name}")
@@ -80,6 +85,6 @@ def _simulate(args: argparse.Namespace) -> int:
                 f"{m.contact_area_m2[i] * 1e6:12.5g} {m.contact_width_m[i] * 1e3:10.4g} "
                 f"{m.peak_pressure_pa[i] * 1e-6:11.4g}"
             )
-    for w in result.warnings:
+    for w in warnings:
         print(f"warning: {w}", file=sys.stderr)
     return 0

@@ -10,8 +10,12 @@ from contactrig.cli.main import main
 W = np.array([5.0, 10.0, 15.0, 20.0])
 
 
-def _sweep_file(path, weights=W):
-    from daq.sweep_file import save_sweep
+def _sweep_file(path, weights=W, scene=None):
+    """A toy sweep file, fingerprinted as a simulation of ``scene`` (the packaged default scene when None, which is
+    what a session without a recorded scene is analysed with)."""
+    from contactrig.core.scene import load_scene
+    from daq.sweep_file import config_fingerprint, save_sweep
+    from sims.config import SimConfig
     from sims.rig import ModelSweep, SweepResult
 
     models = {}
@@ -23,7 +27,9 @@ def _sweep_file(path, weights=W):
             force_n=weights * 9.80665, peak_pressure_pa=np.full(n, 1e6), contact_width_m=np.full(n, 1e-3),
             n_nodes=np.full(n, 10), converged=np.ones(n, bool),
         )  # fmt: skip
-    return save_sweep(SweepResult(models=models, warnings=[], provenance={"software_version": "test"}), path)
+    fingerprint = config_fingerprint(SimConfig.from_scene(scene if scene is not None else load_scene()))
+    provenance = {"software_version": "test", "fingerprint": fingerprint}
+    return save_sweep(SweepResult(models=models, warnings=[], provenance=provenance), path)
 
 
 def _incomplete_session(path):
@@ -113,6 +119,14 @@ def test_figures_command_writes_png_and_pdf(tmp_path, capsys):
     assert "fig02_database: not drawn" in capsys.readouterr().err
 
 
+def _run(entry, argv):
+    """The exit code of the ``contactrig`` entry point, whether it returns it or argparse exits with it."""
+    try:
+        return entry(argv)
+    except SystemExit as exc:
+        return exc.code
+
+
 def _empty_session(path):
     from daq.records import now_iso
     from daq.session_file import SessionFile
@@ -159,7 +173,7 @@ def test_bad_input_is_a_one_line_error(tmp_path, capsys, argv, expected):
     }
     (tmp_path / "garbage.h5").write_text("not HDF5\n")
     capsys.readouterr()
-    rc = main([a.format(**files) for a in argv])
+    rc = _run(main, [a.format(**files) for a in argv])
     err = capsys.readouterr().err.strip()
     assert rc == 2
     assert len(err.splitlines()) == 1 and "Traceback" not in err, err
