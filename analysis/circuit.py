@@ -27,6 +27,7 @@ import numpy as np
 
 from analysis.resistance import bulk_resistance_ohm
 from contactrig.core.validation import check_keys, check_range
+from instruments.commands import K6221, MAX_CURRENT_A
 
 __all__ = [
     "K6221_MAX_CURRENT_A",
@@ -36,7 +37,9 @@ __all__ = [
 ]
 
 #: The 6221's largest source current (either polarity) [A].
-K6221_MAX_CURRENT_A = 0.105
+K6221_MAX_CURRENT_A = MAX_CURRENT_A  # the one declaration: instruments.commands
+#: The 6221's largest voltage compliance [V].
+K6221_MAX_COMPLIANCE_V = float(K6221["SOUR:CURR:COMP"].high or 0.0)
 
 
 @dataclass(frozen=True)
@@ -155,7 +158,7 @@ class CircuitSettings:
                 f"current {current:.4g} A exceeds the Keithley 6221's ±{K6221_MAX_CURRENT_A} A range: "
                 "it cannot be sourced in Delta mode; raise added_resistance_ohm or set current_a ≤ 0.105 A"
             )
-        if current_a is not None and voltage > 105.0:
+        if current_a is not None and voltage > K6221_MAX_COMPLIANCE_V:
             warnings.append(f"the loop needs {voltage:.4g} V, above the 6221's 105 V compliance limit")
         return CircuitDesign(
             contact_resistance_ohm=r_t,

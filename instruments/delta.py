@@ -7,7 +7,9 @@ conversions,
     Δn = (Vn − 2·Vn+1 + Vn+2) / 4 · (−1)^(n−1),
 
 which equals R·(high − low)/2 and cancels a constant thermal EMF and a linear drift (:func:`delta_readings`).
-This module imports only numpy, :mod:`contactrig.core.validation` and :mod:`instruments.block`.
+Limits, units and ranges are those of the one command table, :mod:`instruments.commands`.
+This module imports only numpy, :mod:`contactrig.core.validation`, :mod:`instruments.block` and
+:mod:`instruments.commands`.
 """
 
 from __future__ import annotations
@@ -15,11 +17,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 
-from contactrig.core.validation import SettingError, check_choice, check_int, check_range
+from contactrig.core.validation import SettingError, check_choice
 from instruments.block import BlockStatistics, block_statistics
+from instruments.commands import CURRENT_RANGES_A, K2182A, K6221, OVER_RANGE, VOLTMETER_RANGES_V, check_nplc
 
 __all__ = [
     "CURRENT_RANGES_A",
@@ -31,14 +35,10 @@ __all__ = [
     "parse_buffer",
 ]
 
-#: 6221 source ranges (A); each allows 5 % over-range.
-CURRENT_RANGES_A = (2e-9, 2e-8, 2e-7, 2e-6, 2e-5, 2e-4, 2e-3, 2e-2, 1e-1)
-#: 2182A channel-1 voltage ranges (V).
-VOLTMETER_RANGES_V = (0.01, 0.1, 1.0, 10.0, 100.0)
 #: Overflow / invalid readings come back as +9.9E37; anything at or above this magnitude is invalid.
 INVALID_THRESHOLD = 9.9e37
-_MAX_CURRENT_A = 0.105
-_OVER_RANGE = 1.05
+# Limits come from the one declaration of each setting (instruments.commands).
+_HIGH, _LOW = K6221["SOUR:DELT:HIGH"], K6221["SOUR:DELT:LOW"]
 
 
 @dataclass(frozen=True, init=False)
@@ -93,16 +93,16 @@ class DeltaSettings:
         high, low = _source_levels(high_a, low_a)
         set_(self, "high_a", high)
         set_(self, "low_a", low)
-        set_(self, "delay_s", check_range("delay_s", delay_s, 1e-3, 9999.999, unit="s"))
-        set_(self, "count", check_int("count", count, 1, 65536))
-        set_(self, "compliance_v", _compliance(compliance_v))
+        set_(self, "delay_s", K6221["SOUR:DELT:DEL"].check("delay_s", delay_s))
+        set_(self, "count", K6221["SOUR:DELT:COUN"].check("count", count))
+        set_(self, "compliance_v", K6221["SOUR:CURR:COMP"].check("compliance_v", compliance_v))
         if not isinstance(compliance_abort, (bool, np.bool_)):
             raise SettingError("compliance_abort", compliance_abort, "expected True or False")
         set_(self, "compliance_abort", bool(compliance_abort))
         set_(self, "current_range_a", _source_range(current_range_a, high, low))
         set_(self, "unit", _unit(check_choice("unit", unit, ("V", "OHMS")), high, low))
-        set_(self, "nplc", check_range("nplc", nplc, 0.01, 50.0 if line == 50.0 else 60.0))
-        set_(self, "voltmeter_range_v", _fixed_range("voltmeter_range_v", voltmeter_range_v, VOLTMETER_RANGES_V, "V"))
+        set_(self, "nplc", check_nplc("nplc", nplc, line))
+        set_(self, "voltmeter_range_v", _fixed_range("voltmeter_range_v", voltmeter_range_v, K2182A["SENS:VOLT:RANG"]))
 
     @property
     def delta_current_a(self) -> float:
@@ -123,14 +123,10 @@ class DeltaSettings:
         return factor * self.expected_duration_s() + margin_s
 
 
-def _fmt(values: tuple[float, ...]) -> str:
-    return ", ".join(f"{v:g}" for v in values)
-
-
 def _source_levels(high_a: float, low_a: float | None) -> tuple[float, float]:
     """The validated (high, low) source levels in A; low defaults to −high."""
-    high = check_range("high_a", high_a, -_MAX_CURRENT_A, _MAX_CURRENT_A, unit="A")
-    low = -high if low_a is None else check_range("low_a", low_a, -_MAX_CURRENT_A, _MAX_CURRENT_A, unit="A")
+    high = _HIGH.check("high_a", high_a)
+    low = -high if low_a is None else _LOW.check("low_a", low_a)
     if high == low:
         raise SettingError("low_a", low, f"must differ from high_a = {high:g} A (Delta alternates between them)")
     return high, low
@@ -148,28 +144,16 @@ def _unit(unit: str, high: float, low: float) -> str:
     return unit
 
 
-def _compliance(compliance_v: float) -> float:
-    comp = check_range("compliance_v", compliance_v, 0.1, 105.0, unit="V")
-    if abs(round(comp * 100) - comp * 100) > 1e-6:
-        raise SettingError("compliance_v", compliance_v, "the 6221 sets compliance in 10 mV steps")
-    return comp
-
-
-def _fixed_range(field: str, value: float | None, ranges: tuple[float, ...], unit: str) -> float | None:
-    """None (auto range) or one of ``ranges``, matched to 1e-9 relative."""
-    if value is None:
-        return None
-    r = check_range(field, value, unit=unit)
-    if not any(math.isclose(r, x, rel_tol=1e-9) for x in ranges):
-        raise SettingError(field, value, "expected None (auto) or one of " + _fmt(ranges))
-    return r
+def _fixed_range(field: str, value: float | None, setting: Any) -> float | None:
+    """None (auto range) or one of the setting's ranges, matched to 1e-9 relative."""
+    return None if value is None else float(setting.check(field, value))
 
 
 def _source_range(current_range_a: float | None, high: float, low: float) -> float | None:
     """The fixed source range (or None); both levels must fit in it with the 6221's 5 % over-range."""
-    rng = _fixed_range("current_range_a", current_range_a, CURRENT_RANGES_A, "A")
+    rng = _fixed_range("current_range_a", current_range_a, K6221["SOUR:CURR:RANG"])
     if rng is not None:
-        limit = rng * _OVER_RANGE
+        limit = rng * OVER_RANGE
         for name, value in (("high_a", high), ("low_a", low)):
             if abs(value) > limit * (1 + 1e-12):
                 raise SettingError(name, value, f"exceeds the {rng:g} A range (at most ±{limit:g} A)")
@@ -265,7 +249,7 @@ def parse_buffer(text: str, elements: int = 2) -> tuple[np.ndarray, np.ndarray]:
     parts = text.split(",")
     if len(parts) % elements:
         raise ValueError(f"{len(parts)} values is not a whole number of {elements}-element readings")
-    values = np.array([float(p) for p in parts], dtype=float)  # ValueError on garbage
+    values = np.array(parts, dtype=float)  # ValueError on garbage
     if not np.all(np.isfinite(values)):
         raise ValueError("non-finite value in buffer")
     values = values.reshape(-1, elements)

@@ -81,6 +81,30 @@ def _fmt(x: float) -> str:
     return format(float(x), ".9g")
 
 
+def _error_entry(reply: str) -> tuple[int, str]:
+    """``code,"message"`` → (code, message); a reply of another shape is a :class:`ReplyError`."""
+    code_text, _, message = reply.strip().partition(",")
+    try:
+        return int(code_text), message.strip().strip('"')
+    except ValueError:
+        raise ReplyError("SYST:ERR?", reply, 'code,"message"') from None
+
+
+def _parts(command: str, reply: str, n: int) -> list[str]:
+    """The ``n`` answers of a compound query (the last may itself hold ``;``, as an error message can)."""
+    parts = reply.strip().split(";", n - 1)
+    if len(parts) != n:
+        raise ReplyError(command, reply, f"{n} answers separated by ';'")
+    return parts
+
+
+def _integer(command: str, text: str) -> int:
+    try:
+        return int(float(text))
+    except ValueError:
+        raise ReplyError(command, text, "an integer") from None
+
+
 def _same_answer(reply: str, expected: str) -> bool:
     """A state read-back matches: keywords compare on their short form (``SENS`` = ``SENS1``), numbers as numbers."""
     r, e = reply.strip().strip('"').upper(), expected.upper()
@@ -208,24 +232,23 @@ class Keithley6221:
         """Stop and un-arm any Delta sweep: the source goes idle."""
         self.write("SOUR:SWE:ABOR")
 
-    def errors(self) -> list[tuple[int, str]]:
-        """Drain the error queue (``SYST:ERR?`` until ``0,"No error"``); return the errors found."""
+    def errors(self, first: str | None = None) -> list[tuple[int, str]]:
+        """Drain the error queue (``SYST:ERR?`` until ``0,"No error"``); return the errors found. ``first``: the
+        answer to a ``SYST:ERR?`` already sent as part of a compound message."""
         found: list[tuple[int, str]] = []
         for _ in range(_MAX_ERRORS):
-            reply = self.query("SYST:ERR?")
-            code_text, _, message = reply.partition(",")
-            try:
-                code = int(code_text)
-            except ValueError:
-                raise ReplyError("SYST:ERR?", reply, 'code,"message"') from None
+            reply = self.query("SYST:ERR?") if first is None else first
+            first = None
+            code, message = _error_entry(reply)
             if code == 0:
                 return found
-            found.append((code, message.strip().strip('"')))
+            found.append((code, message))
         raise ReplyError("SYST:ERR?", "", f"the queue to empty within {_MAX_ERRORS} reads")
 
-    def check_errors(self) -> None:
-        """Raise :class:`InstrumentError` for the first error in the queue (all are drained)."""
-        found = self.errors()
+    def check_errors(self, first: str | None = None) -> None:
+        """Raise :class:`InstrumentError` for the first error in the queue (all are drained); ``first`` as in
+        :meth:`errors`."""
+        found = self.errors(first)
         if found:
             (code, message), *others = found
             raise InstrumentError(code, message, tuple(others))
@@ -243,12 +266,14 @@ class Keithley6221:
         2182A, or ``complete(text)``), with a deadline; afterwards the link is resynchronised so that no stray
         terminator is left to be read as an empty answer to the next query.
         """
-        self.relay_write(command)
+        send = 'SYST:COMM:SER:SEND "' + command.replace('"', '""') + '"'
+        enter = send + ";:SYST:COMM:SER:ENT?"  # the first ENT? rides with the SEND (it may find nothing yet)
         start = self.clock()
         text = ""
         wait = 0.005
         while True:
-            piece = self.transport.query("SYST:COMM:SER:ENT?").replace(_XOFF, "")
+            piece = self.transport.query(enter).replace(_XOFF, "")
+            enter = "SYST:COMM:SER:ENT?"
             text = (text + piece).lstrip("\r\n")  # a terminator left over from an earlier reply is not a line
             cut = min((i for i in (text.find("\r"), text.find("\n")) if i >= 0), default=-1)
             if cut >= 0 and text[:cut].strip():
@@ -291,50 +316,62 @@ class Keithley6221:
             raise ReplyError("*IDN? (2182A)", voltmeter, "manufacturer,model,serial,firmware")
         return Identity(source=source, voltmeter=voltmeter)
 
-    def require_voltmeter(self) -> None:
-        """Raise :class:`NanovoltmeterMissing` unless ``SOUR:DELT:NVPR?`` answers 1."""
-        reply = self.query("SOUR:DELT:NVPR?")
+    def require_voltmeter(self, reply: str | None = None) -> None:
+        """Raise :class:`NanovoltmeterMissing` unless ``SOUR:DELT:NVPR?`` answers 1 (``reply``: its answer, if it
+        was already asked as part of a compound message)."""
+        reply = self.query("SOUR:DELT:NVPR?") if reply is None else reply.strip()
         if reply not in ("1", "0"):
             raise ReplyError("SOUR:DELT:NVPR?", reply, "1 or 0")
         if reply != "1":
             raise NanovoltmeterMissing(reply)
 
     # ------------------------------------------------------------------ Delta block
+    # Every check of the robust sequence is kept, but checks ride in compound messages (';'), so that a block
+    # costs about ten messages (tests/benchmarks/bench_delta_overhead.py compares with PyMeasure's driver).
+    _START = "SOUR:SWE:ABOR;:SOUR:DELT:NVPR?;:SYST:ERR?"
+
+    def _start(self) -> None:
+        """Stop anything running, check that the 2182A answers and that the error queue is empty (errors left by
+        earlier commands raise :class:`InstrumentError` before anything is configured)."""
+        present, error = _parts(self._START, self.query(self._START), 2)
+        self.require_voltmeter(present)
+        self.check_errors(error)
+
     def configure_delta(self, s: DeltaSettings) -> None:
         """Send the settings (2182A through the relay) and pin every other state the readings depend on
-        (:data:`SOURCE_STATE`, :data:`VOLTMETER_STATE`), read all of it back, clear and size the buffer, set the
-        reading format."""
+        (:data:`SOURCE_STATE`, :data:`VOLTMETER_STATE`), clear and size the buffer, set the reading format — in one
+        message to the 6221 that ends by reading the pinned state back and ``SYST:ERR?``: a rejected setting raises
+        :class:`InstrumentError`, a state that did not take :class:`ReplyError`."""
         self._configure_voltmeter(s)
-        if s.current_range_a is None:
-            self.write("SOUR:CURR:RANG:AUTO ON")
-        else:
-            self.write(f"SOUR:CURR:RANG {_fmt(s.current_range_a)}")
-        self.write(f"SOUR:CURR:COMP {_fmt(s.compliance_v)}")
-        self.write(f"SOUR:DELT:HIGH {_fmt(s.high_a)}")  # also sets LOW to -HIGH: LOW must come after
-        self.write(f"SOUR:DELT:LOW {_fmt(s.low_a)}")
-        self.write(f"SOUR:DELT:DEL {_fmt(s.delay_s)}")
-        self.write(f"SOUR:DELT:COUN {s.count:d}")
-        self.write(f"SOUR:DELT:CAB {'ON' if s.compliance_abort else 'OFF'}")
-        self.write("SOUR:SWE:COUN 1")
-        self.write(f"UNIT {s.unit}")
-        for command, _, _ in SOURCE_STATE:
-            self.write(command)
-        query = ";:".join(q for _, q, _ in SOURCE_STATE)
-        self.state_read["6221"] = self._check_state(query, self.query(query), SOURCE_STATE, "")
-        self.write("TRAC:CLE")
-        self.write(f"TRAC:POIN {s.count:d}")
-        self.write("FORM:ELEM READ,TST")
+        commands = [
+            "SOUR:CURR:RANG:AUTO ON" if s.current_range_a is None else f"SOUR:CURR:RANG {_fmt(s.current_range_a)}",
+            f"SOUR:CURR:COMP {_fmt(s.compliance_v)}",
+            f"SOUR:DELT:HIGH {_fmt(s.high_a)}",  # also sets LOW to -HIGH: LOW must come after
+            f"SOUR:DELT:LOW {_fmt(s.low_a)}",
+            f"SOUR:DELT:DEL {_fmt(s.delay_s)}",
+            f"SOUR:DELT:COUN {s.count:d}",
+            f"SOUR:DELT:CAB {'ON' if s.compliance_abort else 'OFF'}",
+            "SOUR:SWE:COUN 1",
+            f"UNIT {s.unit}",
+            *(command for command, _, _ in SOURCE_STATE),
+            "TRAC:CLE",
+            f"TRAC:POIN {s.count:d}",
+            "FORM:ELEM READ,TST",
+        ]
+        queries = [q for _, q, _ in SOURCE_STATE]
+        message = ";:".join([*commands, *queries, "SYST:ERR?"])
+        parts = _parts(message, self.query(message), len(queries) + 1)
+        self.check_errors(parts[-1])
+        query = ";:".join(queries)
+        self.state_read["6221"] = self._check_state(query, ";".join(parts[:-1]), SOURCE_STATE, "")
 
     def _configure_voltmeter(self, s: DeltaSettings) -> None:
-        """2182A: pinned state, NPLC and range; all read back in one relayed query (proves the 2182A took the
-        relayed settings, with no blind sleep, and that nothing changed them)."""
-        for command, _, _ in VOLTMETER_STATE:
-            self.relay_write(command)
-        self.relay_write(f":SENS:VOLT:NPLC {_fmt(s.nplc)}")
-        if s.voltmeter_range_v is None:
-            self.relay_write(":SENS:VOLT:RANG:AUTO ON")
-        else:
-            self.relay_write(f":SENS:VOLT:RANG {_fmt(s.voltmeter_range_v)}")
+        """2182A: pinned state, NPLC and range, then all of it read back — one relayed message (proves the 2182A
+        took the relayed settings, with no blind sleep, and that nothing changed them)."""
+        rng = ":SENS:VOLT:RANG:AUTO ON"
+        if s.voltmeter_range_v is not None:
+            rng = f":SENS:VOLT:RANG {_fmt(s.voltmeter_range_v)}"
+        sets = [*(command for command, _, _ in VOLTMETER_STATE), f":SENS:VOLT:NPLC {_fmt(s.nplc)}", rng]
         expected = ((":SENS:VOLT:NPLC", ":SENS:VOLT:NPLC?", _fmt(s.nplc)), *VOLTMETER_STATE)
         query = ";".join(q for _, q, _ in expected)
         n = len(expected)
@@ -342,7 +379,7 @@ class Keithley6221:
         def complete(text: str) -> bool:
             return len(text.split(";")) == n and all(p.strip() for p in text.split(";"))
 
-        reply = self.relay_query(query, complete=complete)
+        reply = self.relay_query(";".join([*sets, query]), complete=complete)
         self.state_read["2182A"] = self._check_state(query, reply, expected, " (2182A)")
 
     @staticmethod
@@ -358,12 +395,17 @@ class Keithley6221:
                 )
         return {command: got.strip() for (command, _, _), got in zip(expected, parts, strict=True)}
 
+    _ARM_POLL = "SOUR:DELT:ARM?;:STAT:OPER:EVEN?;:STAT:MEAS:EVEN?"
+
     def _arm(self) -> None:
-        self.write("SOUR:DELT:ARM")
+        """Arm and poll ``SOUR:DELT:ARM?`` until 1, with a deadline. Each poll also reads (and so clears) the
+        operation and measurement event registers, the last one just before ``INIT``: a compliance bit latched
+        before this block must not leak into it."""
+        command = "SOUR:DELT:ARM;:" + self._ARM_POLL
         deadline = self.clock() + self.arm_timeout_s
         wait = 0.005
         while True:
-            reply = self.query("SOUR:DELT:ARM?")
+            reply = _parts(command, self.query(command), 3)[0]
             if reply == "1":
                 return
             if reply != "0":
@@ -372,6 +414,7 @@ class Keithley6221:
                 raise InstrumentTimeout("SOUR:DELT:ARM?", self.arm_timeout_s, "the Delta test did not arm")
             self.sleep(wait)
             wait = min(2 * wait, self.poll_interval_s)
+            command = self._ARM_POLL
 
     def stall_window_s(self, s: DeltaSettings, stored: int) -> float:
         """How long (s) the sweep may go without a new reading: the first needs three conversions, each later one
@@ -380,20 +423,27 @@ class Keithley6221:
         conversions = 3 if stored == 0 else 1
         return 2.0 * conversions * s.conversion_period_s + self.stall_timeout_s
 
-    def _wait_done(self, s: DeltaSettings) -> int:
-        """Poll the operation event register until sweep done or aborted; return the event bits.
+    _POLL = "STAT:OPER:EVEN?;:TRAC:POIN:ACT?;:STAT:MEAS:EVEN?"
 
-        The deadline follows progress: each poll also reads ``TRAC:POIN:ACT?``, and the sweep counts as stalled
-        (:class:`SweepStalled`) only when that count has not grown for :meth:`stall_window_s`.
+    def _wait_done(self, s: DeltaSettings) -> tuple[int, int, int]:
+        """Poll the operation event register until sweep done or aborted; return (operation bits, stored
+        readings, measurement bits seen during the sweep).
+
+        The deadline follows progress: each poll also reads ``TRAC:POIN:ACT?`` (and the measurement event register,
+        whose bits are gathered: reading clears it), and the sweep counts as stalled (:class:`SweepStalled`) only
+        when the count has not grown for :meth:`stall_window_s`.
         """
         wait = min(self.poll_interval_s, max(0.002, s.conversion_period_s))
         stored = 0
+        meas = 0
         last_progress = self.clock()
         while True:
-            bits = self.query_int("STAT:OPER:EVEN?")
+            bits_text, stored_text, meas_text = _parts(self._POLL, self.query(self._POLL), 3)
+            bits = _integer("STAT:OPER:EVEN?", bits_text)
+            now_stored = _integer("TRAC:POIN:ACT?", stored_text)
+            meas |= _integer("STAT:MEAS:EVEN?", meas_text)
             if bits & (SWEEP_DONE | SWEEP_ABORTED):
-                return bits
-            now_stored = self.query_int("TRAC:POIN:ACT?")
+                return bits, now_stored, meas
             now = self.clock()
             window = self.stall_window_s(s, stored)
             if now_stored > stored:
@@ -427,11 +477,12 @@ class Keithley6221:
     def run_delta(self, settings: DeltaSettings) -> DeltaBlock:
         """Run one Delta block and return its readings (see the module docstring for the exit guarantees).
 
-        Sequence: presence check, abort, error queue must be empty (errors left by earlier commands raise
+        Sequence: abort, presence check, error queue must be empty (errors left by earlier commands raise
         :class:`InstrumentError` before anything is configured), configure and pin the state (read back), check
         errors, arm (confirmed by ``SOUR:DELT:ARM?``), clear the operation and measurement event registers,
-        ``INIT:IMM``, poll ``STAT:OPER:EVEN?`` and ``TRAC:POIN:ACT?`` (deadline follows progress),
-        ``STAT:MEAS:EVEN?`` (compliance), chunked buffer read, drain ``SYST:ERR?``, abort.
+        ``INIT:IMM``, poll ``STAT:OPER:EVEN?``, ``TRAC:POIN:ACT?`` (deadline follows progress) and
+        ``STAT:MEAS:EVEN?`` (compliance), chunked buffer read, drain ``SYST:ERR?``, abort. Checks share compound
+        messages: about ten messages per block of up to ``chunk_size`` readings.
 
         Every error leaves with a note saying whether the source is idle (``SOUR:SWE:ABOR`` sent) or in an unknown
         state (it could not be sent, e.g. the connection is gone); :attr:`source_state` says the same.
@@ -448,22 +499,17 @@ class Keithley6221:
 
     def _take_block(self, settings: DeltaSettings) -> tuple[np.ndarray, np.ndarray, bool]:
         """The instrument part of :meth:`run_delta`: readings, timestamps and the compliance flag."""
-        self.require_voltmeter()
-        self.abort()
-        self.check_errors()
+        self._start()
         self.configure_delta(settings)
-        self.check_errors()
         self._arm()
-        self.query("STAT:OPER:EVEN?")  # reading clears the event register
-        self.query("STAT:MEAS:EVEN?")  # clears a compliance bit latched before this block (it must not leak in)
         self.write("INIT:IMM")
-        bits = self._wait_done(settings)
-        stored = self.query_int("TRAC:POIN:ACT?")
-        meas = self.query_int("STAT:MEAS:EVEN?")
+        bits, stored, meas = self._wait_done(settings)
         if bits & SWEEP_ABORTED:
             self.check_errors()
             reason = "compliance (compliance abort is on)" if meas & COMPLIANCE else "sweep aborted"
             raise SweepAborted(reason, stored)
+        if stored != settings.count:  # done latched before the last count showed: ask once more
+            stored = self.query_int("TRAC:POIN:ACT?")
         if stored != settings.count:
             raise ReplyError("TRAC:POIN:ACT?", str(stored), f"{settings.count} stored readings")
         readings, stamps = self.read_buffer(stored)

@@ -19,6 +19,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
 
+from contactrig.core.registry import Registry
 from contactrig.core.validation import SettingError, check_keys
 from instruments.block import Block
 from instruments.delta import DeltaSettings
@@ -122,7 +123,7 @@ class InstrumentPair:
     simulate: SimulatorFactory
 
 
-_REGISTRY: dict[str, InstrumentPair] = {}
+_REGISTRY: Registry[InstrumentPair] = Registry("instrument pair")
 
 
 def register(pair: InstrumentPair, *, replace: bool = False) -> InstrumentPair:
@@ -131,25 +132,24 @@ def register(pair: InstrumentPair, *, replace: bool = False) -> InstrumentPair:
         raise ValueError(f"instrument pair key {pair.key!r}: expected a name such as 'k6221_2182a'")
     if pair.key in _REGISTRY and not replace:
         raise ValueError(f"instrument pair {pair.key!r} is registered already (replace=True to replace it)")
-    _REGISTRY[pair.key] = pair
-    return pair
+    return _REGISTRY.register(pair, replace=replace)
 
 
 def unregister(key: str) -> None:
     """Remove the pair ``key`` (nothing happens if it is not registered)."""
-    _REGISTRY.pop(key, None)
+    _REGISTRY.unregister(key)
 
 
 def pair_names() -> list[str]:
     """The keys of every registered pair, in registration order."""
-    return list(_REGISTRY)
+    return list(_REGISTRY.names())
 
 
 def get_pair(key: str = DEFAULT_PAIR) -> InstrumentPair:
     """The pair registered as ``key``; an unknown key is a :class:`SettingError` naming ``[instrument] pair``."""
-    pair = _REGISTRY.get(key) if isinstance(key, str) else None
+    pair = _REGISTRY.find(key) if isinstance(key, str) else None
     if pair is None:
-        raise SettingError("instrument.pair", key, "expected one of " + ", ".join(repr(k) for k in _REGISTRY))
+        raise SettingError("instrument.pair", key, "expected one of " + ", ".join(repr(k) for k in _REGISTRY.names()))
     return pair
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from functools import lru_cache
 
 __all__ = ["Command", "parse_message", "split_params", "unquote"]
 
@@ -84,6 +85,24 @@ _LONG = {
     "VOLT": "VOLTAGE",
     "WAVE": "WAVE",
     "WIND": "WINDOW",
+    # added for the rest of the documented command set (status, waveform, display, 2182A)
+    "QUE": "QUEUE",
+    "QUES": "QUESTIONABLE",
+    "DISP": "DISPLAY",
+    "FREQ": "FREQUENCY",
+    "OFFS": "OFFSET",
+    "DCYC": "DCYCLE",
+    "DUR": "DURATION",
+    "TIME": "TIME",
+    "CYCL": "CYCLES",
+    "PMAR": "PMARKER",
+    "OLIN": "OLINE",
+    "TYPE": "TYPE",
+    "LFR": "LFREQUENCY",
+    "READ": "READ",
+    "FETC": "FETCH",
+    "DCON": "DCONDUCTANCE",
+    "PDEL": "PDELTA",
 }
 _BY_LONG = {v: k for k, v in _LONG.items()}
 _BY_LONG["STATE"] = "STAT"  # STATe and STATus share the short form
@@ -104,6 +123,16 @@ _ALIASES = {
     "SYST:AZER:STAT": "SYST:AZER",
     "SENS:VOLT:DFIL": "SENS:VOLT:DFIL:STAT",
     "SENS:VOLT:LPAS:STAT": "SENS:VOLT:LPAS",
+    "CALC2:IMM:DATA": "CALC2:DATA",
+    "OUTP:STAT": "OUTP",
+    "UNIT:VOLT": "UNIT",
+    "UNIT:VOLT:DC": "UNIT",
+    "STAT:QUE:NEXT": "STAT:QUE",
+    "STAT:QUES": "STAT:QUES:EVEN",
+    "SOUR:CURR:AMPL": "SOUR:CURR",
+    "SOUR:CURR:LEV:AMPL": "SOUR:CURR",
+    "SOUR:CURR:LEV:IMM": "SOUR:CURR",
+    "SOUR:WAVE:PMAR:LEV": "SOUR:WAVE:PMAR",
 }
 _HEADER = re.compile(r"\s*(:?[*A-Za-z][A-Za-z0-9_:*]*\??)\s*(.*)\Z", re.S)
 
@@ -161,6 +190,7 @@ def unquote(param: str) -> str:
     return p
 
 
+@lru_cache(maxsize=4096)
 def _canonical_node(node: str) -> str:
     up = node.upper()
     m = re.fullmatch(r"([A-Z]+)(\d*)", up)
@@ -177,8 +207,18 @@ def _canonical_node(node: str) -> str:
 def parse_message(message: str) -> list[Command]:
     """Split a (possibly compound) program message into canonical commands, applying the SCPI path rule.
 
-    Unparseable pieces come back with an empty header so the simulator can queue "Undefined header".
+    Unparseable pieces come back with an empty header so the simulator can queue "Undefined header". Parsed
+    messages are cached (a driver repeats the same few messages block after block).
     """
+    return list(_parse_cached(message))
+
+
+@lru_cache(maxsize=1024)
+def _parse_cached(message: str) -> tuple[Command, ...]:
+    return tuple(_parse(message))
+
+
+def _parse(message: str) -> list[Command]:
     commands: list[Command] = []
     path: list[str] = []
     for piece in _split_outside_quotes(message, ";"):

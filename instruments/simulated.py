@@ -19,7 +19,7 @@ import itertools
 import math
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from importlib import resources
 from io import StringIO
@@ -34,6 +34,7 @@ from pyvisa_sim.devices import Device, Devices
 from pyvisa_sim.highlevel import SimVisaLibrary
 
 from contactrig.core.validation import check_choice, check_range
+from instruments.commands import K2182A, K6221, NPLC_MAX_50HZ, ScpiError, Setting
 from instruments.delta import delta_readings
 from instruments.scpi import Command, parse_message, split_params, unquote
 
@@ -57,55 +58,24 @@ PYVISA_SIM_RANGE = ((0, 7), (0, 8))
 DEFINITION = "k6221_sim.yaml"
 OVERFLOW = 9.9e37
 
-# SCPI error codes used by the simulator.
+# SCPI error codes used by the simulator (SCPI-99 numbers, as the 6221 and 2182A report them).
 E_UNDEFINED = (-113, "Undefined header")
 E_CONFLICT = (-221, "Settings conflict")
 E_OUT_OF_RANGE = (-222, "Data out of range")
 E_ILLEGAL = (-224, "Illegal parameter value")
 E_STALE = (-230, "Data corrupt or stale")
 E_HW_MISSING = (-241, "Hardware missing")
-_ERROR_TEXT = {c: m for c, m in (E_UNDEFINED, E_CONFLICT, E_OUT_OF_RANGE, E_ILLEGAL, E_STALE, E_HW_MISSING)}
-_BOOLEAN_HEADERS = {
-    "SOUR:DELT:CAB",
-    "SOUR:DELT:CSW",
-    "SOUR:CURR:RANG:AUTO",
-    "SENS:VOLT:RANG:AUTO",
-    "OUTP:LTE",
-    "SENS:AVER:STAT",
-    "CALC1:STAT",
-    "SYST:AZER",
-    "SENS:VOLT:DFIL:STAT",
-    "SENS:VOLT:LPAS",
-}
-# Keyword parameters: long forms and spellings -> the short form the YAML table holds.
-_KEYWORDS = {
-    "OHM": "OHMS",
-    "VOLT": "V",
-    "WATT": "W",
-    "WATTS": "W",
-    "MOVING": "MOV",
-    "REPEAT": "REP",
-    "GUAR": "GUARD",
-    "ABSOLUTE": "ABS",
-    "DELTA": "DELT",
-    "SENS": "SENS1",
-    "SENSE": "SENS1",
-    "SENSE1": "SENS1",
-    "CALC": "CALC1",
-    "CALCULATE": "CALC1",
-    "CALCULATE1": "CALC1",
-    "NEVER": "NEV",
-}
-_ELEMENTS = {
-    "READ": "READ",
-    "READING": "READ",
-    "TST": "TST",
-    "TSTAMP": "TST",
-    "RNUM": "RNUM",
-    "RNUMBER": "RNUM",
-    "SOUR": "SOUR",
-    "SOURCE": "SOUR",
-}
+E_INTERRUPTED = (-410, "Query INTERRUPTED")
+E_QUEUE_OVERFLOW = (-350, "Queue overflow")
+#: Buffer elements in the instrument's fixed order, whatever the order in FORM:ELEM (RM 6-12).
+ELEMENT_ORDER = ("READ", "TST", "SOUR", "AVOL", "COMP", "RNUM")
+_ELEMENT_NAMES = {"READ": "READ", "READING": "READ", "TST": "TST", "TSTAMP": "TST", "SOUR": "SOUR", "SOURCE": "SOUR"}
+_ELEMENT_NAMES |= {"AVOL": "AVOL", "AVOLTAGE": "AVOL", "COMP": "COMP", "COMPLIANCE": "COMP", "RNUM": "RNUM"}
+_ELEMENT_NAMES |= {"RNUMBER": "RNUM", "UNIT": "UNIT", "UNITS": "UNIT"}
+_READING_SUFFIX = {"V": "VDC", "OHMS": "OHM", "W": "W", "SIEM": "SIEM"}
+_ELEMENT_SUFFIX = {"TST": "SECS", "SOUR": "ADC", "AVOL": "VDC", "COMP": "", "RNUM": "RDNG#"}
+#: Standard event status register bit for each class of error (IEEE 488.2): QYE, DDE, EXE, CME.
+_ESR_BITS = ((-499, -400, 1 << 2), (-399, -300, 1 << 3), (-299, -200, 1 << 4), (-199, -100, 1 << 5))
 _XOFF = "\x13"
 
 
@@ -236,56 +206,174 @@ def _load_definition() -> dict[str, Any]:
     return sim_parser._load(StringIO(text))
 
 
+def _resolve(header: str, table: dict[str, Setting], known: Iterable[str], root: str) -> str:
+    """The header the instrument implements: as given, or with its optional root node (``SOUR:``, ``SENS:``)."""
+    base = header.rstrip("?")
+    if base.startswith(root.rstrip(":") + "1:"):  # SOUR1 = SOUR
+        base = root + base[len(root) + 1 :]
+        header = base + ("?" if header.endswith("?") else "")
+    if base in table or header in known or base.startswith("*"):
+        return header
+    rooted = root + header
+    return rooted if rooted.rstrip("?") in table or rooted in known else header
+
+
 class _ScpiDevice(Device):
-    """A pyvisa-sim Device that receives canonical SCPI commands; settings and static replies come from YAML."""
+    """A pyvisa-sim Device that receives canonical SCPI commands. Settings are those of one command table
+    (:mod:`instruments.commands`): parsed, range-checked, stored and answered from their declarations; static
+    replies (``*IDN?``) come from the YAML dialogues; anything else is handled in Python (``handlers``)."""
 
     # set by pyvisa-sim's Device (untyped): the bytes received so far and the message terminators
     _input_buffer: bytearray
     _query_eom: bytes
     _response_eom: bytes
+    root = ""
 
-    def __init__(self, name: str, definition: dict[str, Any]) -> None:
+    def __init__(self, name: str, definition: dict[str, Any], table: dict[str, Setting]) -> None:
         super().__init__(name, b"")
-        self._definition = definition
         for itype, eom in definition.get("eom", {}).items():
             self.add_eom(itype, *sim_parser._get_pair(eom))
         sim_parser.update_component(name, self, definition)
+        self.table = table
+        self.values: dict[str, Any] = {h: s.default for h, s in table.items()}
+        self._by_key = {s.key: h for h, s in table.items()}
         self.errors: deque[tuple[int, str]] = deque()
+        self.esr = 0
+        self.handlers: dict[str, Callable[[Command], str | None]] = {}
 
-    def reset_properties(self) -> None:
-        for name, prop in self._definition.get("properties", {}).items():
-            self._properties[name].set_value(prop.get("default", ""))
+    def reset_settings(self) -> None:
+        """``*RST``: every setting the manual resets goes back to its default."""
+        for header, s in self.table.items():
+            if s.reset:
+                self.values[header] = s.default
 
-    def prop(self, name: str) -> Any:
-        return self._properties[name].get_value()
+    def prop(self, key: str) -> Any:
+        """The current value of the setting with Python name ``key``."""
+        return self.values[self._by_key[key]]
+
+    def set_prop(self, key: str, value: Any) -> None:
+        self.values[self._by_key[key]] = value
 
     def push_error(self, err: tuple[int, str]) -> None:
+        for lo, hi, bit in _ESR_BITS:
+            if lo <= err[0] <= hi:
+                self.esr |= bit
         if len(self.errors) < 32:
             self.errors.append(err)
         else:  # the queue is full: the last entry becomes "Queue overflow", as on SCPI instruments
-            self.errors[-1] = (-350, "Queue overflow")
+            self.errors[-1] = E_QUEUE_OVERFLOW
+
+    def pop_error(self, cmd: Command | None = None) -> str:
+        if not self.errors:
+            return '0,"No error"'
+        code, msg = self.errors.popleft()
+        return f'{code:d},"{msg}"'
+
+    def execute(self, cmd: Command) -> str | None:
+        """One command: a handler, a declared setting, a static dialogue, or −113."""
+        if not cmd.header:
+            self.push_error(E_UNDEFINED)
+            return None
+        header = _resolve(cmd.header, self.table, self.handlers, self.root)
+        if header != cmd.header:
+            cmd = Command(header, cmd.params, cmd.raw)
+        handler = self.handlers.get(header)
+        if handler is not None:
+            return handler(cmd)
+        if header.rstrip("?") in self.table:
+            return self.setting(cmd)
+        return self.static(cmd)
+
+    def setting(self, cmd: Command) -> str | None:
+        """Set or query a declared setting (``MIN``/``MAX``/``DEF`` after a query give the limits)."""
+        header = cmd.header.rstrip("?")
+        s = self.table[header]
+        if cmd.is_query:
+            if not cmd.params:
+                return s.reply(self.values[header])
+            reply = s.limit_reply(cmd.params)
+            if reply is None:
+                self.push_error(E_ILLEGAL)
+            return reply
+        try:
+            self.values[header] = s.parse(cmd.params)
+        except ScpiError as err:
+            self.push_error((err.code, err.message))
+        return None
+
+    def set_ok(self, cmd: Command) -> bool:
+        """Apply a setting command; True if the instrument took it."""
+        before = len(self.errors), self.esr
+        self.setting(cmd)
+        return (len(self.errors), self.esr) == before
 
     def static(self, cmd: Command) -> str | None:
-        """Answer ``cmd`` from the YAML table; queue an error if it is unknown or rejected; None = no reply."""
-        text = cmd.text
-        if cmd.header.split("?")[0] in _BOOLEAN_HEADERS and cmd.params:
-            p = cmd.params.strip().upper()
-            text = f"{cmd.header} {dict(ON='1', OFF='0').get(p, p)}"
-        response = self._match(text.encode("latin-1"))
+        """Answer ``cmd`` from the YAML dialogues; queue −113 if it is unknown; None = no reply."""
+        response = self._match(cmd.text.encode("latin-1"))
         if response is None:
             self.push_error(E_UNDEFINED)
             return None
         if response is NoResponse:
             return None
-        if response.startswith(b"ERR:"):
-            code = int(response[4:])
-            self.push_error((code, _ERROR_TEXT.get(code, "Error")))
-            return None
         return response.decode("latin-1")
+
+    def run(self, message: str) -> list[str]:
+        """Execute one program message; the replies of its queries, in order."""
+        replies = []
+        for cmd in parse_message(message):
+            reply = self.execute(cmd)
+            if reply is not None:
+                replies.append(reply)
+        return replies
 
 
 class Simulated2182A(_ScpiDevice):
-    """The 2182A behind the 6221's RS-232 port (reached only through the relay)."""
+    """The 2182A behind the 6221's RS-232 port (reached only through the relay); ``SENSe`` is optional."""
+
+    root = "SENS:"
+
+    def __init__(self, name: str, definition: dict[str, Any], bench: SimulatedBench | None = None) -> None:
+        super().__init__(name, definition, K2182A)
+        self.bench = bench if bench is not None else SimulatedBench()
+        self.source_current_a: Callable[[], float] = lambda: 0.0
+        self._last = OVERFLOW
+        self.handlers.update(
+            {
+                "*RST": lambda c: self.reset_settings(),
+                "*CLS": lambda c: self.errors.clear(),
+                "SYST:ERR?": self.pop_error,
+                "SYST:LFR?": lambda c: f"{self.bench.line_frequency_hz:g}",
+                "SENS:VOLT:RANG": self._set_range,
+                "SENS:VOLT:NPLC": self._set_nplc,
+                "READ?": self._read,
+                "FETC?": lambda c: f"{self._last:+.8E}",
+            }
+        )
+
+    def _set_range(self, cmd: Command) -> str | None:
+        if cmd.is_query:
+            return self.setting(cmd)
+        if self.set_ok(cmd):
+            self.set_prop("range_auto", False)  # a fixed range turns auto range off
+        return None
+
+    def _set_nplc(self, cmd: Command) -> str | None:
+        if cmd.is_query:
+            return self.setting(cmd)
+        old = self.prop("nplc")
+        if cmd.params.strip().upper().startswith("MAX") and self.bench.line_frequency_hz == 50.0:
+            cmd = Command(cmd.header, f"{NPLC_MAX_50HZ:g}", cmd.raw)  # MAX is 50 PLC on 50 Hz mains
+        if self.set_ok(cmd) and self.bench.line_frequency_hz == 50.0 and self.prop("nplc") > NPLC_MAX_50HZ:
+            self.set_prop("nplc", old)
+            self.push_error(E_OUT_OF_RANGE)
+        return None
+
+    def _read(self, cmd: Command) -> str:
+        """One conversion at the 6221's DC output current (0 when its output is off)."""
+        t = np.array([self.bench.instrument_time_s])
+        current = np.array([self.source_current_a()])
+        self._last = float(self.convert(self.bench, t, current, float(self.prop("nplc")))[0])
+        return f"{self._last:+.8E}"
 
     def convert(self, bench: SimulatedBench, t_s: np.ndarray, currents: np.ndarray, nplc: float) -> np.ndarray:
         """The conversions of one Delta run (V; +9.9E37 over range): channel 2 sees no sample current, a digital
@@ -300,19 +388,7 @@ class Simulated2182A(_ScpiDevice):
         return volts
 
     def handle(self, message: str) -> str | None:
-        replies = []
-        for cmd in parse_message(message):
-            if cmd.header == "SENS:VOLT:RANG" and cmd.params:
-                r = self.static(cmd)
-                if not self.errors:
-                    self._properties["range_auto"].set_value("0")
-            elif cmd.header == "*RST":
-                self.reset_properties()
-                r = None
-            else:
-                r = self.static(cmd)
-            if r is not None:
-                replies.append(r)
+        replies = self.run(message)
         return ";".join(replies) if replies else None
 
 
@@ -327,69 +403,118 @@ class _Sweep:
     end_s: float
     aborted_at_s: float | None
     source_a: np.ndarray = field(default_factory=lambda: np.empty(0))
+    avol: np.ndarray = field(default_factory=lambda: np.empty(0))
     finished: bool = False
     stopped_n: int | None = None
+    endless: bool = False  # SOUR:DELT:COUN INF: fills the buffer and keeps running until aborted
 
 
 class SimulatedK6221(_ScpiDevice):
-    """The simulated 6221 at one VISA address (a pyvisa-sim Device with SCPI parsing and Delta physics)."""
+    """The simulated 6221 at one VISA address (a pyvisa-sim Device with SCPI parsing and Delta physics).
+
+    IEEE 488.2 message exchange: a LF ends a program message (one write may hold several); a reply left unread when
+    the next message arrives is discarded and −410 queued. ``SOURce`` is an optional root (``CURR:COMP`` =
+    ``SOUR:CURR:COMP``, ``SOUR1`` = ``SOUR``).
+    """
+
+    root = "SOUR:"
 
     def __init__(
         self, name: str, definition: dict[str, Any], voltmeter_def: dict[str, Any], bench: SimulatedBench
     ) -> None:
-        super().__init__(name, definition)
+        super().__init__(name, definition, K6221)
         self.bench = bench
-        self.voltmeter = Simulated2182A("k2182a", voltmeter_def)
+        self.voltmeter = Simulated2182A("k2182a", voltmeter_def, bench)
+        self.voltmeter.source_current_a = lambda: float(self.prop("source_current")) if self.prop("output") else 0.0
         self._out: deque[bytes] = deque()
         self._out_pos = 0
         self._armed_at: float | None = None
         self._sweep: _Sweep | None = None
         self._oper_event = 0
         self._meas_event = 0
-        self._relay_out = ""
+        self._ques_event = 0
+        self._calc2 = math.nan
         self._relay_pending: deque[str] = deque()
-        self._handlers: dict[str, Callable[[Command], str | None]] = {
+        self.handlers.update(self._status_handlers())
+        self.handlers.update(self._delta_handlers())
+
+    def _status_handlers(self) -> dict[str, Callable[[Command], str | None]]:
+        return {
             "*RST": self._rst,
             "*CLS": self._cls,
-            "SYST:ERR?": lambda c: self._pop_error(),
+            "*ESR?": self._read_esr,
+            "*STB?": lambda c: str(self._stb()),
+            "*OPC": self._opc,
+            "*OPC?": lambda c: "1",  # nothing is pending in the simulation (on hardware: unverified for Delta)
+            "*WAI": lambda c: None,
+            "*TST?": lambda c: "0",
+            "SYST:ERR?": self.pop_error,
+            "STAT:QUE?": self.pop_error,
+            "STAT:QUE:CLE": lambda c: self.errors.clear(),
+            "STAT:PRES": self._preset,
+            "STAT:OPER:EVEN?": self._read_oper,
+            "STAT:MEAS:EVEN?": self._read_meas,
+            "STAT:QUES:EVEN?": self._read_ques,
+            "STAT:OPER:COND?": lambda c: str(self._oper_condition()),
+            "STAT:MEAS:COND?": lambda c: "0",
+            "STAT:QUES:COND?": lambda c: "0",
+        }
+
+    def _delta_handlers(self) -> dict[str, Callable[[Command], str | None]]:
+        return {
             "SOUR:DELT:NVPR?": lambda c: "0" if self.bench.faults.voltmeter_absent else "1",
             "SOUR:DELT:ARM": self._arm,
             "SOUR:DELT:ARM?": lambda c: "1" if self._is_armed() else "0",
+            "SOUR:DCON:ARM?": lambda c: "0",  # differential conductance: never armed here
+            "SOUR:PDEL:ARM?": lambda c: "0",  # pulse Delta: never armed here
+            "SOUR:WAVE:ARM?": lambda c: "0",
+            "SOUR:WAVE:ARM": lambda c: None,
+            "SOUR:WAVE:INIT": lambda c: None,
+            "SOUR:WAVE:ABOR": lambda c: None,
             "INIT:IMM": self._init,
             "SOUR:SWE:ABOR": self._abort,
-            "STAT:OPER:EVEN?": self._read_oper,
-            "STAT:MEAS:EVEN?": self._read_meas,
+            "ABOR": self._abort,  # whether ABORt also stops a Delta run is unverified: the simulation stops it
             "TRAC:CLE": self._trace_clear,
             "TRAC:POIN:ACT?": lambda c: str(self._stored()),
             "TRAC:DATA?": self._trace_data,
             "TRAC:DATA:SEL?": self._trace_data_sel,
+            "TRAC:DATA:TYPE?": lambda c: "DELT" if self._stored() else "NONE",
             "SENS:DATA?": self._latest,
             "SENS:DATA:FRES?": self._latest,
+            "CALC2:IMM": self._calc2_immediate,
+            "CALC2:IMM?": self._calc2_query,
+            "CALC2:DATA?": lambda c: f"{self._calc2:+.8E}",
             "SYST:COMM:SER:SEND": self._relay_send,
             "SYST:COMM:SER:ENT?": self._relay_enter,
             "SOUR:DELT:HIGH": self._set_high,
             "SOUR:CURR:RANG": self._set_range,
-            "UNIT": self._keyword,
-            "OUTP:ISH": self._keyword,
-            "SENS:AVER:TCON": self._keyword,
-            "TRAC:TST:FORM": self._keyword,
-            "TRAC:FEED": self._keyword,
-            "TRAC:FEED:CONT": self._keyword,
             "FORM:ELEM": self._form_elem,
+            "FORM:ELEM?": lambda c: ",".join(e for e in (*ELEMENT_ORDER, "UNIT") if e in self._elements),
         }
 
     # ---------------------------------------------------------------- VISA side: buffers
     def write(self, data: bytes) -> None:
+        """Bytes from the controller: every LF ends one program message (IEEE 488.2)."""
         if not isinstance(data, bytes):
             raise TypeError("data must be an instance of bytes")
         self._input_buffer.extend(data)
-        if not self._input_buffer.endswith(self._query_eom):
-            return
-        message = bytes(self._input_buffer[: -len(self._query_eom)]).decode("latin-1")
-        self._input_buffer = bytearray()
-        reply = self.handle(message)
-        if reply is not None:
-            self._out.append(reply.encode("latin-1") + self._response_eom)
+        eom = self._query_eom
+        while (k := self._input_buffer.find(eom)) >= 0:
+            message = bytes(self._input_buffer[:k]).decode("latin-1").rstrip("\r")
+            del self._input_buffer[: k + len(eom)]
+            self._interrupt_unread()
+            reply = self.handle(message)
+            if reply is not None:
+                self._out.append(reply.encode("latin-1") + self._response_eom)
+
+    def _interrupt_unread(self) -> None:
+        """A new message while a reply is unread: the reply is discarded and −410 queued. A remnant of bare
+        terminators (the relay's stray LF, as seen in the field) stays for the controller to read."""
+        unread = b"".join(self._out)[self._out_pos :]
+        if unread.strip(b"\r\n"):
+            self._out.clear()
+            self._out_pos = 0
+            self.push_error(E_INTERRUPTED)
 
     def read(self) -> tuple[bytes, bool]:
         """One byte, as pyvisa-sim's sessions expect (O(1): no bytearray.pop(0))."""
@@ -416,71 +541,110 @@ class SimulatedK6221(_ScpiDevice):
 
     # ---------------------------------------------------------------- message handling
     def handle(self, message: str) -> str | None:
-        """Execute one program message; return the response message (``;``-joined query replies) or None."""
+        """Execute one program message; return the response message (``;``-joined query replies) or None.
+
+        Faults: a ``silent`` header withholds the whole response message (the instrument never answers it), a
+        ``garbage`` header replaces its own reply."""
         while self.bench._injected_errors:
             self.push_error(self.bench._injected_errors.popleft())
         self._advance()
-        replies = []
+        replies, silent = [], False
         faults = self.bench.faults
         for cmd in parse_message(message):
-            if not cmd.header:
-                self.push_error(E_UNDEFINED)
-                continue
-            handler = self._handlers.get(cmd.header)
-            reply = handler(cmd) if handler is not None else self.static(cmd)
-            if cmd.header in faults.garbage:
-                reply = faults.garbage[cmd.header]
-            if cmd.header in faults.silent:
-                reply = None
+            reply = self.execute(cmd)
+            base = _resolve(cmd.header, self.table, self.handlers, self.root)
+            reply = faults.garbage.get(base, reply)
+            silent = silent or base in faults.silent
             if reply is not None:
                 replies.append(reply)
-        return ";".join(replies) if replies else None
+        return ";".join(replies) if replies and not silent else None
 
-    def _pop_error(self) -> str:
-        if not self.errors:
-            return '0,"No error"'
-        code, msg = self.errors.popleft()
-        return f'{code:d},"{msg}"'
-
+    # ---------------------------------------------------------------- status (IEEE 488.2 and SCPI registers)
     def _rst(self, cmd: Command) -> None:
         self._abort(cmd)
-        self.reset_properties()
-        self._sweep = None
+        self.reset_settings()
         return None
 
     def _cls(self, cmd: Command) -> None:
         self.errors.clear()
-        self._oper_event = 0
-        self._meas_event = 0
+        self.esr = self._oper_event = self._meas_event = self._ques_event = 0
         return None
 
-    def _set_high(self, cmd: Command) -> None:
-        before = len(self.errors)
-        self.static(cmd)
-        if len(self.errors) == before:  # setting HIGH also sets LOW to -HIGH
-            self._properties["delta_low"].set_value(str(-self.prop("delta_high")))
+    def _preset(self, cmd: Command) -> None:
+        for key in ("meas_enable", "oper_enable", "ques_enable"):
+            self.set_prop(key, 0)
         return None
 
-    def _set_range(self, cmd: Command) -> None:
-        before = len(self.errors)
-        self.static(cmd)
-        if len(self.errors) == before:
-            self._properties["current_range_auto"].set_value("0")
+    def _opc(self, cmd: Command) -> None:
+        self.esr |= 1  # operation complete: nothing is pending in the simulation
         return None
 
-    def _keyword(self, cmd: Command) -> str | None:
-        p = cmd.params.strip().upper()
-        return self.static(Command(cmd.header, _KEYWORDS.get(p, p), cmd.raw))
+    def _read_esr(self, cmd: Command) -> str:
+        value, self.esr = self.esr, 0
+        return str(value)
 
-    def _form_elem(self, cmd: Command) -> str | None:
+    def _stb(self) -> int:
+        """Status byte: MSB (0), EAV (2), QSB (3), ESB (5), OSB (7) and MSS (6) from the enabled summaries."""
+        stb = 1 if self._meas_event & int(self.prop("meas_enable")) else 0
+        stb |= 4 if self.errors else 0
+        stb |= 8 if self._ques_event & int(self.prop("ques_enable")) else 0
+        stb |= 32 if self.esr & int(self.prop("standard_event_enable")) else 0
+        stb |= 128 if self._oper_event & int(self.prop("oper_enable")) else 0
+        return stb | (64 if stb & int(self.prop("service_request_enable")) & ~64 else 0)
+
+    def _oper_condition(self) -> int:
+        running = self._sweep is not None and not self._sweep.finished
+        return 1 << 3 if running else 1 << 10
+
+    def _read_oper(self, cmd: Command) -> str:
+        value, self._oper_event = self._oper_event, 0
+        return str(value)
+
+    def _read_meas(self, cmd: Command) -> str:
+        value, self._meas_event = self._meas_event, 0
+        return str(value)
+
+    def _read_ques(self, cmd: Command) -> str:
+        value, self._ques_event = self._ques_event, 0
+        return str(value)
+
+    # ---------------------------------------------------------------- settings with side effects
+    def _set_high(self, cmd: Command) -> str | None:
         if cmd.is_query:
-            return self.static(cmd)
-        given = split_params(cmd.params)
-        elems = [_ELEMENTS[p.upper()] for p in given if p.upper() in _ELEMENTS]
-        if not elems or len(elems) != len(given) or len(set(elems)) != len(elems):
+            return self.setting(cmd)
+        if self.set_ok(cmd):  # setting HIGH also sets LOW to -HIGH
+            self.set_prop("delta_low", -float(self.prop("delta_high")))
+        return None
+
+    def _set_range(self, cmd: Command) -> str | None:
+        if cmd.is_query:
+            return self.setting(cmd)
+        if self.set_ok(cmd):
+            self.set_prop("current_range_auto", False)
+        return None
+
+    @property
+    def _elements(self) -> tuple[str, ...]:
+        return tuple(self._form_elements)
+
+    _form_elements: tuple[str, ...] = ("READ", "TST")
+
+    def _form_elem(self, cmd: Command) -> None:
+        """``FORM:ELEM``: any of READ, TST, SOUR, AVOL, COMP, RNUM, UNIT, or ALL / DEF; the order given does not
+        matter (the buffer comes in the fixed order)."""
+        given = [p.upper() for p in split_params(cmd.params)]
+        if given == ["ALL"]:
+            self._form_elements = (*ELEMENT_ORDER, "UNIT")
+            return None
+        if given == ["DEF"] or given == ["DEFAULT"]:
+            self._form_elements = ("READ", "TST")
+            return None
+        elems = [_ELEMENT_NAMES.get(p) for p in given]
+        if not elems or None in elems or len(set(elems)) != len(elems):
             self.push_error(E_ILLEGAL)
             return None
-        return self.static(Command(cmd.header, ",".join(elems), cmd.raw))
+        self._form_elements = tuple(e for e in (*ELEMENT_ORDER, "UNIT") if e in elems)
+        return None
 
     # ---------------------------------------------------------------- time
     def _now_s(self, since_real: float) -> float:
@@ -501,7 +665,7 @@ class SimulatedK6221(_ScpiDevice):
         if sw.aborted_at_s is not None and now >= sw.aborted_at_s:
             sw.finished = True
             self._oper_event |= 1 << 2
-        elif sw.aborted_at_s is None and now >= sw.end_s:
+        elif sw.aborted_at_s is None and now >= sw.end_s and not sw.endless:
             sw.finished = True
             self._oper_event |= (1 << 1) | (1 << 10)
 
@@ -514,14 +678,19 @@ class SimulatedK6221(_ScpiDevice):
         return int(np.searchsorted(sw.ready_s, self._now_s(sw.started_real), side="right"))
 
     # ---------------------------------------------------------------- Delta
+    def _count(self) -> tuple[int, bool]:
+        """Readings of the next run and whether it keeps running (``SOUR:DELT:COUN INF``: 65536, RM 6-12)."""
+        count = float(self.prop("delta_count"))
+        return (65536, True) if math.isinf(count) else (int(count), False)
+
     def _arm(self, cmd: Command) -> None:
         if self.bench.faults.voltmeter_absent:
             self.push_error(E_HW_MISSING)
             return None
-        running = self._sweep is not None and not self._sweep.finished
-        if running or self.prop("trace_points") < self.prop("delta_count"):
+        if self._sweep is not None and not self._sweep.finished:
             self.push_error(E_CONFLICT)
             return None
+        self.set_prop("trace_points", self._count()[0])  # arming sizes the buffer to the Delta count (RM 6-12)
         self._armed_at = self.bench.clock()
         return None
 
@@ -553,7 +722,7 @@ class SimulatedK6221(_ScpiDevice):
 
     def _simulate_sweep(self) -> _Sweep:
         b = self.bench
-        count = int(self.prop("delta_count"))
+        count, endless = self._count()
         high, low = float(self.prop("delta_high")), float(self.prop("delta_low"))
         nplc = float(self.voltmeter.prop("nplc"))
         period = float(self.prop("delta_delay")) + nplc / b.line_frequency_hz + b.conversion_overhead_s
@@ -571,7 +740,8 @@ class SimulatedK6221(_ScpiDevice):
             limit = compliance / loop_ohm if loop_ohm > 0 else math.inf
             currents = np.clip(currents, -limit, limit)
         volts = self.voltmeter.convert(b, t_inst, currents, nplc)
-        deltas = delta_readings(np.where(volts >= OVERFLOW, 0.0, volts))
+        clean = np.where(volts >= OVERFLOW, 0.0, volts)
+        deltas = delta_readings(clean)
         over = volts >= OVERFLOW
         bad = over[:-2] | over[1:-1] | over[2:]
         if self.prop("unit") == "OHMS":
@@ -585,9 +755,13 @@ class SimulatedK6221(_ScpiDevice):
         deltas = np.where(bad, OVERFLOW, deltas)
         ready = period * np.arange(3, n_conv + 1)
         b.instrument_time_s += period * n_conv
-        # SOUR element: the source value at the last conversion of each reading (which value the 6221 reports is
-        # not documented in the material we have; unverified).
-        return _Sweep(b.clock(), deltas, ready - ready[0], ready, float(ready[-1]), None, currents[2:])
+        # SOUR element: the source value at the last conversion of each reading; AVOL: the mean of its three
+        # conversions with the Delta weights unsigned (what the EMF and drift add). Which values the 6221 reports
+        # in these two elements is not documented in the material we have (unverified).
+        avol = (clean[:-2] + 2.0 * clean[1:-1] + clean[2:]) / 4.0
+        return _Sweep(
+            b.clock(), deltas, ready - ready[0], ready, float(ready[-1]), None, currents[2:], avol, endless=endless
+        )
 
     def _filtered(self, deltas: np.ndarray) -> np.ndarray:
         """What the 6221 does to Delta readings before they reach the buffer: its averaging filter
@@ -606,30 +780,41 @@ class SimulatedK6221(_ScpiDevice):
             out = float(self.prop("calc1_mmf")) * out + float(self.prop("calc1_mbf"))
         return out
 
-    def _read_oper(self, cmd: Command) -> str:
-        value, self._oper_event = self._oper_event, 0
-        return str(value)
-
-    def _read_meas(self, cmd: Command) -> str:
-        value, self._meas_event = self._meas_event, 0
-        return str(value)
-
-    def _format(self, start: int, stop: int) -> str:
+    # ---------------------------------------------------------------- buffer
+    def _columns(self, start: int, stop: int) -> list[tuple[np.ndarray, str]]:
+        """The selected elements of readings ``start … stop − 1``, in the fixed order, with their unit suffixes."""
         sw = self._sweep
         assert sw is not None
-        elems = str(self.prop("format_elements")).split(",")
         stamps = sw.stamps
         if self.prop("trace_tst_format") == "DELT":  # time since the previous reading
             stamps = np.diff(sw.stamps, prepend=sw.stamps[:1])
-        cols = {
-            "READ": lambda: sw.readings[start:stop],
-            "TST": lambda: stamps[start:stop],
-            "RNUM": lambda: np.arange(start, stop, dtype=float),
-            "SOUR": lambda: sw.source_a[start:stop],
+        data = {
+            "READ": sw.readings,
+            "TST": stamps,
+            "SOUR": sw.source_a,
+            "AVOL": sw.avol,
+            "COMP": np.zeros(sw.readings.size),
+            "RNUM": np.arange(sw.readings.size, dtype=float),
         }
-        arrays = [cols[e]() for e in elems]
-        flat = np.column_stack(arrays).ravel()
-        return ",".join(f"{x:+.6E}" for x in flat.tolist())
+        units = "UNIT" in self._elements
+        suffix = {**_ELEMENT_SUFFIX, "READ": _READING_SUFFIX[str(self.prop("unit"))]}
+        return [(data[e][start:stop], suffix[e] if units else "") for e in ELEMENT_ORDER if e in self._elements]
+
+    def _format(self, start: int, stop: int) -> str:
+        """Readings ``start … stop − 1`` as the 6221 sends them: ASCII with 9 significant digits, or an IEEE 488.2
+        definite-length block of 4- or 8-byte floats (``FORM:DATA SRE|DRE``; byte order big-endian, unverified)."""
+        cols = self._columns(start, stop)
+        flat = np.column_stack([c for c, _ in cols]).ravel()
+        fmt = str(self.prop("format_data"))
+        if fmt != "ASC":
+            raw_bytes = flat.astype(">f4" if fmt == "SRE" else ">f8").tobytes()
+            n = str(len(raw_bytes))
+            return f"#{len(n)}{n}" + raw_bytes.decode("latin-1")
+        texts = [f"{x:+.8E}" for x in flat.tolist()]
+        if any(u for _, u in cols):
+            k = len(cols)
+            texts = [t + cols[i % k][1] for i, t in enumerate(texts)]
+        return ",".join(texts)
 
     def _trace_data(self, cmd: Command) -> str | None:
         n = self._stored()
@@ -651,11 +836,34 @@ class SimulatedK6221(_ScpiDevice):
         return self._format(start, start + count)
 
     def _latest(self, cmd: Command) -> str | None:
+        """``SENS:DATA?``: the latest reading while running; −221 when idle (UM 5-41), −230 before the first."""
+        sw = self._sweep
+        if sw is None or sw.finished:
+            self.push_error(E_CONFLICT)
+            return None
         n = self._stored()
-        if self._sweep is None or self._sweep.finished or n == 0:
+        if n == 0:
             self.push_error(E_STALE)
             return None
-        return f"{self._sweep.readings[n - 1]:+.6E}"
+        return f"{sw.readings[n - 1]:+.8E}"
+
+    def _calc2_immediate(self, cmd: Command) -> None:
+        """``CALC2:IMM``: the statistic ``CALC2:FORM`` of the buffer's valid readings."""
+        n = self._stored()
+        r = self._sweep.readings[:n] if self._sweep is not None else np.empty(0)
+        r = r[np.abs(r) < OVERFLOW]
+        if not r.size:
+            self.push_error(E_STALE)
+            return None
+        stats: dict[str, Callable[[np.ndarray], Any]] = {"MEAN": np.mean, "MAX": np.max, "MIN": np.min}
+        stats |= {"SDEV": lambda x: np.std(x, ddof=1) if x.size > 1 else 0.0, "PKPK": np.ptp}
+        self._calc2 = float(stats[str(self.prop("calc2_format"))](r))
+        return None
+
+    def _calc2_query(self, cmd: Command) -> str | None:
+        before = len(self.errors)
+        self._calc2_immediate(cmd)
+        return f"{self._calc2:+.8E}" if len(self.errors) == before else None
 
     # ---------------------------------------------------------------- serial relay
     def _relay_send(self, cmd: Command) -> None:

@@ -47,6 +47,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     delta.add_argument("--json", action="store_true", help="print readings and statistics as JSON")
     delta.set_defaults(handler=delta_command)
 
+    ver = sub.add_parser(
+        "verify",
+        help="day-one check: run on the real pair what the manuals leave open; write a transcript and a report",
+        description=(
+            "Runs the checks of instruments.verify (status bits of a compliance abort, *OPC? and Delta, relay "
+            "framing, OHMS divisor, arming without a 2182A, rate against NPLC, RANG:AUTO in Delta, timestamp "
+            "resolution) and writes verify.json (with the transcript) and verify.md. Checks that drive current "
+            "use --current (default 100 µA, at most 1 mA) with a 1 V compliance: connect a load of at most 1 kΩ. "
+            "The source is left idle (SOUR:SWE:ABOR) whatever happens."
+        ),
+    )
+    _common(ver)
+    ver.add_argument("--current", type=float, default=1e-4, metavar="A", help="test current (default 1e-4 A)")
+    ver.add_argument("--out", default="verify-report", metavar="DIR", help="report directory (default verify-report)")
+    ver.set_defaults(handler=verify_command)
+
     serve = sub.add_parser(
         "serve-sim",
         help="serve the simulated 6221/2182A on a TCP socket (LF-terminated, like the 6221's LAN port 1394)",
@@ -155,6 +171,25 @@ def delta_command(args: argparse.Namespace) -> int:
         block = k.run_block(settings)
     print(format_block(block, as_json=args.json))
     return 0
+
+
+def verify_command(args: argparse.Namespace) -> int:
+    """Run the day-one checks; print the Markdown report; exit 0 if every check ran and the source is idle."""
+    from pathlib import Path
+
+    from contactrig.core.validation import check_range
+    from instruments.pairs import DEFAULT_PAIR, get_pair
+    from instruments.verify import verify, write_report
+
+    current = check_range("--current", args.current, 0.0, 1e-3, lo_open=True, unit="A")
+    driver = _open(args, get_pair(DEFAULT_PAIR))
+    transport = driver.transport  # type: ignore[attr-defined]
+    report = verify(transport, args.address or SIM_DEFAULT_ADDRESS, current_a=current)
+    driver._closed = True  # type: ignore[attr-defined]  # verify closed the transport after its last SOUR:SWE:ABOR
+    js, md = write_report(report, Path(args.out))
+    print(report.markdown())
+    print(f"written: {js} and {md}")
+    return 0 if report.passed else 1
 
 
 def serve_sim_command(args: argparse.Namespace) -> int:

@@ -8,6 +8,10 @@ For each count it times, in one run (pair-wise against the baselines):
   bytewise   chunked driver reads, but replies served by pyvisa-sim's own byte-by-byte session read (a library
              subclass below)
   replay     the same block replayed from a record (driver alone: no simulator, no VISA)
+  pymeasure  PyMeasure's Keithley6221 (if installed) running a block with its own API: 12 messages (presence,
+             abort, high, delay, count, sets, compliance abort, buffer size, arm, start, one status poll,
+             TRAC:DATA?) against the same simulated bench; "vs pymeasure" is our chunked driver's time over it
+             (target: <= 1.0 at >= 1000 readings)
 and prints time per block and per reading, plus the error of the block mean against I·R (the physics check).
 A last table times plain pyvisa-sim (unmodified Device, bytearray.pop(0) per byte) serving an N-pair reply from a
 static YAML dialogue: the quadratic read the chunked path avoids.
@@ -67,6 +71,47 @@ def run_block(count: int, single: bool, bytewise: bool = False, record: bool = F
     return dt, block, (rec.exchanges if rec else None)
 
 
+def pymeasure_block(count: int):
+    """One block with PyMeasure's driver and its own API; None if pymeasure is not installed."""
+    try:
+        from pymeasure.instruments.keithley import Keithley6221 as PyMeasure6221
+    except ImportError:
+        return None
+    bench = SimulatedBench(resistance_ohm=R_OHM, seed=1, time_scale=0.0)
+    k = PyMeasure6221(
+        GPIB_ADDRESS,
+        visa_library=BenchVisaLibrary.create(bench),
+        timeout=60_000,
+        read_termination="\n",
+        write_termination="\n",
+    )
+    t0 = time.perf_counter()
+    assert k.delta_connected
+    k.delta_abort()
+    k.delta_high_source = I_A
+    k.delta_delay = 2e-3
+    k.delta_cycles = count
+    k.delta_measurement_sets = 1
+    k.delta_compliance_abort_enabled = True
+    k.delta_buffer_points = count
+    k.delta_arm()
+    k.delta_start()
+    while not int(k.operation_events) & 2:
+        time.sleep(1e-3)
+    values = np.array(k.delta_values)
+    dt = time.perf_counter() - t0
+    k.delta_abort()
+    k.adapter.close()
+    readings = values[0::2]
+    assert readings.size == count
+    return dt, float(np.mean(readings))
+
+
+def count_messages(count: int) -> int:
+    """Messages our driver sends for one block (recorded)."""
+    return len(run_block(count, single=False, record=True)[2])
+
+
 def replay_block(exchanges, count: int):
     k = Keithley6221(ReplayTransport(exchanges), clock=lambda: 0.0, sleep=lambda s: None, chunk_size=1000)
     t0 = time.perf_counter()
@@ -105,6 +150,7 @@ def main() -> None:
 
     print(f"Delta block overhead, simulated bench, time_scale=0, median of {args.repeats}; R = {R_OHM} Ω, I = {I_A} A")
     print(f"{'count':>7} {'mode':>9} {'per block':>12} {'per reading':>13} {'vs chunked':>11} {'|mean/IR - 1|':>14}")
+    summary = []
     for count in args.counts:
         rows = {}
         modes = [("chunked", False, False), ("single", True, False)]
@@ -126,6 +172,19 @@ def main() -> None:
             print(
                 f"{count:>7} {name:>9} {t * 1e3:>9.2f} ms {t / count * 1e6:>10.1f} µs {t / base:>10.2f}x {err:>14.2e}"
             )
+        pm = [pymeasure_block(count) for _ in range(args.repeats)]
+        if pm[0] is not None:
+            t = statistics.median(x[0] for x in pm if x is not None)
+            err = abs(pm[0][1] / (I_A * R_OHM) - 1)
+            per = t / count * 1e6
+            print(f"{count:>7} {'pymeasure':>9} {t * 1e3:>9.2f} ms {per:>10.1f} µs {t / base:>10.2f}x {err:>14.2e}")
+            summary.append((count, count_messages(count), base, t))
+
+    if summary:
+        print("\nours (chunked) against PyMeasure's driver, same bench, instrument time 0")
+        print(f"{'count':>7} {'our msgs':>9} {'ours':>10} {'pymeasure':>10} {'ours/pymeasure':>15}")
+        for count, n_msgs, ours, theirs in summary:
+            print(f"{count:>7} {n_msgs:>9} {ours * 1e3:>7.2f} ms {theirs * 1e3:>7.2f} ms {ours / theirs:>14.2f}x")
 
     print("\nplain pyvisa-sim 0.7 (byte-by-byte, bytearray.pop(0)) serving one N-pair TRAC:DATA? reply")
     for n in (1000, 5000, 20000):

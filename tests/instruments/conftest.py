@@ -71,31 +71,66 @@ class ScriptedTransport:
         self.closed = True
 
 
+def split_message(message: str) -> list[str]:
+    """The commands of a compound SCPI message: split on ``;`` outside quotes, leading ``:`` dropped."""
+    parts, buf, quoted = [], "", False
+    for ch in message:
+        if ch == '"':
+            quoted = not quoted
+        if ch == ";" and not quoted:
+            parts.append(buf)
+            buf = ""
+        else:
+            buf += ch
+    return [p.strip().lstrip(":") for p in [*parts, buf] if p.strip()]
+
+
+def _is_query(command: str) -> bool:
+    return command.split(" ", 1)[0].endswith("?")
+
+
 class ResponderTransport:
-    """Answers queries from a table (value or callable); logs every command.
+    """Answers queries from a table (value or callable), command by command within compound messages (the
+    replies of one message joined by ``;``, as an instrument does); logs every command in ``sent`` and every
+    message in ``messages``. A table key that is itself a compound query answers its parts with the parts of its
+    reply.
 
     The 2182A relay answers the default settings' read-back (NPLC = 1 and the pinned state), and so does the 6221's
     state read-back, unless the table says otherwise.
     """
 
     def __init__(self, replies: dict[str, object]) -> None:
-        self.replies = {
+        table = {
             "SYST:COMM:SER:ENT?": VOLTMETER_READBACK + "\r",
             SOURCE_STATE_QUERY: SOURCE_READBACK,
             "*OPC?": "1",
             "STAT:MEAS:EVEN?": "0",
             **replies,
         }
+        self.replies: dict[str, object] = {}
+        for key, reply in table.items():
+            keys = split_message(key)
+            if len(keys) > 1 and isinstance(reply, str):
+                self.replies.update(zip(keys, reply.split(";"), strict=True))
+            else:
+                self.replies[key] = reply
         self.sent: list[str] = []
+        self.messages: list[str] = []
         self.closed = False
 
     def write(self, message: str) -> None:
-        self.sent.append(message)
+        self.messages.append(message)
+        self.sent.extend(split_message(message))
 
     def query(self, message: str) -> str:
-        self.sent.append(message)
-        reply = self.replies[message]
-        return reply() if callable(reply) else reply
+        self.messages.append(message)
+        out = []
+        for command in split_message(message):
+            self.sent.append(command)
+            if _is_query(command):
+                reply = self.replies[command]
+                out.append(reply() if callable(reply) else reply)
+        return ";".join(out)
 
     def read(self) -> str:
         raise AssertionError("unexpected read")

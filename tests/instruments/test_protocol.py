@@ -31,57 +31,56 @@ IDN_6221 = "KEITHLEY INSTRUMENTS INC.,MODEL 6221,4321987,D03  /700x"
 IDN_2182 = "KEITHLEY INSTRUMENTS INC.,MODEL 2182A,1234567,C02  /A02"
 
 
+START = "SOUR:SWE:ABOR;:SOUR:DELT:NVPR?;:SYST:ERR?"  # stop, 2182A present?, error queue empty?
+ARM = "SOUR:DELT:ARM;:SOUR:DELT:ARM?;:STAT:OPER:EVEN?;:STAT:MEAS:EVEN?"
+ARM_POLL = "SOUR:DELT:ARM?;:STAT:OPER:EVEN?;:STAT:MEAS:EVEN?"
+POLL = "STAT:OPER:EVEN?;:TRAC:POIN:ACT?;:STAT:MEAS:EVEN?"
+
+
 def voltmeter_setup(nplc="1", rng=":SENS:VOLT:RANG:AUTO ON", readback=VOLTMETER_READBACK):
-    """The relayed 2182A part: pinned state, NPLC, range, one compound read-back."""
+    """The relayed 2182A part: pinned state, NPLC, range and one compound read-back in one relayed message (its
+    first ENT? in the same 6221 message), then *OPC? to resynchronise."""
+    relayed = f":SENS:CHAN 1;:SENS:VOLT:DFIL:STAT OFF;:SENS:VOLT:LPAS OFF;:SYST:AZER ON;:SENS:VOLT:NPLC {nplc};{rng}"
     return [
-        ('SYST:COMM:SER:SEND ":SENS:CHAN 1"', None),
-        ('SYST:COMM:SER:SEND ":SENS:VOLT:DFIL:STAT OFF"', None),
-        ('SYST:COMM:SER:SEND ":SENS:VOLT:LPAS OFF"', None),
-        ('SYST:COMM:SER:SEND ":SYST:AZER ON"', None),
-        (f'SYST:COMM:SER:SEND ":SENS:VOLT:NPLC {nplc}"', None),
-        (f'SYST:COMM:SER:SEND "{rng}"', None),
-        (f'SYST:COMM:SER:SEND "{VOLTMETER_STATE_QUERY}"', None),
-        ("SYST:COMM:SER:ENT?", readback + "\r"),
+        (f'SYST:COMM:SER:SEND "{relayed};{VOLTMETER_STATE_QUERY}";:SYST:COMM:SER:ENT?', readback + "\r"),
         ("*OPC?", "1"),
     ]
 
 
-SOURCE_PINS = [
-    ("SOUR:DELT:CSW OFF", None),
-    ("SENS:AVER:STAT OFF", None),
-    ("CALC1:STAT OFF", None),
-    ("TRAC:FEED SENS1", None),
-    ("TRAC:TST:FORM ABS", None),
-]
+SOURCE_PINS = ["SOUR:DELT:CSW OFF", "SENS:AVER:STAT OFF", "CALC1:STAT OFF", "TRAC:FEED SENS1", "TRAC:TST:FORM ABS"]
+
+
+def configure(count=3, rng="SOUR:CURR:RANG:AUTO ON", high="0.001", low="-0.001", cab="ON", unit="V"):
+    """The one 6221 configuration message: settings, pinned state, buffer, format, read-back, SYST:ERR?."""
+    return ";:".join(
+        [
+            rng,
+            "SOUR:CURR:COMP 10",
+            f"SOUR:DELT:HIGH {high}",
+            f"SOUR:DELT:LOW {low}",
+            "SOUR:DELT:DEL 0.002",
+            f"SOUR:DELT:COUN {count}",
+            f"SOUR:DELT:CAB {cab}",
+            "SOUR:SWE:COUN 1",
+            f"UNIT {unit}",
+            *SOURCE_PINS,
+            "TRAC:CLE",
+            f"TRAC:POIN {count}",
+            "FORM:ELEM READ,TST",
+            SOURCE_STATE_QUERY,
+            "SYST:ERR?",
+        ]
+    )
 
 
 def head(count=3):
     """Everything up to and including INIT:IMM for DeltaSettings(high_a=1e-3, count=count) with defaults."""
     return [
-        ("SOUR:DELT:NVPR?", "1"),
-        ("SOUR:SWE:ABOR", None),
-        ("SYST:ERR?", NO_ERROR),
+        (START, "1;" + NO_ERROR),
         *voltmeter_setup(),
-        ("SOUR:CURR:RANG:AUTO ON", None),
-        ("SOUR:CURR:COMP 10", None),
-        ("SOUR:DELT:HIGH 0.001", None),
-        ("SOUR:DELT:LOW -0.001", None),
-        ("SOUR:DELT:DEL 0.002", None),
-        (f"SOUR:DELT:COUN {count}", None),
-        ("SOUR:DELT:CAB ON", None),
-        ("SOUR:SWE:COUN 1", None),
-        ("UNIT V", None),
-        *SOURCE_PINS,
-        (SOURCE_STATE_QUERY, SOURCE_READBACK),
-        ("TRAC:CLE", None),
-        (f"TRAC:POIN {count}", None),
-        ("FORM:ELEM READ,TST", None),
-        ("SYST:ERR?", NO_ERROR),
-        ("SOUR:DELT:ARM", None),
-        ("SOUR:DELT:ARM?", "0"),
-        ("SOUR:DELT:ARM?", "1"),
-        ("STAT:OPER:EVEN?", "0"),
-        ("STAT:MEAS:EVEN?", "8"),  # a compliance bit left latched by an earlier block: read (cleared), not used
+        (configure(count), SOURCE_READBACK + ";" + NO_ERROR),
+        (ARM, "0;0;0"),
+        (ARM_POLL, "1;0;8"),  # a compliance bit left latched by an earlier block: read (cleared), not used
         ("INIT:IMM", None),
     ]
 
@@ -90,11 +89,8 @@ def head(count=3):
 def test_delta_block_exact_sequence(clock):
     script = [
         *head(3),
-        ("STAT:OPER:EVEN?", "8"),  # sweeping
-        ("TRAC:POIN:ACT?", "1"),
-        ("STAT:OPER:EVEN?", "1026"),  # done + idle
-        ("TRAC:POIN:ACT?", "3"),
-        ("STAT:MEAS:EVEN?", "0"),  # no compliance during the block
+        (POLL, "8;1;0"),  # sweeping
+        (POLL, "1026;3;0"),  # done + idle; no compliance during the block
         ("TRAC:DATA:SEL? 0,2", "+1.000000E-06,+0.000000E+00,+1.100000E-06,+2.300000E-02"),
         ("TRAC:DATA:SEL? 2,1", "+9.900000E+37,+4.600000E-02"),
         ("SYST:ERR?", NO_ERROR),
@@ -123,33 +119,13 @@ def test_fixed_ranges_ohms_and_single_read(clock):
         nplc=5,
     )
     script = [
-        ("SOUR:DELT:NVPR?", "1"),
-        ("SOUR:SWE:ABOR", None),
-        ("SYST:ERR?", NO_ERROR),
+        (START, "1;" + NO_ERROR),
         *voltmeter_setup("5", ":SENS:VOLT:RANG 0.1", "+5.000000E+00;1;0;0;1"),
-        ("SOUR:CURR:RANG 0.002", None),
-        ("SOUR:CURR:COMP 10", None),
-        ("SOUR:DELT:HIGH 0.002", None),
-        ("SOUR:DELT:LOW -0.002", None),
-        ("SOUR:DELT:DEL 0.002", None),
-        ("SOUR:DELT:COUN 2", None),
-        ("SOUR:DELT:CAB OFF", None),
-        ("SOUR:SWE:COUN 1", None),
-        ("UNIT OHMS", None),
-        *SOURCE_PINS,
-        (SOURCE_STATE_QUERY, "0;0;0;SENS;ABS"),  # a 6221 that answers the keyword without its suffix
-        ("TRAC:CLE", None),
-        ("TRAC:POIN 2", None),
-        ("FORM:ELEM READ,TST", None),
-        ("SYST:ERR?", NO_ERROR),
-        ("SOUR:DELT:ARM", None),
-        ("SOUR:DELT:ARM?", "1"),
-        ("STAT:OPER:EVEN?", "0"),
-        ("STAT:MEAS:EVEN?", "0"),
+        # a 6221 that answers the keyword without its suffix (SENS for SENS1)
+        (configure(2, "SOUR:CURR:RANG 0.002", "0.002", "-0.002", "OFF", "OHMS"), "0;0;0;SENS;ABS;" + NO_ERROR),
+        (ARM, "1;0;0"),
         ("INIT:IMM", None),
-        ("STAT:OPER:EVEN?", "2"),
-        ("TRAC:POIN:ACT?", "2"),
-        ("STAT:MEAS:EVEN?", "0"),
+        (POLL, "2;2;0"),
         ("TRAC:DATA:SEL? 0,2", "5.0E-03,0,5.1E-03,0.1"),
         ("SYST:ERR?", NO_ERROR),
         ("SOUR:SWE:ABOR", None),
@@ -161,7 +137,7 @@ def test_fixed_ranges_ohms_and_single_read(clock):
 
 
 def test_missing_nanovoltmeter_names_both_cables(clock):
-    t = ScriptedTransport([("SOUR:DELT:NVPR?", "0"), ("SOUR:SWE:ABOR", None)])
+    t = ScriptedTransport([(START, "0;" + NO_ERROR), ("SOUR:SWE:ABOR", None)])
     with pytest.raises(NanovoltmeterMissing) as err:
         Keithley6221(t, clock=clock, sleep=clock.sleep).run_delta(DeltaSettings(high_a=1e-3))
     assert "RS-232" in str(err.value) and "Trigger Link" in str(err.value)
@@ -169,11 +145,9 @@ def test_missing_nanovoltmeter_names_both_cables(clock):
 
 
 def test_configuration_error_stops_before_arming_and_aborts(clock):
-    configured = head(3)
-    configured = configured[: configured.index(("FORM:ELEM READ,TST", None)) + 1]
     script = [
-        *configured,
-        ("SYST:ERR?", '-222,"Data out of range"'),
+        *head(3)[:3],
+        (configure(3), SOURCE_READBACK + ';-222,"Data out of range"'),
         ("SYST:ERR?", '-113,"Undefined header"'),
         ("SYST:ERR?", NO_ERROR),
         ("SOUR:SWE:ABOR", None),
@@ -214,7 +188,7 @@ def test_keyboard_interrupt_while_waiting_aborts_and_propagates(clock):
 def test_keyboard_interrupt_inside_transport_aborts(clock):
     class Interrupting(ResponderTransport):
         def query(self, message):
-            if message == "TRAC:POIN:ACT?":
+            if "TRAC:POIN:ACT?" in message:  # the completion poll
                 self.sent.append(message)
                 raise KeyboardInterrupt
             return super().query(message)
@@ -276,7 +250,9 @@ def test_deadline_follows_progress_long_block_does_not_time_out(clock):
 
 
 def test_arm_deadline(clock):
-    t = ResponderTransport({"SOUR:DELT:NVPR?": "1", "SYST:ERR?": NO_ERROR, "SOUR:DELT:ARM?": "0"})
+    t = ResponderTransport(
+        {"SOUR:DELT:NVPR?": "1", "SYST:ERR?": NO_ERROR, "SOUR:DELT:ARM?": "0", "STAT:OPER:EVEN?": "0"}
+    )
     with pytest.raises(InstrumentTimeout) as err:
         Keithley6221(t, clock=clock, sleep=clock.sleep, arm_timeout_s=2.0).run_delta(DeltaSettings(high_a=1e-3))
     assert err.value.command == "SOUR:DELT:ARM?"
@@ -320,8 +296,7 @@ def test_identify_relay_retries_strips_xoff_and_stray_terminator(clock):
     script = [
         ("*IDN?", IDN_6221),
         ("SOUR:DELT:NVPR?", "1"),
-        ('SYST:COMM:SER:SEND "*IDN?"', None),
-        ("SYST:COMM:SER:ENT?", ""),  # nothing yet
+        ('SYST:COMM:SER:SEND "*IDN?";:SYST:COMM:SER:ENT?', ""),  # nothing yet
         ("SYST:COMM:SER:ENT?", "\x13\x13KEITHLEY INSTRUMENTS INC.,MODEL 2182A,"),  # partial, XOFF in front
         ("SYST:COMM:SER:ENT?", "1234567,C02  /A02"),  # rest; the 2182A's LF was eaten as the VISA terminator
         ("*OPC?", ""),  # ...so a stray empty line comes first
@@ -335,8 +310,7 @@ def test_identify_relay_retries_strips_xoff_and_stray_terminator(clock):
 
 def test_relay_line_ended_by_cr_and_quotes_doubled(clock):
     script = [
-        ('SYST:COMM:SER:SEND "SENS:FUNC ""VOLT"";:SENS:VOLT:NPLC?"', None),
-        ("SYST:COMM:SER:ENT?", "+5.000000E+00\r"),
+        ('SYST:COMM:SER:SEND "SENS:FUNC ""VOLT"";:SENS:VOLT:NPLC?";:SYST:COMM:SER:ENT?', "+5.000000E+00\r"),
         ("*OPC?", "1"),
     ]
     t = ScriptedTransport(script)
@@ -348,8 +322,7 @@ def test_relay_line_ended_by_cr_and_quotes_doubled(clock):
 
 def test_relay_skips_leading_stray_terminator(clock):
     script = [
-        ('SYST:COMM:SER:SEND "*IDN?"', None),
-        ("SYST:COMM:SER:ENT?", "\r"),
+        ('SYST:COMM:SER:SEND "*IDN?";:SYST:COMM:SER:ENT?', "\r"),
         ("SYST:COMM:SER:ENT?", IDN_2182 + "\r"),
         ("*OPC?", "1"),
     ]
@@ -359,7 +332,7 @@ def test_relay_skips_leading_stray_terminator(clock):
 
 def test_voltmeter_setting_readback_mismatch(clock):
     setup = voltmeter_setup(readback="+2.000000E+00;1;0;0;1")
-    script = [*head(3)[:3], *setup, ("SOUR:SWE:ABOR", None)]
+    script = [*head(3)[:1], *setup, ("SOUR:SWE:ABOR", None)]
     t = ScriptedTransport(script)
     with pytest.raises(ReplyError, match="NPLC"):
         Keithley6221(t, clock=clock, sleep=clock.sleep).run_delta(DeltaSettings(high_a=1e-3, count=3))
