@@ -246,10 +246,13 @@ def parse_buffer(text: str, elements: int = 2) -> tuple[np.ndarray, np.ndarray]:
     text = text.strip()
     if not text:
         return np.empty(0), np.empty(0)
-    parts = text.split(",")
-    if len(parts) % elements:
-        raise ValueError(f"{len(parts)} values is not a whole number of {elements}-element readings")
-    values = np.array(parts, dtype=float)  # ValueError on garbage
+    n_values = text.count(",") + 1
+    if n_values % elements:
+        raise ValueError(f"{n_values} values is not a whole number of {elements}-element readings")
+    # numpy's C text parser: ~2x faster than float() per item; ValueError on garbage or an empty field
+    values = np.loadtxt([text], delimiter=",", dtype=float, ndmin=1)
+    if values.size != n_values:
+        raise ValueError(f"expected {n_values} values, parsed {values.size}")
     if not np.all(np.isfinite(values)):
         raise ValueError("non-finite value in buffer")
     values = values.reshape(-1, elements)
