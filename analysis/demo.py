@@ -8,8 +8,12 @@
    (``session.h5``);
 3. replay the session through the driver and check it reproduces every block (``daq.replay.replay_session``);
 4. fit the session against every model, and the seed paper's Tab. 1 (all six series, and M1–M3 alone, since
-   M4–M6 are arithmetic copies of them);
-5. write the figures and ``report.md`` into the output directory.
+   M4–M6 are arithmetic copies of them), with the resistance model's sentence for each (fitted σ_f, R_s and the
+   clean-metal fraction, :mod:`analysis.resistance_model`);
+5. ask the boundary-element reference which contact model it favours on the scene's surface, and by how much
+   (:func:`analysis.pipeline.rank_against_bem`: 5 mean pressures 0.3–30 MPa, one realisation; ``compare=False``
+   leaves it out);
+6. write the figures, ``report.md`` and the self-contained ``report.html`` into the output directory.
 
 Every file the demo writes is checked before it starts: an existing one (an earlier demo's ``session.h5``, say) is
 refused unless ``force`` (``--force``); the folder is created when missing (:mod:`contactrig.core.files`).
@@ -53,9 +57,10 @@ def run_demo(
     n_boot: int = 2000,
     stream: TextIO | None = None,
     force: bool = False,
+    compare: bool = True,
 ) -> DemoResult:
     """Run the demo into ``directory`` (created when missing; files of an earlier demo in it are refused unless
-    ``force``). Progress goes to ``stream`` (None: stdout)."""
+    ``force``). Progress goes to ``stream`` (None: stdout). ``compare``: run the boundary-element comparison."""
     import warnings
 
     from analysis.measured import MeasuredCurve
@@ -64,6 +69,7 @@ def run_demo(
     from analysis.simulated_session import SimulatedRigBench
     from contactrig.core.files import refuse_existing
     from contactrig.core.scene import load_scene
+    from contactrig.core.text import escape_terminal
     from contactrig.core.validation import check_int
     from daq import load_session
     from daq.acquire import acquire
@@ -127,27 +133,21 @@ def run_demo(
     step("fit session and Tab. 1", t0)
 
     t0 = time.perf_counter()
-    lines = [
-        "The demo ran the main job on the packaged default scene: rig simulation of every model, a session "
-        "acquired on the simulated bench, replayed through the driver, fitted; then the seed paper's Tab. 1.",
-        "",
-        f"- simulation: `{sim_path.name}`, models {', '.join(sweep_result.models)}",
-        f"- session: `{session_path.name}`, {acq.blocks_done}/{acq.blocks_planned} blocks, status {acq.status}",
-        f"- replay: {'every block reproduced identically' if rep.identical else 'DIFFERENCES: ' + '; '.join(rep.differences[:5])}"  # noqa: E501
-        f" ({rep.blocks_replayed} blocks, {rep.readings_replayed} readings)",
-        _magnitude_line(analyses[0], analyses[1]),
-        "",
-        "Verdicts:",
-        "",
-    ]
-    lines += [f"- {a.title}: {_verdict(a)}" for a in analyses]
-    lines += ["", "Timings before figures: " + ", ".join(f"{k} {v:.2f} s" for k, v in timings.items())]
-    report = write_report(analyses, out, title="contactrig demo", preamble="\n".join(lines), force=force)
+    analyses, ranking = _extras(analyses, scene, list(sweep_result.models), compare)
+    step("BEM reference and resistance model" if compare else "resistance model", t0)
+
+    t0 = time.perf_counter()
+    preamble = _preamble(sim_path, sweep_result, session_path, acq, rep, analyses, ranking, timings)
+    report = write_report(analyses, out, title="contactrig demo", preamble=preamble, force=force)
     step("figures and report", t0)
     timings["total"] = time.perf_counter() - t_all
     print(f"  {'total':<34} {timings['total']:6.2f} s", file=say, flush=True)
     for a in analyses:
-        print(f"{a.title}: {_verdict(a)}", file=say)
+        print(escape_terminal(f"{a.title}: {_verdict(a)}"), file=say)
+    if ranking is not None:
+        from analysis.compare_models import favoured
+
+        print(escape_terminal(favoured(ranking)), file=say)
     return DemoResult(
         directory=out,
         report=report,
@@ -159,17 +159,64 @@ def run_demo(
     )
 
 
+def _extras(analyses: list[Any], scene: Any, models: list[str], compare: bool) -> tuple[list[Any], Any]:
+    """The report's extras: the resistance model's sentence for every analysis and, with ``compare``, the
+    boundary-element comparison of the scene's surface (one run: every analysis has the same scene) shown in the
+    first analysis's section."""
+    from analysis.pipeline import rank_against_bem, with_report_extras
+
+    ranking = rank_against_bem(scene, models) if compare else None
+    note = "" if compare else "not run (--no-compare-models)"
+    out = [with_report_extras(analyses[0], ranking=ranking, ranking_note=note)]
+    out += [with_report_extras(a) for a in analyses[1:]]
+    return out, ranking
+
+
+def _preamble(
+    sim_path: Path, sweep_result: Any, session_path: Path, acq: Any, rep: Any, analyses: list[Any], ranking: Any,
+    timings: dict[str, float],
+) -> list[Any]:  # fmt: skip
+    """The demo's summary at the top of the report (report blocks: what came from files is data)."""
+    from analysis.report import Bullets, Code, Data, Para, Strong
+
+    replay: Any = "every block reproduced identically"
+    if not rep.identical:
+        replay = ["DIFFERENCES: ", Data("; ".join(rep.differences[:5]))]
+    items: list[Any] = [
+        ["simulation: ", Code(sim_path.name), ", models ", Data(", ".join(sweep_result.models))],
+        ["session: ", Code(session_path.name), f", {acq.blocks_done}/{acq.blocks_planned} blocks, status ",
+         Data(acq.status)],
+        ["replay: ", replay, f" ({rep.blocks_replayed} blocks, {rep.readings_replayed} readings)"],
+        _magnitude_line(analyses[0], analyses[1]),
+    ]  # fmt: skip
+    blocks: list[Any] = [
+        Para(
+            "The demo ran the main job on the packaged default scene: rig simulation of every model, a session "
+            "acquired on the simulated bench, replayed through the driver, fitted; then the seed paper's Tab. 1."
+        ),
+        Bullets(tuple(items)),
+    ]
+    if ranking is not None:
+        from analysis.compare_models import favoured
+
+        blocks.append(Para(["Which contact model the boundary-element reference favours: ", Strong(favoured(ranking)),
+                            " (details and figure in the first section's contact-area part)."]))  # fmt: skip
+    blocks += [Para("Verdicts:"), Bullets(tuple(f"{a.title}: {_verdict(a)}" for a in analyses))]
+    blocks += [Para("Timings before figures: " + ", ".join(f"{k} {v:.2f} s" for k, v in timings.items()))]
+    return blocks
+
+
 def _verdict(a: Any) -> str:
     """The comparison's statement, or why there is none."""
     return a.comparison.statement if a.comparison is not None else "; ".join(a.left_out)
 
 
 def _magnitude_line(session: Any, tab1: Any) -> str:
-    """One Markdown bullet: the simulated session's mean R at the first and last weight against Tab. 1's [mΩ]."""
+    """One bullet: the simulated session's mean R at the first and last weight against Tab. 1's [mΩ]."""
     c = session.circuit
     s, t = session.curve.mean_ohm * 1e3, tab1.curve.mean_ohm * 1e3
     return (
-        f"- magnitude: simulated session {s[0]:.3g} → {s[-1]:.3g} mΩ over {session.curve.weight_kg[0]:g}–"
+        f"magnitude: simulated session {s[0]:.3g} → {s[-1]:.3g} mΩ over {session.curve.weight_kg[0]:g}–"
         f"{session.curve.weight_kg[-1]:g} kg, Tab. 1 {t[0]:.3g} → {t[-1]:.3g} mΩ (scene [circuit]: "
         f"ζ = {c.resistivity_ohm_m:g} Ω·m, R_s = {c.series_resistance_ohm * 1e3:g} mΩ, fitted to Tab. 1)"
     )

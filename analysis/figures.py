@@ -29,10 +29,12 @@ from analysis.measured import MeasuredCurve
 from analysis.resistance import resistance_unit
 from contactrig.core.files import atomic_write, output_folder
 from contactrig.core.registry import Registry
+from contactrig.core.text import escape_terminal
 from contactrig.core.validation import SettingError, check_choice
 from sims.models import get_model, model_label, model_names, models
 
 __all__ = [
+    "ERROR_BARS",
     "FigureSpec",
     "figure_database",
     "figure_error_vs_time",
@@ -45,6 +47,7 @@ __all__ = [
     "model_style",
     "planned_figures",
     "register",
+    "repeat_names",
     "save_figure",
     "save_figure_file",
     "unregister",
@@ -195,26 +198,56 @@ def write_database_figure(
 
 
 # ---- seed Fig. 9: measured R against weight ------------------------------------------------------------------
+#: The one error-bar convention of every figure with error bars (and of every caption that has them): the standard
+#: error of the mean over the repeats. Fig. 12 propagates it to R/R₀ (with the series' covariance).
+ERROR_BARS = "error bars: ± 1 SEM of the repeats (standard error of the mean, SD/√n)"
+
+
+def repeat_names(curve: MeasuredCurve) -> tuple[str, ...]:
+    """The repeats' names in figures: the curve's own labels (Tab. 1's M1…M6), or M1…Mn for numbered repeats (a
+    session's repeat index 0…n−1)."""
+    labels = tuple(str(x) for x in curve.repeat_labels)
+    if all(x.strip().isdigit() for x in labels):
+        return tuple(f"M{k + 1}" for k in range(len(labels)))
+    return labels
+
+
 def figure_measured(curve: MeasuredCurve, title: str = "") -> Any:
-    """Seed Fig. 9: every repeat (thin lines with markers, one per series) and the mean ± SD over repeats, in the
-    unit the data call for (µΩ, mΩ or Ω: :func:`analysis.resistance.resistance_unit`)."""
-    fig, axes = _figure()
+    """Seed Fig. 9: every repeat (thin lines with markers, one per series, each labelled M1…Mn in the legend) and
+    the mean ± 1 SEM over repeats (:data:`ERROR_BARS`), in the unit the data call for (µΩ, mΩ or Ω:
+    :func:`analysis.resistance.resistance_unit`)."""
+    fig, axes = _figure(size=(6.4, 4.2))
     ax = axes[0, 0]
     w = curve.weight_kg
     k_unit, unit = resistance_unit(curve.values_ohm)
     v = curve.values_ohm * k_unit
-    for k, label in enumerate(curve.repeat_labels):
+    names = repeat_names(curve)
+    greys = _repeat_colours(len(names))
+    for k, (label, name) in enumerate(zip(curve.repeat_labels, names, strict=True)):
         ok = np.isfinite(v[:, k])
         ax.plot(
-            w[ok], v[ok, k], "o-", color="#9a9a9a", lw=0.7, ms=3, alpha=0.8,
-            label=f"repeats ({len(curve.repeat_labels)})" if k == 0 else None, gid=f"repeat-{label}",
+            w[ok], v[ok, k], "o-", color=greys[k], lw=0.8, ms=3, alpha=0.9, label=_legend_text(name),
+            gid=f"repeat-{label}",
         )  # fmt: skip
-    sd = np.nan_to_num(curve.sd_ohm * k_unit)
-    ax.errorbar(w, curve.mean_ohm * k_unit, yerr=sd, fmt="s-", color=MEASURED_COLOUR, capsize=3, label="mean ± SD")
+    sem = np.nan_to_num(curve.sem_ohm * k_unit)
+    ax.errorbar(w, curve.mean_ohm * k_unit, yerr=sem, fmt="s-", color=MEASURED_COLOUR, capsize=3, label="mean ± 1 SEM")
     ax.set(xlabel="weight W [kg]", ylabel=f"resistance R [{unit}]", title=title or "Measured resistance (seed Fig. 9)")
     ax.set_ylim(bottom=0)
-    ax.legend()
+    ax.legend(ncols=2 if len(names) > 6 else 1, fontsize=7)
     return fig
+
+
+def _repeat_colours(n: int) -> list[Any]:
+    """Distinguishable muted colours for n repeats (a slice of the "viridis" map, lightened)."""
+    from matplotlib import colormaps
+
+    cmap = colormaps["viridis"]
+    return [tuple(0.35 + 0.65 * c for c in cmap(0.1 + 0.8 * k / max(n - 1, 1))[:3]) for k in range(n)]
+
+
+def _legend_text(text: str) -> str:
+    """A label from a file shown as text by matplotlib: control characters visible, ``$`` not starting mathtext."""
+    return escape_terminal(text).replace("$", r"\$")
 
 
 # ---- seed Fig. 11: simulated contact area -----------------------------------------------------------------------
@@ -230,26 +263,19 @@ def figure_simulated_area(models: Mapping[str, tuple[np.ndarray, np.ndarray]], t
 
 
 # ---- seed Fig. 12: normalised measured vs simulated ------------------------------------------------------------
-def figure_normalised(
-    measured: Any, simulated: Mapping[str, Any], title: str = "", level: float = 0.95, dof: float = math.inf
-) -> Any:
+def figure_normalised(measured: Any, simulated: Mapping[str, Any], title: str = "") -> Any:
     """Seed Fig. 12: R/R₀ (dimensionless) of the measurement and of each model against weight [kg].
 
     ``measured`` and the values of ``simulated`` are :class:`~analysis.normalisation.NormalisedCurve`; the
-    measured error bars are ± ``level`` Student-t intervals with ``dof`` degrees of freedom (repeats − 1; inf:
-    normal quantile).
+    measured error bars are ± 1 standard error of R/R₀ propagated from the repeats (:data:`ERROR_BARS`).
     """
-    from scipy.special import ndtri, stdtrit
-
-    q = 0.5 + level / 2
-    z = float(ndtri(q)) if not math.isfinite(dof) else float(stdtrit(dof, q))
     fig, axes = _figure()
     ax = axes[0, 0]
     for name, nc in simulated.items():
         ax.plot(nc.weight_kg, nc.ratio, mfc="none", **model_style(name))
     ax.errorbar(
-        measured.weight_kg, measured.ratio, yerr=z * measured.se, fmt="s", color=MEASURED_COLOUR, capsize=3,
-        label=f"measured ± {level:.0%} CI" + (f" (t, {dof:g} dof)" if math.isfinite(dof) else ""),
+        measured.weight_kg, measured.ratio, yerr=measured.se, fmt="s", color=MEASURED_COLOUR, capsize=3,
+        label="measured ± 1 SEM",
     )  # fmt: skip
     ax.set(
         xlabel="weight W [kg]",
@@ -261,18 +287,20 @@ def figure_normalised(
 
 
 # ---- fits ---------------------------------------------------------------------------------------------------
-def figure_fit(comparison: Any, title: str = "") -> Any:
-    """Fits R = R_s + s·x(A) (seed eq. 23 plus R_s): measured mean ± σ (the fit's weighting) and each model's fitted
-    R (unit from the data) against weight [kg] (top; an unphysical fit is marked so);
-    residuals (measured − fitted)/σ, dimensionless, per model (bottom)."""
+def figure_fit(comparison: Any, title: str = "", sem_ohm: Any = None) -> Any:
+    """Fits R = R_s + s·x(A) (seed eq. 23 plus R_s): measured mean (± 1 SEM of the repeats when ``sem_ohm`` [Ω] is
+    given, :data:`ERROR_BARS`) and each model's fitted R (unit from the data) against weight [kg] (top; an
+    unphysical fit is marked so); residuals (measured − fitted)/σ with σ the fit's weighting, dimensionless, per
+    model (bottom)."""
     fig, axes = _figure(1, 2, size=(6.0, 5.6), sharex=True, height_ratios=[2.2, 1.0])
     top, bottom = axes[0, 0], axes[1, 0]
     first = next(iter(comparison.fits.values())).points
     w = first.weight_kg
     k_unit, unit = resistance_unit(first.measured_ohm)
+    yerr = None if sem_ohm is None else np.nan_to_num(np.asarray(sem_ohm, dtype=float) * k_unit)
     top.errorbar(
-        w, first.measured_ohm * k_unit, yerr=first.sigma_ohm * k_unit, fmt="s", color=MEASURED_COLOUR, capsize=3,
-        label="measured mean ± σ", zorder=3,
+        w, first.measured_ohm * k_unit, yerr=yerr, fmt="s", color=MEASURED_COLOUR, capsize=3,
+        label="measured mean" + (" ± 1 SEM" if yerr is not None else ""), zorder=3,
     )  # fmt: skip
     n = len(comparison.fits)
     width = 0.6 * (np.min(np.diff(w)) if w.size > 1 else 1.0) / max(n, 1)
@@ -286,7 +314,7 @@ def figure_fit(comparison: Any, title: str = "") -> Any:
     for y in (-2.0, 2.0):
         bottom.axhline(y, color="k", lw=0.6, ls=":")
     top.set(ylabel=f"resistance R [{unit}]", title=title or "Fit R = R_s + s·h/A(W) per model")
-    bottom.set(xlabel="weight W [kg]", ylabel="residual / σ [–]")
+    bottom.set(xlabel="weight W [kg]", ylabel="residual / σ of the fit [–]")
     top.legend()
     return fig
 
@@ -430,7 +458,7 @@ def write_figures(
 
 
 def _draw_measured(a: Any) -> Any:
-    return figure_measured(a.curve, title=f"{a.title}: measured resistance (seed Fig. 9)")
+    return figure_measured(a.curve, title=f"{_legend_text(a.title)}: measured resistance (seed Fig. 9)")
 
 
 def _draw_area(a: Any) -> Any:
@@ -444,12 +472,9 @@ def _draw_database(a: Any) -> Any:
 
 
 def _draw_normalised(a: Any) -> Any:
-    used = a.fit_curve if a.fit_curve is not None else a.curve
-    n_min = int(np.min(used.n))
     fig = figure_normalised(
-        a.measured_norm, a.simulated_norm, title=f"{a.title}: normalised (seed Fig. 12)",
-        dof=n_min - 1 if n_min >= 2 else math.inf,
-    )  # fmt: skip
+        a.measured_norm, a.simulated_norm, title=f"{_legend_text(a.title)}: normalised (seed Fig. 12)"
+    )
     if a.comparison is None:
         return fig
     ax = fig.axes[0]
@@ -465,11 +490,21 @@ def _draw_normalised(a: Any) -> Any:
 def _draw_fit(a: Any) -> Any:
     if a.comparison is None:
         return None
-    return figure_fit(a.comparison, title=f"{a.title}: R = R_s + s·x(A), x = {regressor_label(a.conversion)}")
+    sem = a.fit_curve.sem_ohm if a.fit_curve is not None else None
+    return figure_fit(
+        a.comparison, title=f"{_legend_text(a.title)}: R = R_s + s·x(A), x = {regressor_label(a.conversion)}",
+        sem_ohm=sem,
+    )  # fmt: skip
 
 
 for _spec in (
-    FigureSpec("fig09_measured", "Measured resistance against weight", _draw_measured, section="measured"),
+    FigureSpec(
+        "fig09_measured",
+        "Measured resistance against weight",
+        _draw_measured,
+        section="measured",
+        caption=f"Seed Fig. 9: every repeat (M1…Mn, labelled) and their mean; {ERROR_BARS}.",
+    ),
     FigureSpec("fig11_area", "Simulated contact area", _draw_area, section="area"),
     FigureSpec(
         "fig02_database",
@@ -485,15 +520,16 @@ for _spec in (
         _draw_normalised,
         section="normalised",
         caption="Coloured: each model's R_T/R_T₀ by the conversion (ζ and h cancel); black dotted: the best fit's "
-        "R/R₀ including the series resistance R_s, which is what a measurement normalises. Error bars: the repeats' "
-        "uncertainty of R/R₀ (R₀/R₀ = 1 exactly).",
+        "R/R₀ including the series resistance R_s, which is what a measurement normalises; "
+        f"{ERROR_BARS}, propagated to R/R₀ with the series' covariance (R₀/R₀ = 1 exactly, no bar).",
     ),
     FigureSpec(
         "fit_residuals",
         "Fit and residuals",
         _draw_fit,
         section="fit",
-        caption="Top: measured mean ± σ and each model's fit; bottom: residuals (measured − fitted)/σ.",
+        caption=f"Top: measured mean and each model's fit, {ERROR_BARS}; bottom: residuals (measured − fitted)/σ "
+        "with σ the fit's weighting.",
         missing="no fit: the data allow none (fewer than 3 weights with >= 2 repeats)",
     ),
 ):

@@ -105,9 +105,12 @@ def regressor(area_m2: np.ndarray, height_m: float, conversion: str = "bulk") ->
 
 
 def regressor_label(conversion: str) -> str:
-    """How x(A) reads in titles and tables: "h/A (eq. 23)" or "√π/(2√A) (Holm)"."""
+    """How x(A) reads in titles and tables: "h/A (eq. 23)", or for ``holm`` "√π/(2√A) (Holm single spot — an upper
+    bound on the clean-metal constriction)" (all of A in one circle: Pólya–Szegő, :mod:`analysis.resistance_model`)."""
     check_choice("conversion", conversion, CONVERSIONS)
-    return "h/A (eq. 23)" if conversion == "bulk" else "√π/(2√A) (Holm)"
+    if conversion == "bulk":
+        return "h/A (eq. 23)"
+    return "√π/(2√A) (Holm single spot — an upper bound on the clean-metal constriction)"
 
 
 def area_at_weights(weight_sim_kg: np.ndarray, area_sim_m2: np.ndarray, weight_kg: np.ndarray) -> np.ndarray:

@@ -39,7 +39,23 @@ from contactrig.core.fingerprint import differences, has_tables
 #: Fewest weights a fit is made with (two parameters and one degree of freedom for the goodness of fit).
 MIN_FIT_WEIGHTS = 3
 
-__all__ = ["Analysis", "analyse", "analyse_session", "analyse_tab1", "simulate"]
+#: Mean nominal pressures of the report's boundary-element comparison (:func:`rank_against_bem`): 5, geometric,
+#: 0.3–30 MPa — a short run (≈ 5–10 s on 2 cores for the default scene's 256² composite surface).
+RANKING_PRESSURES_PA = (0.3e6, 0.9487e6, 3.0e6, 9.487e6, 30.0e6)
+
+__all__ = [
+    "RANKING_PRESSURES_PA",
+    "Analysis",
+    "analyse",
+    "analyse_session",
+    "analyse_tab1",
+    "compare_models_by_default",
+    "rank_against_bem",
+    "resistance_statement",
+    "simulate",
+    "specimen_sweep",
+    "with_report_extras",
+]
 
 
 @dataclass(frozen=True)
@@ -72,6 +88,9 @@ class Analysis:
     warnings: tuple[str, ...] = ()
     left_out: tuple[str, ...] = ()
     fingerprint: dict[str, Any] = field(default_factory=dict)
+    model_ranking: Any = None
+    model_ranking_note: str = ""
+    resistance_statement: str = ""
 
     def fitted_norm(self) -> dict[str, np.ndarray]:
         """Each model's fitted R(W)/R(W₀), series resistance included (empty without a fit)."""
@@ -80,18 +99,35 @@ class Analysis:
         return {n: f.points.fitted_ohm / f.points.fitted_ohm[0] for n, f in self.comparison.fits.items()}
 
 
-def simulate(scene: Any, weights_kg: Any, models: list[str] | None = None) -> tuple[Any, Any]:
-    """Build the contact database once and sweep the rig at ``weights_kg`` (None: the scene's ``[rig]`` weights);
-    returns (sweep result, database). ``models``: registered model keys (None: the scene's ``[database] models``)."""
+def simulate(scene: Any, weights_kg: Any, models: list[str] | None = None, *, elastic: bool = False) -> tuple[Any, Any]:
+    """Build the contact database once and load the scene's specimen at ``weights_kg`` (None: the scene's own load
+    sweep, ``[rig]`` or ``[press] weights_kg``): the rig, or the press for a scene with ``[press]``
+    (:func:`sims.specimen.sweep_specimen`). Returns (sweep result, database). ``models``: registered model keys
+    (None: the scene's ``[database] models``); ``elastic``: the rig's bulk elasticity (the press always has it)."""
     from sims.config import SimConfig
     from sims.database import build_database
-    from sims.rig import sweep
 
     config = SimConfig.from_scene(scene)
     database = build_database(config, models)
     weights = None if weights_kg is None else [float(w) for w in weights_kg]
-    result = sweep(config, models=models, weights_kg=weights, database=database)
+    result = specimen_sweep(config, models, weights, database=database, elastic=elastic)
     return result, database
+
+
+def specimen_sweep(
+    config: Any, models: Any = None, weights_kg: Any = None, *, database: Any = None, elastic: bool = False
+) -> Any:
+    """:func:`sims.specimen.sweep_specimen` (rig or press) whose provenance always carries a checkable fingerprint:
+    when the solver's provenance gives none (the press records no database provenance), the fingerprint of
+    ``config`` (:func:`daq.sweep_file.config_fingerprint`) is recorded, so ``fit``/``report`` can check the scene."""
+    from contactrig.core.fingerprint import has_tables
+    from daq.sweep_file import config_fingerprint, sweep_fingerprint
+    from sims.specimen import sweep_specimen
+
+    result = sweep_specimen(config, models=models, weights_kg=weights_kg, database=database, elastic=elastic)
+    if not has_tables(sweep_fingerprint(result.provenance)):
+        result.provenance["fingerprint"] = config_fingerprint(config)
+    return result
 
 
 def analyse(
@@ -399,3 +435,101 @@ def tab1_integrity_notes(curve: MeasuredCurve) -> list[str]:
                     f"derived from {labels[k]}."
                 )
     return notes
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# What the report adds: the boundary-element reference (issue #14) and the resistance model's sentence (issue #15).
+
+
+def compare_models_by_default(a: Analysis) -> tuple[bool, str]:
+    """Whether ``contactrig report`` runs the boundary-element comparison when neither ``--compare-models`` nor
+    ``--no-compare-models`` is given, and why: yes when the surfaces the fit's contact areas were computed on are
+    the scene's — the simulation's fingerprint records ``[surfaces]`` and it equals the measurement scene's (so BEM
+    and the models' database see the same composite surface); no after an allowed mismatch of the surfaces, or for
+    a simulation without a fingerprint."""
+    tables = (a.fingerprint.get("simulation") or {}).get("tables") or {}
+    if "surfaces" not in tables:
+        return False, "the simulation records no fingerprint of its surfaces (pass --compare-models to run it anyway)"
+    if any(d.startswith("[surfaces") for d in a.fingerprint.get("differences", [])):
+        return False, "the simulation's surfaces differ from the scene's (--allow-mismatch); pass --compare-models"
+    return True, ""
+
+
+def rank_against_bem(scene: Any, models: Any = None, *, pressures_pa: Any = RANKING_PRESSURES_PA, jobs: int = 1) -> Any:
+    """The boundary-element comparison of ``scene``'s composite surface (:func:`analysis.compare_models.
+    compare_models`, one realisation, hardness-capped, at ``pressures_pa``) for the registered ``models`` among
+    ``models`` (None: the scene's), in this process (``jobs`` 1: every core as FFT threads)."""
+    from analysis.compare_models import compare_models
+    from sims.ensemble import BEM
+    from sims.models import model_names
+
+    names = None if models is None else [m for m in models if m in model_names() and m != BEM]
+    if names is not None and not names:
+        raise ValueError("no registered contact model to compare with the boundary-element reference")
+    return compare_models(scene, names, pressures_pa=pressures_pa, jobs=jobs)
+
+
+def with_report_extras(a: Analysis, *, ranking: Any = None, ranking_note: str = "", statement: bool = True) -> Analysis:
+    """``a`` with what the report shows beyond the fit: ``ranking`` (a comparison from :func:`rank_against_bem`) or
+    ``ranking_note`` (why there is none), and the resistance model's sentence (:func:`resistance_statement`)."""
+    import dataclasses
+
+    text = resistance_statement(a) if statement else ""
+    return dataclasses.replace(a, model_ranking=ranking, model_ranking_note=ranking_note, resistance_statement=text)
+
+
+def _statement_model(a: Analysis) -> str:
+    """The model whose contact area the resistance model uses: the best physical fit among registered models."""
+    from sims.models import model_names
+
+    ranked = list(a.comparison.ranking) if a.comparison is not None else []
+    for name in ranked:
+        if name in model_names() and a.comparison is not None and a.comparison.fits[name].physical:
+            return name
+    return "greenwood_tripp"
+
+
+def resistance_statement(a: Analysis) -> str:
+    """The resistance model's plain sentence (:mod:`analysis.resistance_model`): fitted σ_f, R_s and the
+    clean-metal fraction — for Tab. 1 :func:`~analysis.resistance_model.tab1_statement`, for a session the same from
+    :func:`~analysis.resistance_model.fit_measured` on the session's curve; "" with a reason when it cannot be
+    fitted (a press scene, no resistivities, fewer than 2 complete repeats at every weight)."""
+    from contactrig.core.validation import SettingError
+    from sims.config import SimConfig
+
+    curve = a.fit_curve
+    if curve is None or a.comparison is None:
+        return ""
+    try:
+        config = SimConfig.from_scene(a.scene)
+        if config.press is not None:
+            return "Resistance model not fitted: it describes the piston/liner rig; this is a press scene."
+        if not curve.paired or np.any(curve.n < 2):
+            return "Resistance model not fitted: it needs >= 2 repeats at every weight."
+        return _resistance_sentence(a, config, curve, _statement_model(a))
+    except (SettingError, ValueError, KeyError) as exc:
+        return f"Resistance model not fitted: {exc}"
+
+
+def _resistance_sentence(a: Analysis, config: Any, curve: MeasuredCurve, model: str) -> str:
+    from analysis.resistance_model import fit_measured, rig_resistance_terms, tab1_statement
+    from sims.models import model_label
+
+    if a.measured_info.get("kind") == "table" and str(a.measured_info.get("path", "")).endswith("tab1.csv"):
+        return tab1_statement(config, model, curve)
+    terms = rig_resistance_terms(config, model, [float(w) for w in curve.weight_kg])
+    fit = fit_measured(curve, terms)
+    clean = fit.shares["clean_metal"]
+    lo, hi = 100 * float(np.min(clean)), 100 * float(np.max(clean))
+    verdict = (
+        "so this session measures a film (or the circuit), not metal-to-metal constriction."
+        if hi < 10
+        else "so the clean-metal constriction is a visible part of what this session measures."
+    )
+    return (
+        f"With the {model_label(model)} contact area, this session is R = R_s + σ_f/A + clean metal with σ_f = "
+        f"{float(fit.film_ohm_m2):.2e} ± {float(fit.film_se):.1e} Ω·m² (a surface film; eq. 23's ζh) and R_s = "
+        f"{1e3 * float(fit.series_ohm):.2f} ± {1e3 * float(fit.series_se):.2f} mΩ; the clean-metal constriction "
+        f"(Barber, ρ1+ρ2 = {terms.resistivity_sum_ohm_m:.3g} Ω·m, plus the band's macro-constriction "
+        f"{1e3 * float(terms.macro_ohm.mean()):.3f} mΩ) is {lo:.1f}–{hi:.1f} % of the measured resistance, {verdict}"
+    )

@@ -1,22 +1,39 @@
-"""The analysis report: one Markdown file with provenance, tables and figures (``contactrig report`` / ``demo``).
+"""The analysis report: ``report.md`` and a self-contained ``report.html`` (``contactrig report`` / ``demo``).
 
 :func:`write_report` takes one or more :class:`~analysis.pipeline.Analysis` objects (one section each), draws
-their figures into ``DIR/figures`` (PNG for the report, SVG beside it) and writes ``DIR/report.md``. A session
-without a stop record gets an **INCOMPLETE SESSION** banner at the top of the file and of its section.
+their figures into ``DIR/figures`` (PNG for the report, SVG beside it) and writes ``DIR/report.md`` (figures linked)
+and ``DIR/report.html`` (one file: figures inline as base64 PNG, tables, provenance; no script, no external
+resource, and a Content-Security-Policy that forbids both). A session without a stop record gets an **INCOMPLETE
+SESSION** banner at the top of the file and of its section.
 
 Each section also says what it was computed from and what may make it wrong: the fingerprints of the measurement's
 scene and of the simulation (and, in bold, a mismatch passed with ``--allow-mismatch``), the simulation's and the
 models' validity warnings, what the data did not allow (weights left out, no fit), unphysical fits and bootstrap
 intervals that are not available, with the reason. Resistances are shown in the unit the data call for
-(:func:`analysis.resistance.resistance_unit`). Output files follow :mod:`contactrig.core.files`: the folder is
-created, an existing file is refused unless ``force``, every file is written atomically.
+(:func:`analysis.resistance.resistance_unit`). When the analysis carries a ``model_ranking`` (the boundary-element
+reference of :mod:`analysis.compare_models`), its verdict lines and figure are in the contact-area section; the
+resistance model's sentence (:mod:`analysis.resistance_model`: fitted σ_f, R_s, clean-metal fraction) is in the
+fit section.
+
+**Strings read from files are data.** The report is built as a small document (headings, paragraphs, tables,
+lists, code blocks, figures) whose text is either our own or :class:`Data` — operator, sample, host, command, scene
+text, file names, status and stop reasons, model keys that are not registered, warnings that may quote a file —
+and :class:`Data` is escaped by the renderer: :func:`contactrig.core.text.escape_markdown` /
+:func:`~contactrig.core.text.markdown_code_block` for Markdown, :func:`~contactrig.core.text.escape_html` for
+HTML. Records (start, stop) are shown whole, as JSON code blocks. Output files follow
+:mod:`contactrig.core.files`: the folder is created, an existing file is refused unless ``force``, every file is
+written atomically.
 """
 
 from __future__ import annotations
 
+import base64
+import html
 import math
 import platform
+import re
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -28,9 +45,17 @@ from analysis.fit import regressor_label
 from analysis.resistance import resistance_unit
 from contactrig.core.files import output_folder, refuse_existing, write_text_atomic
 from contactrig.core.provenance import software_version, to_json
-from sims.models import model_label
+from contactrig.core.text import escape_html, escape_markdown, escape_terminal, markdown_code_block
+from sims.models import model_label, model_names
 
-__all__ = ["output_directory", "render_markdown", "report_outputs", "write_report"]
+__all__ = [
+    "Data",
+    "output_directory",
+    "render_html",
+    "render_markdown",
+    "report_outputs",
+    "write_report",
+]
 
 
 def output_directory(directory: str | Path) -> Path:
@@ -39,48 +64,257 @@ def output_directory(directory: str | Path) -> Path:
 
 
 def report_outputs(directory: str | Path, titles: Sequence[str], formats: Sequence[str] = ("png", "svg")) -> list[Path]:
-    """Every file :func:`write_report` may write for analyses titled ``titles``: ``report.md`` and the figures."""
+    """Every file :func:`write_report` may write for analyses titled ``titles``: ``report.md``, ``report.html``
+    and the figures."""
     out = Path(directory)
-    files = [out / "report.md"]
+    files = [out / "report.md", out / "report.html"]
     for title in titles:
         files += planned_figures(out / "figures", _slug(title), formats)
     return files
 
 
 def _slug(text: str) -> str:
-    out = "".join(c.lower() if c.isalnum() else "-" for c in text)
+    out = "".join(c.lower() if c.isascii() and c.isalnum() else "-" for c in text)
     while "--" in out:
         out = out.replace("--", "-")
     return out.strip("-") or "analysis"
 
 
-def _table(headers: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
-    lines = ["| " + " | ".join(headers) + " |", "|" + "|".join("---" for _ in headers) + "|"]
-    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
-    return "\n".join(lines)
+# ---------------------------------------------------------------------------------------------------------------
+# The document: our own text is ``str``; text read from a file is ``Data`` and escaped by each renderer.
 
 
-def _g(x: float, digits: int = 4) -> str:
+@dataclass(frozen=True)
+class Data:
+    """Text read from a file (or typed by someone else): shown literally in every output, never interpreted."""
+
+    value: Any
+
+
+@dataclass(frozen=True)
+class Strong:
+    """Bold text (its content an inline: ``str``, :class:`Data`, :class:`Code` or a list of them)."""
+
+    content: Any
+
+
+@dataclass(frozen=True)
+class Code:
+    """Inline code (a file name, a JSON record); always treated as data."""
+
+    value: Any
+
+
+@dataclass(frozen=True)
+class Heading:
+    level: int
+    content: Any
+
+
+@dataclass(frozen=True)
+class Para:
+    content: Any
+
+
+@dataclass(frozen=True)
+class Notice:
+    """A banner (INCOMPLETE SESSION): a block quote in Markdown, a framed box in HTML."""
+
+    content: Any
+
+
+@dataclass(frozen=True)
+class Bullets:
+    items: tuple[Any, ...]
+
+
+@dataclass(frozen=True)
+class Table:
+    headers: tuple[Any, ...]
+    rows: tuple[tuple[Any, ...], ...]
+
+
+@dataclass(frozen=True)
+class CodeBlock:
+    """Multi-line data (a scene file, a JSON record), shown whole; ``summary`` folds it in HTML (``<details>``)."""
+
+    text: str
+    info: str = "text"
+    summary: str = ""
+
+
+@dataclass(frozen=True)
+class Image:
+    title: str
+    png: Path
+    vector: Path | None
+    caption: str
+
+
+# ---- Markdown -------------------------------------------------------------------------------------------------
+def _md(x: Any) -> str:
+    if isinstance(x, str):
+        return x
+    if isinstance(x, Data):
+        return escape_markdown(x.value)
+    if isinstance(x, Strong):
+        return f"**{_md(x.content)}**"
+    if isinstance(x, Code):
+        return _md_code_span(x.value)
+    return "".join(_md(p) for p in x)
+
+
+def _md_code_span(value: Any) -> str:
+    """``value`` as a one-line Markdown code span whose fence it cannot close (no control character, no newline;
+    ``|`` escaped so a table cell holds it too)."""
+    text = escape_terminal(value).replace("|", "\\|")
+    longest = max((len(m) for m in re.findall(r"`+", text)), default=0)
+    fence = "`" * (longest + 1)
+    pad = " " if text[:1] == "`" or text[-1:] == "`" or not text.strip() else ""
+    return f"{fence}{pad}{text}{pad}{fence}"
+
+
+def _md_block(block: Any, directory: Path) -> str:
+    if isinstance(block, Heading):
+        return f"{'#' * block.level} {_md(block.content)}\n"
+    if isinstance(block, Para):
+        return _md(block.content) + "\n"
+    if isinstance(block, Notice):
+        return "> " + _md(block.content) + "\n"
+    if isinstance(block, Bullets):
+        return "\n".join(f"- {_md(item)}" for item in block.items) + "\n"
+    if isinstance(block, Table):
+        lines = [
+            "| " + " | ".join(_md(h) for h in block.headers) + " |",
+            "|" + "|".join("---" for _ in block.headers) + "|",
+        ]
+        lines += ["| " + " | ".join(_md(c) for c in row) + " |" for row in block.rows]
+        return "\n".join(lines) + "\n"
+    if isinstance(block, CodeBlock):
+        return (f"{block.summary}:\n\n" if block.summary else "") + markdown_code_block(block.text, block.info) + "\n"
+    if isinstance(block, Image):
+        rel = block.png.relative_to(directory).as_posix()
+        extra = ""
+        if block.vector is not None:
+            extra = f" ([{block.vector.suffix[1:].upper()}]({block.vector.relative_to(directory).as_posix()}))"
+        caption = f"\n{block.caption}\n" if block.caption else ""
+        return f"![{block.title}]({rel}){extra}\n{caption}"
+    raise TypeError(f"not a report block: {block!r}")
+
+
+# ---- HTML -----------------------------------------------------------------------------------------------------
+def _html(x: Any) -> str:
+    if isinstance(x, str):
+        return html.escape(x, quote=False)
+    if isinstance(x, Data):
+        return escape_html(x.value)
+    if isinstance(x, Strong):
+        return f"<strong>{_html(x.content)}</strong>"
+    if isinstance(x, Code):
+        return f"<code>{escape_html(x.value)}</code>"
+    return "".join(_html(p) for p in x)
+
+
+def _html_block(block: Any, directory: Path) -> str:
+    if isinstance(block, Heading):
+        level = min(max(block.level, 1), 6)
+        return f"<h{level}>{_html(block.content)}</h{level}>"
+    if isinstance(block, Para):
+        return f"<p>{_html(block.content)}</p>"
+    if isinstance(block, Notice):
+        return f'<div class="notice">{_html(block.content)}</div>'
+    if isinstance(block, Bullets):
+        return "<ul>\n" + "\n".join(f"<li>{_html(item)}</li>" for item in block.items) + "\n</ul>"
+    if isinstance(block, Table):
+        head = "".join(f"<th>{_html(h)}</th>" for h in block.headers)
+        body = "\n".join("<tr>" + "".join(f"<td>{_html(c)}</td>" for c in row) + "</tr>" for row in block.rows)
+        return f'<div class="table"><table>\n<thead><tr>{head}</tr></thead>\n<tbody>\n{body}\n</tbody>\n</table></div>'
+    if isinstance(block, CodeBlock):
+        pre = f"<pre><code>{escape_html(block.text)}</code></pre>"
+        if block.summary:
+            return f"<details><summary>{html.escape(block.summary)}</summary>\n{pre}\n</details>"
+        return pre
+    if isinstance(block, Image):
+        data = base64.b64encode(block.png.read_bytes()).decode("ascii")
+        caption = f"<figcaption>{_html(block.caption)}</figcaption>" if block.caption else ""
+        return (
+            f'<figure><img src="data:image/png;base64,{data}" alt="{html.escape(block.title, quote=True)}">'
+            f"{caption}</figure>"
+        )
+    raise TypeError(f"not a report block: {block!r}")
+
+
+_CSS = """
+body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, "DejaVu Sans", sans-serif; line-height: 1.45;
+       max-width: 1100px; margin: 2em auto; padding: 0 1.2em; color: #1d1d1d; }
+h1 { border-bottom: 2px solid #444; padding-bottom: .2em; }
+h2 { border-bottom: 1px solid #bbb; margin-top: 2.2em; }
+.table { overflow-x: auto; }
+table { border-collapse: collapse; margin: .8em 0; font-size: .85em; }
+th, td { border: 1px solid #c8c8c8; padding: .25em .55em; text-align: right; white-space: nowrap; }
+th { background: #f0f0f0; } td:first-child, th:first-child { text-align: left; }
+figure { margin: 1.2em 0; } img { max-width: 100%; height: auto; border: 1px solid #e2e2e2; }
+figcaption { font-size: .85em; color: #444; margin-top: .3em; }
+pre { background: #f6f6f6; padding: .6em; overflow-x: auto; font-size: .8em; white-space: pre-wrap;
+      word-break: break-all; }
+code { font-size: .9em; word-break: break-all; }
+.notice { border: 2px solid #b00; background: #fff0f0; padding: .5em .8em; margin: 1em 0; }
+li { margin: .15em 0; }
+"""
+
+#: No script, no external resource of any kind: images must be data: URLs, styles inline.
+_CSP = "default-src 'none'; img-src data:; style-src 'unsafe-inline'; base-uri 'none'; form-action 'none'"
+
+
+def render_html(blocks: Sequence[Any], directory: Path, title: str) -> str:
+    """A self-contained HTML page of ``blocks`` (figures read from ``directory`` and inlined as base64 PNG)."""
+    body = "\n".join(_html_block(b, directory) for b in blocks)
+    return (
+        '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+        f'<meta http-equiv="Content-Security-Policy" content="{_CSP}">\n'
+        '<meta name="viewport" content="width=device-width, initial-scale=1">\n'
+        f"<title>{html.escape(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n{body}\n</body>\n</html>\n"
+    )
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# The report's content.
+
+
+def _g(x: float | None, digits: int = 4) -> str:
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "–"
     return f"{x:.{digits}g}"
 
 
-def _banner(info: dict[str, Any]) -> str:
+def _label(name: str) -> Any:
+    """A model's display label: the registry's (our text) for a registered model, else the key as data."""
+    return model_label(name) if name in model_names() else Data(model_label(name))
+
+
+def _about_models(text: str, names: Any) -> Any:
+    """Text we generated that names models (a verdict): ours when every model is registered, else data."""
+    return text if all(n in model_names() for n in names) else Data(text)
+
+
+def _banner(info: dict[str, Any]) -> Notice | None:
     if info.get("kind") != "session":
-        return ""
+        return None
     if not info.get("complete", True):
-        return (
-            "> **INCOMPLETE SESSION** — the file has no stop record (the acquisition was killed, lost power or is "
-            "still running). Only the blocks flushed to disk are analysed.\n\n"
+        return Notice(
+            [
+                Strong("INCOMPLETE SESSION"),
+                " — the file has no stop record (the acquisition was killed, lost power or is still running). Only "
+                "the blocks flushed to disk are analysed.",
+            ]
         )
     if info.get("status") not in ("success", None):
         reason = (info.get("stop") or {}).get("reason", "")
-        return f"> **SESSION {str(info['status']).upper()}** — {reason}\n\n"
-    return ""
+        return Notice([Strong(["SESSION ", Data(str(info["status"]).upper())]), " — ", Data(reason)])
+    return None
 
 
-def _measured_section(a: Any) -> str:
+def _measured_section(a: Any) -> list[Any]:
     c = a.curve
     nm = a.measured_norm
     k, unit = resistance_unit(c.mean_ohm)
@@ -88,28 +322,52 @@ def _measured_section(a: Any) -> str:
     rows = []
     for i, w in enumerate(c.weight_kg):
         rows.append(
-            [
+            (
                 f"{w:g}",
-                int(c.n[i]),
+                str(int(c.n[i])),
                 _g(c.mean_ohm[i] * k),
                 _g(c.sd_ohm[i] * k, 3),
                 _g(c.sem_ohm[i] * k, 3),
                 ratio.get(float(w), "left out"),
-            ]
+            )
         )
     paired = "series (correlation across weights included)" if nm.paired else "independent repeats"
-    headers = ["weight [kg]", "repeats", f"mean R [{unit}]", f"SD [{unit}]", f"SEM [{unit}]", "R/R₀ ± SE"]
-    return (
-        _table(headers, rows)
-        + f"\n\nRepeats treated as {paired}. R₀ = {nm.reference_ohm * k:.4g} ± {nm.reference_se_ohm * k:.2g} {unit}; "
-        "R₀/R₀ = 1 exactly.\n"
-    )
+    headers = ("weight [kg]", "repeats", f"mean R [{unit}]", f"SD [{unit}]", f"SEM [{unit}]", "R/R₀ ± SE")
+    return [
+        Table(headers, tuple(rows)),
+        Para(
+            f"Repeats treated as {paired}. R₀ = {nm.reference_ohm * k:.4g} ± {nm.reference_se_ohm * k:.2g} {unit}; "
+            "R₀/R₀ = 1 exactly."
+        ),
+    ]
 
 
-def _area_section(a: Any) -> str:
+def _area_section(a: Any) -> list[Any]:
     names = list(a.areas_m2)
-    rows = [[f"{w:g}"] + [_g(a.areas_m2[n][i] * 1e6) for n in names] for i, w in enumerate(a.curve.weight_kg)]
-    return _table(["weight [kg]"] + [f"{model_label(n)} A [mm²]" for n in names], rows) + "\n"
+    rows = tuple((f"{w:g}", *(_g(a.areas_m2[n][i] * 1e6) for n in names)) for i, w in enumerate(a.curve.weight_kg))
+    out: list[Any] = [Table(("weight [kg]", *([_label(n), " A [mm²]"] for n in names)), rows)]
+    return out + _ranking_blocks(a)
+
+
+def _ranking_blocks(a: Any) -> list[Any]:
+    """The boundary-element reference's verdicts (issue #14), when the analysis carries a comparison."""
+    cmp = getattr(a, "model_ranking", None)
+    if cmp is None:
+        note = getattr(a, "model_ranking_note", "")
+        return [Para(["Contact models against the boundary-element reference: ", note])] if note else []
+    from analysis.compare_models import report_lines
+
+    head, favoured, *lines = report_lines(cmp)
+    pressures = ", ".join(f"{p / 1e6:.3g}" for p in cmp.pressures_pa)
+    return [
+        Para([head, " ", Strong(favoured), "."]),
+        Bullets(tuple(lines)),
+        Para(
+            f"Mean nominal pressures compared: {pressures} MPa; {cmp.provenance.get('wall_s', float('nan')):.1f} s "
+            f"({cmp.provenance.get('executor', '?')}). The favoured model has the smallest RMS of ln(A_model/A_BEM) "
+            "over these pressures."
+        ),
+    ]
 
 
 def _interval(ci: tuple[float, float], factor: float = 1.0) -> str:
@@ -120,14 +378,14 @@ def _boot_cell(boot: Any, ci: tuple[float, float], factor: float = 1.0) -> str:
     """A bootstrap interval, or what the reason says (e.g. "not available with 3 series")."""
     if boot.available:
         return _interval(ci, factor)
-    return boot.note.split(":")[0]
+    return str(boot.note.split(":")[0])
 
 
-def _fit_row(cmp: Any, name: str, k: float) -> list[str]:
+def _fit_row(cmp: Any, name: str, k: float) -> tuple[Any, ...]:
     f = cmp.fits[name]
     est, t, boot, gof = f.estimate, f.intervals.t, f.intervals.bootstrap, f.goodness
-    return [
-        model_label(name) + ("" if f.physical else " — **UNPHYSICAL**"),
+    return (
+        [_label(name), "" if f.physical else [" — ", Strong("UNPHYSICAL")]],
         f"{est.R_series_ohm * k:.4g} ± {est.R_series_se * k:.2g}",
         _interval(t.R_series_ohm, k),
         _boot_cell(boot, boot.R_series_ohm, k),
@@ -141,7 +399,7 @@ def _fit_row(cmp: Any, name: str, k: float) -> list[str]:
         f"{cmp.akaike_weights[name]:.2f}",
         _first(cmp, name),
         f"{gof.rmse_ohm * k:.3g}",
-    ]
+    )
 
 
 def _first(cmp: Any, name: str) -> str:
@@ -150,60 +408,58 @@ def _first(cmp: Any, name: str) -> str:
     return f"{cmp.first_fraction[name]:.0%}" if name in cmp.first_fraction else "– (unphysical)"
 
 
-def _fit_section(a: Any) -> str:
+def _fit_section(a: Any) -> list[Any]:
     cmp = a.comparison
     if cmp is None:
-        return "No fit: " + "; ".join(n for n in a.left_out if n.startswith("no fit")).removeprefix("no fit: ") + "\n"
+        return [Para("No fit: " + "; ".join(n for n in a.left_out if n.startswith("no fit")).removeprefix("no fit: "))]
     first = next(iter(cmp.fits.values()))
     lvl = round(first.intervals.level * 100)
     k, unit = resistance_unit(first.points.measured_ohm)
-    rows = [_fit_row(cmp, name, k) for name in cmp.ranking]
-    headers = [
-        "model",
-        f"R_s ± SE [{unit}]",
-        f"R_s {lvl}% t-CI [{unit}]",
-        f"R_s {lvl}% bootstrap [{unit}]",
-        "s ± SE [Ω·m]",
-        f"s {lvl}% bootstrap",
-        "χ²",
-        "χ²/dof",
-        "p",
-        "AIC",
-        "ΔAIC",
-        "Akaike w",
-        "first in bootstrap",
-        f"RMSE [{unit}]",
-    ]
+    headers = (
+        "model", f"R_s ± SE [{unit}]", f"R_s {lvl}% t-CI [{unit}]", f"R_s {lvl}% bootstrap [{unit}]", "s ± SE [Ω·m]",
+        f"s {lvl}% bootstrap", "χ²", "χ²/dof", "p", "AIC", "ΔAIC", "Akaike w", "first in bootstrap", f"RMSE [{unit}]",
+    )  # fmt: skip
     boot = first.intervals.bootstrap
-    text = _table(headers, rows)
-    text += (
-        f"\n\nModel: R = R_s + s·x(A(W)), x = {regressor_label(a.conversion)}, "
-        f"h = {a.circuit.contact_height_m:g} m; weights 1/σ² with σ "
-        f"{_WEIGHTING_TEXT.get(first.weighting, first.weighting)}; {boot.n_boot} bootstrap resamples of the repeats "
-        f"({_BOOTSTRAP_TEXT.get(boot.resampling, boot.resampling)}), {boot.method} intervals; t-intervals with "
-        f"{first.intervals.t.dof[0]:.3g} degrees of freedom; p: goodness of fit against "
-        f"{first.goodness.reference}. k = 2 for every model, so ΔAIC = ΔBIC = Δχ².\n\n"
-        f"**{cmp.statement}**\n"
-    )
-    notes = [f"- {model_label(n)}: {note}" for n in cmp.ranking for note in cmp.fits[n].diagnostics.warnings]
-    notes += [f"- {model_label(n)}: UNPHYSICAL: {why}" for n in cmp.ranking for why in cmp.fits[n].unphysical]
+    blocks: list[Any] = [
+        Table(headers, tuple(_fit_row(cmp, name, k) for name in cmp.ranking)),
+        Para(
+            f"Model: R = R_s + s·x(A(W)), x = {regressor_label(a.conversion)}, "
+            f"h = {a.circuit.contact_height_m:g} m; weights 1/σ² with σ "
+            f"{_WEIGHTING_TEXT.get(first.weighting, first.weighting)}; {boot.n_boot} bootstrap resamples of the "
+            f"repeats ({_BOOTSTRAP_TEXT.get(boot.resampling, boot.resampling)}), {boot.method} intervals; t-intervals "
+            f"with {first.intervals.t.dof[0]:.3g} degrees of freedom; p: goodness of fit against "
+            f"{first.goodness.reference}. k = 2 for every model, so ΔAIC = ΔBIC = Δχ²."
+        ),
+        Para(Strong(_about_models(cmp.statement, cmp.ranking))),
+    ]
+    notes: list[Any] = [
+        [_label(n), ": ", _about_models(note, [n])] for n in cmp.ranking for note in cmp.fits[n].diagnostics.warnings
+    ]
+    notes += [
+        [_label(n), ": UNPHYSICAL: ", _about_models(why, [n])] for n in cmp.ranking for why in cmp.fits[n].unphysical
+    ]
     if not boot.available:
-        notes.append(f"- bootstrap intervals {boot.note}")
-    diag = [_diagnostics_line(n, cmp.fits[n].diagnostics) for n in cmp.ranking]
+        notes.append(f"bootstrap intervals {boot.note}")
     if notes:
-        text += "\nNotes:\n\n" + "\n".join(notes) + "\n"
-    text += "\nSolver diagnostics (scipy.optimize.least_squares):\n\n" + "\n".join(diag) + "\n"
-    truth = _simulated_truth(a)
-    if truth:
-        text += "\n" + truth
-    return text
+        blocks += [Para("Notes:"), Bullets(tuple(notes))]
+    blocks += [
+        Para("Solver diagnostics (scipy.optimize.least_squares):"),
+        Bullets(tuple(_diagnostics_line(n, cmp.fits[n].diagnostics) for n in cmp.ranking)),
+    ]
+    blocks += _simulated_truth(a)
+    statement = getattr(a, "resistance_statement", "")
+    if statement:
+        blocks += [Heading(4, "Resistance model: film, series and clean-metal constriction"), Para(statement)]
+    return blocks
 
 
-def _diagnostics_line(name: str, d: Any) -> str:
-    return (
-        f"- {model_label(name)}: nfev = {d.nfev}, status = {d.status} ({d.message}), cost = {d.cost:.4g}, "
-        f"closed-form check {d.linear_check:.1e}"
-    )
+def _diagnostics_line(name: str, d: Any) -> Any:
+    return [
+        _label(name),
+        f": nfev = {d.nfev}, status = {d.status} (",
+        Data(d.message),
+        f"), cost = {d.cost:.4g}, closed-form check {d.linear_check:.1e}",
+    ]
 
 
 _WEIGHTING_TEXT = {
@@ -215,85 +471,164 @@ _WEIGHTING_TEXT = {
 _BOOTSTRAP_TEXT = {"series": "whole series", "within": "within each weight"}
 
 
-def _simulated_truth(a: Any) -> str:
+def _simulated_truth(a: Any) -> list[Any]:
     """For a session on the simulated bench: the true R_s and ζ it was built with, against the fit."""
     start = a.measured_info.get("start") or {}
     if not start.get("sim"):
-        return ""
-    model = (start.get("simulation") or {}).get("model") or (
-        ((start.get("plan") or {}).get("session") or {}).get("sim_model")
-    )
+        return []
+    sim = start.get("simulation") or {}
+    model = sim.get("model") or (((start.get("plan") or {}).get("session") or {}).get("sim_model"))
     c = a.circuit
-    repeat_sd = float((start.get("simulation") or {}).get("repeat_sd") or 0.0)
+    try:
+        repeat_sd = float(sim.get("repeat_sd") or 0.0)
+    except (TypeError, ValueError):
+        repeat_sd = 0.0
     reseat = f" × a mean-one log-normal re-seating factor per block (σ = {repeat_sd:g})" if repeat_sd > 0 else ""
-    lines = [
-        "Simulated bench: the resistance was generated as R = R_s + ζh/A(W)"
-        + reseat
-        + (f" with model **{model}**" if model else "")
-        + f", R_s = {c.series_resistance_ohm * 1e3:g} mΩ and ζ = {c.resistivity_ohm_m:g} Ω·m (scene [circuit])."
-    ]
+    parts: list[Any] = ["Simulated bench: the resistance was generated as R = R_s + ζh/A(W)", reseat]
+    if model:
+        parts += [" with model ", Strong(Data(model))]
+    parts.append(f", R_s = {c.series_resistance_ohm * 1e3:g} mΩ and ζ = {c.resistivity_ohm_m:g} Ω·m (scene [circuit]).")
     if model and model in a.comparison.fits and a.conversion == "bulk":
         e = a.comparison.fits[model].estimate
-        lines.append(
+        parts.append(
             f" Its fit recovers R_s = {e.R_series_ohm * 1e3:.4g} ± {e.R_series_se * 1e3:.2g} mΩ and "
             f"s = {e.scale:.4g} ± {e.scale_se:.2g} Ω·m."
         )
-    return "".join(lines) + "\n"
+    return [Para(parts)]
 
 
-def _provenance(a: Any) -> str:
+_START_KEYS = ("started", "operator", "host", "command", "sim", "imported", "sample", "rig", "scene_name", "run")
+
+
+def _provenance(a: Any) -> list[Any]:
     info = a.measured_info
-    lines = [f"- measured data: `{info.get('path', a.curve.source)}` ({info.get('kind', '?')}, status "
-             f"{info.get('status', '?')}, {'complete' if info.get('complete', True) else 'INCOMPLETE'})"]  # fmt: skip
+    complete = "complete" if info.get("complete", True) else "INCOMPLETE"
+    items: list[Any] = [
+        ["measured data: ", Code(info.get("path", a.curve.source)), f" ({info.get('kind', '?')}, status ",
+         Data(info.get("status", "?")), f", {complete})"],
+    ]  # fmt: skip
     start = info.get("start") or {}
-    for k in ("started", "operator", "host", "command", "sim", "imported", "sample", "rig", "scene_name", "run"):
-        if k in start:
-            lines.append(f"- session {k}: {start[k]}")
+    items += [[f"session {k}: ", Data(start[k])] for k in _START_KEYS if k in start]
     for k in sorted(start):
         if k in ("software", "versions") or "ident" in k:
-            lines.append(f"- session {k}: `{to_json(start[k])}`")
-    stop = info.get("stop")
-    if stop:
-        lines.append(f"- stop record: `{to_json(stop)}`")
-    lines.append(f"- scene: {getattr(a.scene, 'name', '?')} ({getattr(a.scene, 'source', '?')})")
-    lines.append(f"- simulation: {a.sim_info.get('source', '?')}")
+            items.append(["session ", Data(k), ": ", Code(to_json(start[k], sort_keys=True))])
+    items.append(["scene: ", Data(getattr(a.scene, "name", "?")), " (", Data(getattr(a.scene, "source", "?")), ")"])
+    items.append(["simulation: ", Data(a.sim_info.get("source", "?"))])
     prov = a.sim_info.get("provenance") or {}
     if prov.get("software_version"):
-        lines.append(f"- simulation software version: {prov['software_version']}")
-    lines += _fingerprint_lines(a.fingerprint)
-    for w in info.get("warnings", []):
-        lines.append(f"- data note: {w}")
-    return "\n".join(lines) + "\n"
+        items.append(["simulation software version: ", Data(prov["software_version"])])
+    items += _fingerprint_lines(a.fingerprint)
+    items += [["data note: ", Data(w)] for w in info.get("warnings", [])]
+    blocks: list[Any] = [Bullets(tuple(items))]
+    stop = info.get("stop")
+    if stop:
+        blocks.append(CodeBlock(to_json(stop, indent=2, sort_keys=True), "json", "Stop record (JSON, whole)"))
+    text = getattr(a.scene, "text", "") or ""
+    if text.strip():
+        blocks.append(CodeBlock(text, "toml", f"Scene file ({len(text.splitlines())} lines)"))
+    return blocks
 
 
-def _fingerprint_lines(fp: dict[str, Any]) -> list[str]:
+def _fingerprint_lines(fp: dict[str, Any]) -> list[Any]:
     """What the analysis was computed from (hashes of the scene tables on both sides) and any mismatch allowed."""
     if not fp:
         return []
-    lines = []
+    lines: list[Any] = []
     for side in ("measured", "simulation"):
         tables = (fp.get(side) or {}).get("tables") or {}
-        hashes = ", ".join(f"{name} {t.get('sha256', '')[:12]}" for name, t in sorted(tables.items()))
+        hashes = ", ".join(f"{name} {str(t.get('sha256', ''))[:12]}" for name, t in sorted(tables.items()))
         version = (fp.get(side) or {}).get("software_version")
         lines.append(
-            f"- fingerprint of the {side} scene: {hashes or 'none recorded'}"
-            + (f" (contactrig {version})" if version else "")
+            [f"fingerprint of the {side} scene: ", Data(hashes or "none recorded")]
+            + ([" (contactrig ", Data(version), ")"] if version else [])
         )
     if fp.get("allowed"):
         lines.append(
-            "- **SCENE MISMATCH ALLOWED (--allow-mismatch)**: the simulation is not of the measurement's scene — "
-            + "; ".join(fp.get("differences", []))
+            [
+                Strong("SCENE MISMATCH ALLOWED (--allow-mismatch)"),
+                ": the simulation is not of the measurement's scene — ",
+                Data("; ".join(fp.get("differences", []))),
+            ]
         )
     return lines
 
 
-def _warnings_section(a: Any) -> str:
+def _warnings_section(a: Any) -> list[Any]:
     """Model-validity and simulation warnings, and what the data did not allow (empty when there is nothing)."""
-    lines = [f"- **warning**: {w}" for w in a.warnings]
-    lines += [f"- **left out**: {n}" for n in a.left_out]
+    items: list[Any] = [[Strong("warning"), ": ", Data(w)] for w in a.warnings]
+    items += [[Strong("left out"), ": ", n] for n in a.left_out]
     if a.fingerprint.get("allowed"):
-        lines.append("- **scene mismatch allowed**: " + "; ".join(a.fingerprint.get("differences", [])))
-    return "\n".join(lines) + "\n" if lines else ""
+        items.append([Strong("scene mismatch allowed"), ": ", Data("; ".join(a.fingerprint.get("differences", [])))])
+    return [Bullets(tuple(items))] if items else []
+
+
+# The report's sections after the provenance: key (what a FigureSpec names as its ``section``), heading, content.
+_SECTIONS: tuple[tuple[str, str, Callable[[Any], list[Any]] | None], ...] = (
+    ("measured", "Measured resistance", _measured_section),
+    ("area", "Simulated real contact area", _area_section),
+    ("normalised", "Normalised curves (seed Fig. 12)", None),
+    ("fit", "Fit and model comparison", _fit_section),
+)
+
+
+def _sections(a: Any, figs: dict[str, list[Path]]) -> list[Any]:
+    """Each section's content followed by the registered figures that belong to it (in registration order); figures
+    of any other section go under "Further figures"."""
+    specs = [s for s in figure_specs() if s.key in figs]
+    known = {key for key, _, _ in _SECTIONS}
+    out: list[Any] = []
+    for key, heading, content in _SECTIONS:
+        images = [_img(figs, s) for s in specs if s.section == key]
+        if content is None and not images:
+            continue
+        out.append(Heading(3, heading))
+        if content is not None:
+            out += content(a)
+        out += images
+    further = [_img(figs, s) for s in specs if s.section not in known]
+    if further:
+        out.append(Heading(3, "Further figures"))
+        out += further
+    return out
+
+
+def _img(figs: dict[str, list[Path]], spec: FigureSpec) -> Image:
+    paths = figs[spec.key]
+    png = next((p for p in paths if p.suffix == ".png"), paths[0])
+    vector = next((p for p in paths if p.suffix in (".svg", ".pdf")), None)
+    return Image(spec.title, png, vector, spec.caption)
+
+
+def report_blocks(
+    analyses: Sequence[Any],
+    figures: Sequence[dict[str, list[Path]]],
+    *,
+    title: str = "contactrig analysis report",
+    preamble: Sequence[Any] | str = (),
+) -> list[Any]:
+    """The report as a list of blocks (rendered by :func:`render_markdown` and :func:`render_html`). ``preamble``:
+    blocks after the header (a ``str`` is one paragraph of data, shown literally)."""
+    now = datetime.now(UTC).isoformat(timespec="seconds")
+    blocks: list[Any] = [Heading(1, title)]
+    blocks += [b for b in (_banner(a.measured_info) for a in analyses) if b is not None]
+    blocks.append(
+        Para(
+            f"Generated {now} by contactrig {software_version()} (Python {platform.python_version()}, "
+            f"numpy {np.__version__})."
+        )
+    )
+    blocks += [Para(Data(preamble))] if isinstance(preamble, str) and preamble else list(preamble or ())
+    for a, figs in zip(analyses, figures, strict=True):
+        blocks.append(Heading(2, Data(a.title)))
+        banner = _banner(a.measured_info)
+        if banner is not None:
+            blocks.append(banner)
+        blocks += [Heading(3, "Provenance"), *_provenance(a)]
+        caveats = _warnings_section(a)
+        if caveats:
+            blocks += [Heading(3, "Warnings and what was left out"), *caveats]
+        blocks += _sections(a, figs)
+    return blocks
 
 
 def render_markdown(
@@ -302,67 +637,11 @@ def render_markdown(
     directory: Path,
     *,
     title: str = "contactrig analysis report",
-    preamble: str = "",
+    preamble: Sequence[Any] | str = (),
 ) -> str:
     """The Markdown text of the report (figures linked relative to ``directory``)."""
-    now = datetime.now(UTC).isoformat(timespec="seconds")
-    parts = [f"# {title}\n"]
-    parts += [_banner(a.measured_info) for a in analyses if _banner(a.measured_info)]
-    parts.append(
-        f"Generated {now} by contactrig {software_version()} (Python {platform.python_version()}, "
-        f"numpy {np.__version__}).\n"
-    )
-    if preamble:
-        parts.append(preamble + "\n")
-    for a, figs in zip(analyses, figures, strict=True):
-        parts.append(f"## {a.title}\n")
-        banner = _banner(a.measured_info)
-        if banner:
-            parts.append(banner)
-        parts.append("### Provenance\n\n" + _provenance(a))
-        caveats = _warnings_section(a)
-        if caveats:
-            parts.append("### Warnings and what was left out\n\n" + caveats)
-        parts += _sections(a, figs, directory)
-    return "\n".join(parts)
-
-
-# The report's sections after the provenance: key (what a FigureSpec names as its ``section``), heading, text.
-_SECTIONS: tuple[tuple[str, str, Callable[[Any], str] | None], ...] = (
-    ("measured", "Measured resistance", _measured_section),
-    ("area", "Simulated real contact area", _area_section),
-    ("normalised", "Normalised curves (seed Fig. 12)", None),
-    ("fit", "Fit and model comparison", _fit_section),
-)
-
-
-def _sections(a: Any, figs: dict[str, list[Path]], directory: Path) -> list[str]:
-    """Each section's text followed by the registered figures that belong to it (in registration order); figures
-    of any other section go under "Further figures"."""
-    specs = [s for s in figure_specs() if s.key in figs]
-    known = {key for key, _, _ in _SECTIONS}
-    out = []
-    for key, heading, text in _SECTIONS:
-        images = [_img(figs, s, directory) for s in specs if s.section == key]
-        if text is None and not images:
-            continue
-        out.append(f"### {heading}\n" + (f"\n{text(a)}" if text is not None else ""))
-        out += images
-    further = [_img(figs, s, directory) for s in specs if s.section not in known]
-    if further:
-        out.append("### Further figures\n")
-        out += further
-    return out
-
-
-def _img(figs: dict[str, list[Path]], spec: FigureSpec, directory: Path) -> str:
-    paths = figs[spec.key]
-    png = next((p for p in paths if p.suffix == ".png"), paths[0])
-    vector = [p for p in paths if p.suffix in (".svg", ".pdf")]
-    rel = png.relative_to(directory).as_posix()
-    extra = f" ([{vector[0].suffix[1:].upper()}]({vector[0].relative_to(directory).as_posix()}))" if vector else ""
-    caption = f"\n{spec.caption}\n" if spec.caption else ""
-    return f"![{spec.title}]({rel}){extra}\n{caption}"
+    blocks = report_blocks(analyses, figures, title=title, preamble=preamble)
+    return "\n".join(_md_block(b, Path(directory)) for b in blocks)
 
 
 def write_report(
@@ -370,11 +649,12 @@ def write_report(
     directory: str | Path,
     *,
     title: str = "contactrig analysis report",
-    preamble: str = "",
+    preamble: Sequence[Any] | str = (),
     formats: Sequence[str] = ("png", "svg"),
     force: bool = False,
 ) -> Path:
-    """Draw the figures of every analysis into ``directory/figures`` and write ``directory/report.md``.
+    """Draw the figures of every analysis into ``directory/figures`` and write ``directory/report.md`` and the
+    self-contained ``directory/report.html``; returns the path of ``report.md``.
 
     Every file is checked first (:func:`report_outputs`): an existing one is refused unless ``force``."""
     out = output_directory(directory)
@@ -382,5 +662,7 @@ def write_report(
     figs = []
     for a in analyses:
         figs.append(write_figures(a, out / "figures", prefix=_slug(a.title), formats=formats, force=force))
-    text = render_markdown(analyses, figs, out, title=title, preamble=preamble)
+    blocks = report_blocks(analyses, figs, title=title, preamble=preamble)
+    write_text_atomic(out / "report.html", render_html(blocks, out, title), force=force)
+    text = "\n".join(_md_block(b, out) for b in blocks)
     return write_text_atomic(out / "report.md", text, force=force)

@@ -5,9 +5,12 @@ Three views of the same contact, from crude to physical:
 * **Bulk conductor** (seed eq. 23): R_T = ζ·h/A. The contact is treated as a prism of cross-section A (the real
   contact area) and length h (the "electric contact height"). R ∝ 1/A. This is what the paper uses to turn the
   simulated area of Fig. 11 into the resistance ratios of Fig. 12.
-* **Holm constriction** of a single circular spot of radius a between two half-spaces:
-  R = ζ1/(4a) + ζ2/(4a) (= ζ/(2a) for equal resistivities). Current crowding into the spot, not the length of a
-  conductor, sets the resistance; R ∝ 1/√A for a single spot of area A = πa².
+* **Holm single spot — an upper bound on the clean-metal constriction** (the ``holm`` conversion of
+  :mod:`analysis.fit`): one circular spot of radius a between two half-spaces, R = ζ1/(4a) + ζ2/(4a) (= ζ/(2a) for
+  equal resistivities). Current crowding into the spot, not the length of a conductor, sets the resistance;
+  R ∝ 1/√A for a single spot of area A = πa². With all of the real area A in one circle it bounds from above the
+  clean-metal constriction of any contact of real area A (Pólya & Szegő: the disc has the least capacity among
+  plane sets of given area); it is not a model of the rig (:mod:`analysis.resistance_model`).
 * **Greenwood (1966)** for a cluster of n spots of radii a_i at centre distances s_ij (both bodies, mean
   resistivity ζ̄ = (ζ1+ζ2)/2)::
 

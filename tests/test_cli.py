@@ -25,3 +25,20 @@ def test_sims_and_analysis_import_without_pyvisa_or_matplotlib():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stdout + out.stderr
+
+
+def test_report_demo_bench_and_simulate_offer_the_new_options(capsys):
+    import pytest
+
+    for argv, options in (
+        (["report", "--help"], ("--compare-models", "--no-compare-models", "report.html")),
+        (["demo", "--help"], ("--compare-models", "--no-compare-models")),
+        (["bench", "--help"], ("--force",)),
+        (["simulate", "--help"], ("--elastic",)),
+    ):
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        assert exc.value.code == 0
+        text = " ".join(capsys.readouterr().out.split())
+        for option in options:
+            assert option in text, (argv, option)

@@ -10,7 +10,7 @@ from pathlib import Path
 from analysis.studies.atlas import Outcome
 from analysis.studies.rows import Row, reference_of
 
-__all__ = ["format_atlas", "format_rows", "write_report"]
+__all__ = ["format_atlas", "format_rows", "report_files", "write_report"]
 
 
 def _fmt(x: float) -> str:
@@ -45,13 +45,29 @@ def _md_table(header: Sequence[str], body: Sequence[Sequence[str]]) -> str:
     return "\n".join(out)
 
 
-def write_report(
-    rows: Sequence[Row], outcomes: Sequence[Outcome], directory: str | Path, *, studies: Sequence[str], quick: bool
-) -> Path:
-    """Write one log–log error-against-time figure per study and ``report.md`` into ``directory``."""
+def report_files(directory: str | Path, studies: Sequence[str]) -> list[Path]:
+    """Every file :func:`write_report` may write into ``directory``: ``report.md`` and each study's PNG and SVG."""
     out = Path(directory)
-    out.mkdir(parents=True, exist_ok=True)
+    return [out / "report.md"] + [out / f"{name}.{fmt}" for name in studies for fmt in ("png", "svg")]
+
+
+def write_report(
+    rows: Sequence[Row],
+    outcomes: Sequence[Outcome],
+    directory: str | Path,
+    *,
+    studies: Sequence[str],
+    quick: bool,
+    force: bool = False,
+) -> Path:
+    """Write one log–log error-against-time figure per study and ``report.md`` into ``directory`` (created when
+    missing). Every file is checked first: an existing one is refused unless ``force``; each is written atomically
+    (:mod:`contactrig.core.files`)."""
     from analysis.figures import figure_error_vs_time, save_figure
+    from contactrig.core.files import output_folder, refuse_existing, write_text_atomic
+
+    out = output_folder(directory)
+    refuse_existing(report_files(out, studies), force=force)
 
     parts = [
         "# contactrig: error against run time, and the stability atlas",
@@ -66,7 +82,7 @@ def write_report(
         if not study_rows:
             continue
         fig = figure_error_vs_time(study_rows, study=name)
-        png = save_figure(fig, out, name, formats=("png", "svg"))[0]
+        png = save_figure(fig, out, name, formats=("png", "svg"), force=force)[0]
         parts += [
             f"## {name}",
             "",
@@ -103,6 +119,4 @@ def write_report(
             ),
             "",
         ]
-    path = out / "report.md"
-    path.write_text("\n".join(parts), encoding="utf-8")
-    return path
+    return write_text_atomic(out / "report.md", "\n".join(parts), force=force)

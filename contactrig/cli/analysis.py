@@ -12,6 +12,7 @@ import sys
 from typing import Any
 
 from contactrig.cli.options import add_models_option
+from contactrig.core.text import escape_terminal
 
 _TAB1 = "tab1"
 _FOLDER = "created when missing; existing files are refused without --force"
@@ -49,7 +50,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_models_option(common, default="all in the sweep")
     common.add_argument(
         "--conversion", choices=("bulk", "holm"), default="bulk",
-        help="area → resistance: bulk = seed eq. 23 ζh/A (default), holm = one Holm spot ζ√π/(2√A)",
+        help="area → resistance: bulk = seed eq. 23 ζh/A (default), holm = Holm single spot ζ√π/(2√A), an upper "
+        "bound on the clean-metal constriction",
     )  # fmt: skip
     common.add_argument(
         "--weighting", choices=("relative", "repeats", "pooled", "blocks"), default="relative",
@@ -86,11 +88,21 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     g.add_argument("--force", action="store_true", help="overwrite existing figure files")
     g.set_defaults(handler=_figures)
 
-    r = subparsers.add_parser("report", parents=[common], help="Markdown report with tables, figures, provenance")
+    r = subparsers.add_parser(
+        "report", parents=[common],
+        help="Markdown and self-contained HTML report with tables, figures, provenance",
+    )  # fmt: skip
     r.add_argument(
-        "-o", "--output", required=True, metavar="DIR", help=f"folder for report.md and figures/ ({_FOLDER})"
-    )
+        "-o", "--output", required=True, metavar="DIR",
+        help=f"folder for report.md, report.html and figures/ ({_FOLDER})",
+    )  # fmt: skip
     r.add_argument("--force", action="store_true", help="overwrite an existing report and its figures")
+    r.add_argument(
+        "--compare-models", action=argparse.BooleanOptionalAction, default=None,
+        help="ask the boundary-element reference which contact model it favours on the scene's surface (a short "
+        "run, ~5-10 s). Default: on when the simulation's surfaces are the scene's (its fingerprint records them "
+        "and they match), off otherwise",
+    )  # fmt: skip
     r.set_defaults(handler=_report)
 
     d = subparsers.add_parser(
@@ -100,6 +112,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     d.add_argument("-o", "--output", default="contactrig-demo", metavar="DIR", help=f"output folder ({_FOLDER})")
     d.add_argument("--bootstrap", type=int, default=2000, metavar="N", help="bootstrap resamples (0: none)")
     d.add_argument("--force", action="store_true", help="overwrite the files of an earlier demo in DIR")
+    d.add_argument(
+        "--compare-models", action=argparse.BooleanOptionalAction, default=True,
+        help="ask the boundary-element reference which contact model it favours (default: on)",
+    )  # fmt: skip
     d.set_defaults(handler=_demo)
 
 
@@ -181,7 +197,7 @@ def _fit(args: argparse.Namespace) -> int:
     if not a.measured_info.get("complete", True):
         print("INCOMPLETE SESSION: no stop record; analysing the blocks on disk", file=sys.stderr)
     _print_fit_table(a)
-    print(cmp.statement)
+    print(escape_terminal(cmp.statement))
     _print_caveats(a)
     return 0
 
@@ -194,7 +210,8 @@ def _print_fit_table(a: Any) -> None:
     best = cmp.best
     boot = best.intervals.bootstrap
     k, unit = resistance_unit(best.points.measured_ohm)
-    print(f"{a.title}: {cmp.n_weights} weights × {cmp.n_repeats} repeats; simulation: {a.sim_info.get('source')}")
+    print(escape_terminal(f"{a.title}: {cmp.n_weights} weights × {cmp.n_repeats} repeats; simulation: "
+                          f"{a.sim_info.get('source')}"))  # fmt: skip
     print(f"R = R_s + s·x(A), conversion {a.conversion}, weighting {best.weighting}, "
           f"{boot.n_boot} bootstrap resamples ({boot.resampling})")  # fmt: skip
     r_head, rmse_head = f"R_s [{unit}]", f"RMSE [{unit}]"
@@ -203,35 +220,37 @@ def _print_fit_table(a: Any) -> None:
         f = cmp.fits[name]
         e, g = f.estimate, f.goodness
         print(
-            f"{model_label(name):<20} {e.R_series_ohm * k:>9.4g} ± {e.R_series_se * k:<6.2g}"
+            f"{escape_terminal(model_label(name)):<20} {e.R_series_ohm * k:>9.4g} ± {e.R_series_se * k:<6.2g}"
             f" {e.scale:>12.4g} ± {e.scale_se:<7.2g} {g.reduced_chi2:>8.3g} {g.aic:>8.5g}"
             f" {cmp.delta_aic[name]:>7.3g} {g.rmse_ohm * k:>10.3g}" + ("" if f.physical else "  UNPHYSICAL")
         )
     t_ci, b_ci = best.intervals.t.R_series_ohm, boot.R_series_ohm
     boot_text = f"[{b_ci[0] * k:.3g}, {b_ci[1] * k:.3g}] {unit}" if boot.available else boot.note
-    print(f"{model_label(best.model)}: R_s {round(best.intervals.level * 100)}% t-interval [{t_ci[0] * k:.3g}, "
+    label = escape_terminal(model_label(best.model))
+    print(f"{label}: R_s {round(best.intervals.level * 100)}% t-interval [{t_ci[0] * k:.3g}, "
           f"{t_ci[1] * k:.3g}] {unit}, {boot.method} bootstrap {boot_text}; "
           f"goodness of fit against {best.goodness.reference}")  # fmt: skip
 
 
 def _print_caveats(a: Any) -> None:
     """Everything that qualifies the result, on stderr: data notes, what was left out, model-validity warnings,
-    unphysical fits, an allowed scene mismatch."""
-    for w in a.measured_info.get("warnings", []):
-        print(f"note: {w}", file=sys.stderr)
-    for n in a.left_out:
-        print(f"left out: {n}", file=sys.stderr)
-    for w in a.warnings:
-        print(f"warning: {w}", file=sys.stderr)
+    unphysical fits, an allowed scene mismatch (text from files with its control characters made visible)."""
+    lines = [f"note: {w}" for w in a.measured_info.get("warnings", [])]
+    lines += [f"left out: {n}" for n in a.left_out]
+    lines += [f"warning: {w}" for w in a.warnings]
     if a.comparison is not None:
         from sims.models import model_label
 
         for name in a.comparison.ranking:
-            for why in a.comparison.fits[name].unphysical:
-                print(f"warning: {model_label(name)} fit is UNPHYSICAL: {why}", file=sys.stderr)
+            lines += [
+                f"warning: {model_label(name)} fit is UNPHYSICAL: {why}" for why in a.comparison.fits[name].unphysical
+            ]
     if a.fingerprint.get("allowed"):
-        diffs = "; ".join(a.fingerprint.get("differences", []))
-        print(f"warning: scene mismatch allowed (--allow-mismatch): {diffs}", file=sys.stderr)
+        lines.append(
+            "warning: scene mismatch allowed (--allow-mismatch): " + "; ".join(a.fingerprint.get("differences", []))
+        )
+    for line in lines:
+        print(escape_terminal(line), file=sys.stderr)
 
 
 def _figures(args: argparse.Namespace) -> int:
@@ -244,7 +263,7 @@ def _figures(args: argparse.Namespace) -> int:
     written = write_figures(a, args.output, formats=formats, force=args.force)
     for spec in figure_specs():
         if spec.key in written:
-            print(f"{spec.key}: " + ", ".join(str(p) for p in written[spec.key]))
+            print(escape_terminal(f"{spec.key}: " + ", ".join(str(p) for p in written[spec.key])))
         else:
             print(f"{spec.key}: not drawn ({spec.missing or 'no data for it in this analysis'})", file=sys.stderr)
     _print_caveats(a)
@@ -252,22 +271,34 @@ def _figures(args: argparse.Namespace) -> int:
 
 
 def _report(args: argparse.Namespace) -> int:
-    from analysis.report import write_report
-    from contactrig.core.files import check_new_file, output_folder
+    from analysis.pipeline import compare_models_by_default, rank_against_bem, with_report_extras
+    from analysis.report import report_outputs, write_report
+    from contactrig.core.files import output_folder, refuse_existing
 
-    check_new_file(output_folder(args.output) / "report.md", force=args.force)  # before any work
+    out = output_folder(args.output)
+    refuse_existing(report_outputs(out, [])[:2], force=args.force)  # report.md, report.html: before any work
     a = _analysis(args)
-    path = write_report([a], args.output, force=args.force)
+    compare, why_not = compare_models_by_default(a) if args.compare_models is None else (args.compare_models, "")
+    ranking = rank_against_bem(a.scene, list(a.areas_m2)) if compare else None
+    note = "" if compare else (why_not or "not run (--no-compare-models)")
+    a = with_report_extras(a, ranking=ranking, ranking_note=note)
+    path = write_report([a], out, force=args.force)
     if not a.measured_info.get("complete", True):
         print("INCOMPLETE SESSION: the report says so at the top", file=sys.stderr)
     _print_caveats(a)
-    print(f"report: {path}")
+    if ranking is not None:
+        from analysis.compare_models import favoured
+
+        print(escape_terminal(favoured(ranking)))
+    print(escape_terminal(f"report: {path} and {path.with_suffix('.html')}"))
     return 0
 
 
 def _demo(args: argparse.Namespace) -> int:
     from analysis.demo import run_demo
 
-    result = run_demo(args.output, n_boot=args.bootstrap, stream=sys.stdout, force=args.force)
-    print(f"report: {result.report}")
+    result = run_demo(
+        args.output, n_boot=args.bootstrap, stream=sys.stdout, force=args.force, compare=args.compare_models
+    )
+    print(escape_terminal(f"report: {result.report} and {result.report.with_suffix('.html')}"))
     return 0

@@ -15,7 +15,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--quick", action="store_true", help="smaller sizes (under a minute; what CI runs)")
     p.add_argument("--json", action="store_true", help='print {"rows": [...], "atlas": [...]} as JSON')
-    p.add_argument("-o", "--output", metavar="DIR", help="write figures and report.md into DIR")
+    p.add_argument(
+        "-o", "--output", metavar="DIR",
+        help="write figures and report.md into DIR (created when missing; existing files are refused without --force)",
+    )  # fmt: skip
+    p.add_argument("--force", action="store_true", help="overwrite the figures and report.md of an earlier run in DIR")
     p.add_argument(
         "--study",
         action="append",
@@ -29,10 +33,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _bench(args: argparse.Namespace) -> int:
     import json
 
-    from analysis.studies.report import format_atlas, format_rows, write_report
+    from analysis.studies.report import format_atlas, format_rows, report_files, write_report
     from analysis.studies.rows import run, study_names
+    from contactrig.core.files import output_folder, refuse_existing
 
     names = study_names() if not args.study else [s for s in args.study if s != "none"]
+    if args.output:  # refused before any study runs
+        refuse_existing(report_files(output_folder(args.output), names), force=args.force)
     rows = run(names, quick=args.quick)
     outcomes = []
     if not args.no_atlas:
@@ -47,7 +54,7 @@ def _bench(args: argparse.Namespace) -> int:
             print()
             print(format_atlas(outcomes))
     if args.output:
-        path = write_report(rows, outcomes, args.output, studies=names, quick=args.quick)
+        path = write_report(rows, outcomes, args.output, studies=names, quick=args.quick, force=args.force)
         if not args.json:
             print(f"\nreport written to {path}")
     failed = [o for o in outcomes if not o.ok]

@@ -1,6 +1,9 @@
-"""``contactrig simulate``: the rig model's load sweep, contact area against added weight (``sims.rig.sweep``).
+"""``contactrig simulate``: the specimen's load sweep, contact area against added weight
+(:func:`sims.specimen.sweep_specimen`: the piston/liner rig, or the press for a scene with ``[press]``).
 
 The scene is read once and parsed into a :class:`sims.config.SimConfig`; ``-o`` writes :mod:`daq.sweep_file`.
+``--elastic`` couples the rig's asperity layer to the bodies' bulk elasticity and prints its computed effect
+(``provenance["bulk_elasticity"]``) instead of the rigid model's σ·R_eff/b² warnings.
 
 Registered by ``contactrig.cli.main``. Nothing heavy is imported until the command runs.
 """
@@ -12,20 +15,22 @@ import json
 import sys
 from typing import Any
 
-__all__ = ["parse_list", "register"]
+__all__ = ["elasticity_sentences", "parse_list", "register"]
 
 from contactrig.cli.options import add_models_option
+from contactrig.core.text import escape_terminal
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``simulate`` to ``subparsers``."""
     p = subparsers.add_parser(
         "simulate",
-        help="simulate the piston/liner rig: real contact area against added weight, per contact model",
+        help="simulate the specimen (piston/liner rig, or press): real contact area against weight, per model",
         description=(
-            "Static equilibrium of the piston in its liner for every weight and every contact model of the scene "
-            "(seed section 2.1, Fig. 11). Prints a table, or JSON with --json; -o writes the sweep to HDF5 "
-            "with provenance (scene text, database provenance, software version)."
+            "Static equilibrium of the piston in its liner (seed section 2.1, Fig. 11) — or, for a scene with a "
+            "[press] table, of the rough sphere pressed on the rough flat — for every weight and every contact model "
+            "of the scene. Prints a table, or JSON with --json; -o writes the sweep to HDF5 with provenance (scene "
+            "text, database provenance, software version)."
         ),
     )
     p.add_argument("scene", nargs="?", default=None, help="scene TOML file (default: the packaged paper scene)")
@@ -38,6 +43,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="write the sweep to this HDF5 file (its folder is created; an existing file is refused without --force)",
     )  # fmt: skip
     p.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    p.add_argument(
+        "--elastic", action="store_true",
+        help="rig: include the bodies' bulk elasticity (sims.rig.elastic) and print its effect on area and peak "
+        "pressure instead of the sigma*R/b^2 warnings (the press always includes it)",
+    )  # fmt: skip
     p.add_argument("--json", action="store_true", help="print the result as JSON on stdout")
     p.set_defaults(handler=_simulate)
 
@@ -58,26 +68,46 @@ def parse_list(option: str, text: str, kind: type = float) -> list[Any]:
 
 
 def _simulate(args: argparse.Namespace) -> int:
+    from analysis.pipeline import specimen_sweep
     from contactrig.core.files import check_new_file
     from contactrig.core.scene import load_scene
     from daq.sweep_file import save_sweep, validity_warnings
     from sims.config import SimConfig
-    from sims.rig import check_weights, sweep
+    from sims.rig import check_weights
 
     if args.output:
         check_new_file(args.output, force=args.force)  # refused before simulating anything
     config = SimConfig.from_scene(load_scene(args.scene))
     weights = check_weights(parse_list("--weights", args.weights), "--weights") if args.weights is not None else None
-    result = sweep(config, models=args.models, weights_kg=weights)
+    result = specimen_sweep(config, args.models, weights, elastic=bool(args.elastic))
     warnings = list(result.warnings) + [w for w in validity_warnings(result) if w not in result.warnings]
+    effects = elasticity_sentences(result)
     if args.output:
         path = save_sweep(result, args.output, force=args.force)
         print(f"wrote {path}", file=sys.stderr if args.json else sys.stdout)
     if args.json:
-        print(json.dumps({**result.to_json_dict(), "warnings": warnings}))
+        print(json.dumps({**result.to_json_dict(), "warnings": warnings, "bulk_elasticity": effects}))
         return 0
+    _print_table(result)
+    for line in effects:
+        print(f"bulk elasticity: {escape_terminal(line)}")
+    if args.elastic and config.press is not None:
+        print("note: the press always includes the bulk elasticity (--elastic changes nothing)", file=sys.stderr)
+    for w in warnings:
+        print(f"warning: {escape_terminal(w)}", file=sys.stderr)
+    return 0
+
+
+def elasticity_sentences(result: Any) -> list[str]:
+    """The computed effect of bulk elasticity, one sentence per model and weight (``provenance["bulk_elasticity"]``
+    of an ``elastic=True`` rig sweep; empty otherwise)."""
+    record = (getattr(result, "provenance", None) or {}).get("bulk_elasticity") or {}
+    return [str(line) for m in (record.get("models") or {}).values() for line in (m.get("effect") or [])]
+
+
+def _print_table(result: Any) -> None:
     for name, m in result.models.items():
-        print(f"{name}")
+        print(escape_terminal(name))
         print(f"  {'weight_kg':>10} {'load_N':>10} {'h0_um':>10} {'area_mm2':>12} {'width_mm':>10} {'p_peak_MPa':>11}")
         for i in range(m.weight_kg.size):
             print(
@@ -85,6 +115,3 @@ def _simulate(args: argparse.Namespace) -> int:
                 f"{m.contact_area_m2[i] * 1e6:12.5g} {m.contact_width_m[i] * 1e3:10.4g} "
                 f"{m.peak_pressure_pa[i] * 1e-6:11.4g}"
             )
-    for w in warnings:
-        print(f"warning: {w}", file=sys.stderr)
-    return 0

@@ -104,6 +104,9 @@ def test_report_has_banner_tables_and_figures(tmp_path, capsys):
     text = (out / "report.md").read_text()
     assert text.count("INCOMPLETE SESSION") >= 1
     assert "| weight [kg] |" in text and "ΔAIC" in text and "Provenance" in text
+    # the toy simulation's fingerprint records the default scene's surfaces: the BEM comparison runs by default
+    assert "BEM favours" in text and "model_ranking.png" in text and "BEM favours" in capsys.readouterr().out
+    assert (out / "report.html").read_text().count("data:image/png;base64,") == text.count("![")
     for ref in [line.split("](")[1].split(")")[0] for line in text.splitlines() if line.startswith("![")]:
         assert (out / ref).is_file()
 
@@ -191,3 +194,6 @@ def test_demo_end_to_end(tmp_path, capsys):
     assert "Simulated session" in text and "Seed paper Tab. 1" in text
     assert (out / "session.h5").is_file() and (out / "sim.h5").is_file()
     assert "every block reproduced identically" in text
+    assert "BEM favours" in text and "BEM favours" in printed and (out / "report.html").is_file()
+    assert text.count("#### Resistance model") == 3 and "this session is R = R_s + σ_f/A" in text
+    assert text.count("model_ranking.png") == 1  # one comparison (one scene), in the first section

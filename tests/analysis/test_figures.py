@@ -28,16 +28,20 @@ def _visible_axes(fig):
     return [ax for ax in fig.axes if ax.get_visible()]
 
 
-def test_measured_has_every_repeat_and_mean_with_sd():
+def test_measured_has_every_repeat_and_mean_with_sem():
     fig = F.figure_measured(CURVE)
     ax = fig.axes[0]
     repeat_lines = [ln for ln in ax.get_lines() if (ln.get_gid() or "").startswith("repeat-")]
     assert len(repeat_lines) == 3
-    assert len(ax.containers) == 1  # the errorbar of mean ± SD
+    assert len(ax.containers) == 1  # the errorbar of mean ± 1 SEM
     mean_line = ax.containers[0].lines[0]
     assert np.allclose(mean_line.get_ydata(), CURVE.mean_ohm * 1e3)
     assert _units(ax) and "mΩ" in ax.get_ylabel() and "kg" in ax.get_xlabel()
-    assert any("SD" in t.get_text() for t in ax.get_legend().get_texts())
+    assert any("± 1 SEM" in t.get_text() for t in ax.get_legend().get_texts())
+    (bars,) = ax.containers[0].lines[2]
+    half = np.array([abs(seg[1, 1] - seg[0, 1]) / 2 for seg in bars.get_segments()])
+    v = CURVE.values_ohm * 1e3
+    np.testing.assert_allclose(half, v.std(axis=1, ddof=1) / np.sqrt(v.shape[1]), rtol=1e-9)
 
 
 def test_simulated_area_one_line_per_model_with_names():
@@ -60,15 +64,17 @@ def test_normalised_starts_at_one_for_all_curves():
     assert _units(ax) and "R/R₀" in ax.get_ylabel()
 
 
-def test_normalised_error_bars_are_student_t_intervals():
-    from scipy import stats
-
+def test_normalised_error_bars_are_one_standard_error():
     measured = normalise_measured(CURVE)
-    fig = F.figure_normalised(measured, {}, dof=2)
+    fig = F.figure_normalised(measured, {})
     (bars,) = fig.axes[0].containers[0].lines[2]  # ErrorbarContainer: (data line, caps, bar collections)
     half = np.array([abs(seg[1, 1] - seg[0, 1]) / 2 for seg in bars.get_segments()])
-    assert np.allclose(half, stats.t.ppf(0.975, 2) * measured.se, rtol=1e-9)
-    assert "t, 2 dof" in fig.axes[0].containers[0].get_label()
+    # independent: first-order SE of a ratio of paired means, SD over series of (R_ik − r_i R_0k)/R̄_0 over √n
+    v = CURVE.values_ohm
+    mean = v.mean(axis=1)
+    influence = (v - (mean / mean[0])[:, None] * v[0][None, :]) / mean[0]
+    np.testing.assert_allclose(half, influence.std(axis=1, ddof=1) / np.sqrt(v.shape[1]), rtol=1e-9, atol=1e-15)
+    assert "± 1 SEM" in fig.axes[0].containers[0].get_label()
 
 
 def test_fit_figure_has_fits_and_residual_bars():

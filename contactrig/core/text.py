@@ -1,0 +1,82 @@
+"""Strings from files are data: escaping for the places they are shown (Markdown, HTML, a terminal).
+
+Operator, sample, scene text, instrument replies, stop reasons, paths — anything read from a session, sweep or
+database file (or typed by someone else) may hold markup, links, script, or terminal control sequences. Wherever
+such a string is shown it goes through one of these, so it is displayed as the text it is and never interpreted:
+
+- :func:`escape_terminal` — control characters (ESC sequences that move the cursor, retitle the window or
+  rewrite earlier lines, carriage returns, backspaces, bidi overrides) become visible ``\\x1b``-style escapes;
+  newlines too unless ``keep_newlines``, so a one-line message stays one line.
+- :func:`escape_markdown` — Markdown's active characters are backslash-escaped, HTML is entity-escaped (Markdown
+  renderers pass raw HTML through) and line breaks become spaces, so the text cannot open a heading, a table
+  cell, a link, an image or a code span; :func:`markdown_code_block` for multi-line text (a scene file).
+- :func:`escape_html` — ``& < > " '`` as entities, control characters dropped to visible escapes.
+"""
+
+from __future__ import annotations
+
+import html
+import re
+import unicodedata
+
+__all__ = ["escape_html", "escape_markdown", "escape_terminal", "markdown_code_block"]
+
+# C0 and C1 controls (without \n, handled apart), DEL, and the Unicode format characters that reorder or hide text
+# (bidi overrides and isolates, zero-width joiners): "Trojan source" tricks in a terminal or a rendered report.
+_BIDI = "\u061c\u200b\u200c\u200d\u200e\u200f\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069\ufeff"
+_CONTROL = re.compile(f"[\x00-\x09\x0b-\x1f\x7f-\x9f{_BIDI}\u2028\u2029]")
+# Characters with an inline meaning anywhere: code spans, emphasis, tables, strikethrough, math, attributes, the
+# parentheses of link targets, and "-" (list items, rules, setext headings and table rules are made of it); "]" where
+# it could close a link, an image or a reference definition ("](", "][", "]:" — so "[rig]" stays readable); "_" only
+# where it can open or close emphasis (snake_case stays readable); and the block markers that count only at the start
+# of a line (heading, quote, list, rule).
+_MARKDOWN_INLINE = re.compile(r"([\\`*|~$<>{}()-])|\](?=[(\[:])|(?<![0-9A-Za-z])_|_(?![0-9A-Za-z])")
+_MARKDOWN_LINE_START = re.compile(r"^(\s*\d*)([#+=-]|(?<=\d)[.)](?=\s|$))")
+
+
+def _visible(match: re.Match[str]) -> str:
+    ch = match.group(0)
+    code = ord(ch)
+    return f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}"
+
+
+def _str(value: object) -> str:
+    return value if isinstance(value, str) else str(value)
+
+
+def escape_terminal(value: object, *, keep_newlines: bool = False) -> str:
+    """``value`` as text safe to print on a terminal: no control character reaches it (each becomes ``\\xNN``).
+
+    Newlines become ``\\n`` too unless ``keep_newlines`` (then a ``\\r`` before them still shows)."""
+    text = _CONTROL.sub(_visible, _str(value))
+    if not keep_newlines:
+        text = text.replace("\n", "\\n")
+    return text
+
+
+def escape_html(value: object) -> str:
+    """``value`` as HTML text (element content or a quoted attribute value): markup shows as text."""
+    return html.escape(_CONTROL.sub(_visible, _str(value)), quote=True)
+
+
+def escape_markdown(value: object) -> str:
+    """``value`` as inline Markdown text (a paragraph, a list item, a table cell): shown literally.
+
+    Line breaks become spaces (a table row or list item stays one line); ``&`` and ``<`` become HTML entities (no
+    raw HTML, no autolink); the characters with an inline meaning (``\\ ` * | ~ $ { } ( ) -``, ``]`` before ``( [ :``
+    and ``_`` outside a word) are backslash-escaped, and so is a block marker at the start (``#``, ``>``, ``-``,
+    ``+``, ``=``, ``1.``). No link, image, emphasis, code span, table cell or HTML can come out of it."""
+    text = _CONTROL.sub(_visible, _str(value).replace("\r\n", "\n"))
+    text = " ".join(text.split("\n"))
+    text = _MARKDOWN_INLINE.sub(lambda m: "\\" + m.group(0), text)
+    text = text.replace("&", "&amp;").replace("\\<", "&lt;").replace("\\>", "&gt;")
+    return _MARKDOWN_LINE_START.sub(lambda m: m.group(1) + "\\" + m.group(2), text, count=1)
+
+
+def markdown_code_block(value: object, info: str = "text") -> str:
+    """Multi-line text (a scene file) as a fenced Markdown code block whose fence the text cannot close."""
+    text = _CONTROL.sub(_visible, _str(value).replace("\r\n", "\n"))
+    text = unicodedata.normalize("NFC", text)
+    longest = max((len(m) for m in re.findall(r"`+|~+", text)), default=0)
+    fence = "`" * max(3, longest + 1)
+    return f"{fence}{info}\n{text}\n{fence}"
