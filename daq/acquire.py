@@ -13,7 +13,7 @@ import errno
 import os
 import sys
 import warnings
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
@@ -138,6 +138,8 @@ def _resume_state(path: Path, scene: Scene | None, simulated: bool) -> tuple[Sce
         session = load_session(path)
     if session.imported:
         raise SessionStateError(f"{path} is an imported table, not an acquisition: nothing to resume")
+    if session.running:
+        raise SessionStateError(f"{path} is being written by another process right now: let it finish or stop it")
     if session.status == "success":
         raise SessionStateError(f"{path} is a complete session (status success): nothing to resume")
     recorded = parse_scene(session.scene_text, f"{path} (recorded scene)")
@@ -166,6 +168,7 @@ def acquire(
     stream: TextIO | None = None,
     quiet: bool = False,
     fsync: bool = True,
+    extra_writers: Sequence[Writer] = (),
 ) -> AcquisitionResult:
     """Run a bench session and write it to ``output`` (see the module docstring for the order of work).
 
@@ -174,7 +177,9 @@ def acquire(
     :class:`~daq.link.VisaBench`, the plan's VISA address; ``analysis.simulated_session.SimulatedRigBench`` is
     ``--sim``); a session resumes only on the same kind of bench. ``prompter`` asks the operator to place each
     weight (default: at the terminal, or nobody with ``yes``). ``fsync=False`` leaves syncing to the OS (faster;
-    a power cut may then lose the last blocks). Raises the error that ended the session, after its stop record.
+    a power cut may then lose the last blocks). ``extra_writers`` get every record too (``acquire --live``: the
+    live view; an optional writer must contain its own failures, e.g. ``analysis.watch.Guarded``). Raises the error
+    that ended the session, after its stop record.
     """
     path = Path(output)
     bench = bench if bench is not None else VisaBench()
@@ -186,17 +191,27 @@ def acquire(
     sf: SessionFile | None = None
     display: LiveDisplay | None = None
     outcome: RunOutcome | None = None
+    notices: list[Callable[[str], None]] = []
+
+    def notify(text: str) -> None:  # to the live display, once there is one
+        for say in notices[-1:]:
+            say(text)
+
     # From here on the link is closed (source idle, idempotent) in `finally`, whatever fails — also what fails
-    # before `drive` takes the link over (reopening the file, the display, a Ctrl-C).
-    try:
-        sf = SessionFile.open_for_resume(path, fsync=fsync, keep_blocks=len(prior.done) if prior.resumed else None)
-        start = _start_record(plan, scene, simulated=bench.simulated, opened=opened, run=sf.run, prior=prior)
-        display = LiveDisplay(plan.blocks_planned, done=len(prior.done), stream=stream, quiet=quiet)
-        for note in opened.notes:
-            display.message(note)
-        outcome = _run(opened.link, plan, start, sf, display, prior, ask)
-    finally:
-        _clean_up(opened.link, display, sf, outcome, path, created)
+    # before `drive` takes the link over (reopening the file, the display, a Ctrl-C). The Ctrl-C policy covers the
+    # clean-up too: once the run is over, a further Ctrl-C cannot cut the closing of the file short.
+    with Interrupts(notify=notify) as interrupts:
+        try:
+            sf = SessionFile.open_for_resume(path, fsync=fsync, keep_blocks=len(prior.done) if prior.resumed else None)
+            start = _start_record(plan, scene, simulated=bench.simulated, opened=opened, run=sf.run, prior=prior)
+            display = LiveDisplay(plan.blocks_planned, done=len(prior.done), stream=stream, quiet=quiet)
+            notices.append(display.message)
+            for note in opened.notes:
+                display.message(note)
+            outcome = _run(opened.link, plan, start, sf, display, prior, ask, interrupts, extra_writers)
+        finally:
+            interrupts.phase = "writing"  # deferred, never raised: the run has ended already
+            _clean_up(opened.link, display, sf, outcome, path, created)
     if outcome.error is not None:
         raise outcome.error
     return AcquisitionResult(
@@ -254,6 +269,8 @@ def _run(
     display: LiveDisplay,
     prior: _Prior,
     prompter: Prompter,
+    interrupts: Interrupts,
+    extra_writers: Sequence[Writer] = (),
 ) -> RunOutcome:
     """The blocks still to do, to the file and the live display, the operator asked with the display paused."""
 
@@ -261,21 +278,20 @@ def _run(
         with display.paused():
             return prompter(step)
 
-    with Interrupts(notify=display.message) as interrupts:
-        return drive(
-            link,
-            plan.block_settings,
-            session_steps(plan, prior.done),
-            [FileWriter(sf), display],
-            start,
-            plan.scene.text,
-            run=sf.run,
-            prompter=ask,
-            interrupts=interrupts,
-            blocks_planned=plan.blocks_planned,
-            blocks_before=len(prior.done),
-            readings_before=prior.readings,
-        )
+    return drive(
+        link,
+        plan.block_settings,
+        session_steps(plan, prior.done),
+        [FileWriter(sf), display, *extra_writers],
+        start,
+        plan.scene.text,
+        run=sf.run,
+        prompter=ask,
+        interrupts=interrupts,
+        blocks_planned=plan.blocks_planned,
+        blocks_before=len(prior.done),
+        readings_before=prior.readings,
+    )
 
 
 def _clean_up(

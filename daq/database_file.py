@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import h5py
 import numpy as np
@@ -48,24 +49,97 @@ def save_database(db: ContactDatabase, path: str | Path, *, force: bool = False)
     return Path(path)
 
 
-def load_database(path: str | Path) -> ContactDatabase:
-    """Read a database written by :func:`save_database`."""
+def load_database(path: str | Path, *, timeout: float | None = None) -> ContactDatabase:
+    """Read a database written by :func:`save_database`; a missing, foreign or damaged file is a
+    :class:`SettingError` naming it (and the member at fault).
+
+    Read in a child process within ``timeout`` seconds (:mod:`daq.bounded`: a damaged HDF5 file can neither hang
+    nor crash the caller). A sealed file's seal is checked (:mod:`daq.file_seal`); ``provenance["sealed"]`` says
+    whether it had one, and an unsealed file says so in ``provenance["file_notes"]``.
+    """
+    from daq.bounded import call_bounded
+    from daq.errors import SessionFileError
+
     p = Path(path)
     if not p.exists():
         raise SettingError("database", str(p), "file not found")
     try:
-        f = h5py.File(p, "r")
-    except OSError as exc:
-        raise SettingError("database", str(p), f"not a readable HDF5 file ({exc})") from None
-    with f:
-        if f.attrs.get("format") != FORMAT:
-            raise SettingError("database", str(p), "not a contactrig contact database")
-        prov = json.loads(f.attrs.get("provenance", "{}"))
-        curves = {}
-        for name in f:
-            g = f[name]
-            h, pressure, area = (np.asarray(g[key][()], dtype=float) for key in _UNITS)
-            curves[name] = ContactCurve(name, h, pressure, area, json.loads(g.attrs.get("parameters", "{}")))
+        curves, prov = call_bounded(_read_database, (p,), path=p, what="contact database", timeout=timeout)
+    except (SessionFileError, OSError) as exc:
+        raise SettingError("database", str(p), str(exc).replace(f"{p}: ", "").replace(str(p), "the file")) from None
     listed = [m for m in prov.get("models", []) if m in curves]
     order = listed + [m for m in curves if m not in listed]
     return ContactDatabase({m: curves[m] for m in order}, prov)
+
+
+def _read_database(p: Path) -> tuple[dict[str, ContactCurve], dict[str, Any]]:
+    """The work of :func:`load_database` (in the child process), every member checked."""
+    from daq import file_seal
+    from daq.errors import SessionFileError
+
+    try:
+        f = h5py.File(p, "r")
+    except OSError as exc:
+        raise SessionFileError(f"not a readable HDF5 file ({_first(exc)})") from None
+    where = "/"
+    with f:
+        try:
+            if _short_attr(f, "format") != FORMAT:
+                raise SessionFileError("not a contactrig contact database")
+            sealed = file_seal.check(f, str(p), "contact database")
+            where = "/@provenance"
+            prov = _json_attr(f, "provenance")
+            curves = {}
+            for name in f:
+                where = f"/{name}"
+                curves[name] = _curve(f[name], name)
+        except SessionFileError:
+            raise
+        except Exception as exc:  # untrusted content (SettingError too): one line naming the member
+            raise SessionFileError(f"{where} is unreadable or invalid ({_first(exc)})") from None
+    prov["sealed"] = sealed
+    if not sealed:
+        prov["file_notes"] = [f"{p} is UNSEALED (written before database files were sealed): not verified"]
+    return curves, prov
+
+
+def _first(exc: BaseException) -> str:
+    lines = [ln for ln in str(exc).splitlines() if ln.strip()]
+    return lines[0].strip() if lines else type(exc).__name__
+
+
+def _short_attr(obj: Any, name: str) -> Any:
+    from daq.errors import SessionFileError
+
+    if name not in obj.attrs:
+        return None
+    aid = obj.attrs.get_id(name)
+    if aid.shape not in ((), (1,)) or aid.get_storage_size() > (16 << 20):
+        raise SessionFileError(f"{obj.name.rstrip('/')}/@{name} is not a single value")
+    value = obj.attrs[name]
+    return value.decode("utf-8") if isinstance(value, bytes) else value
+
+
+def _json_attr(obj: Any, name: str) -> dict[str, Any]:
+    from daq.errors import SessionFileError
+
+    text = _short_attr(obj, name)
+    value = json.loads(text) if isinstance(text, str) else {} if text is None else None
+    if not isinstance(value, dict):
+        raise SessionFileError(f"{obj.name.rstrip('/')}/@{name} is not a JSON record")
+    return value
+
+
+def _curve(g: Any, name: str) -> ContactCurve:
+    from daq.errors import SessionFileError
+
+    if not isinstance(g, h5py.Group):
+        raise SessionFileError(f"/{name} is not a model group")
+    arrays = []
+    for key in _UNITS:
+        ds = g.get(key)
+        if not isinstance(ds, h5py.Dataset) or ds.ndim != 1 or ds.dtype.kind not in "iuf":
+            raise SessionFileError(f"/{name}/{key} is missing or not a column of numbers")
+        arrays.append(np.asarray(ds[()], dtype=float))
+    h, pressure, area = arrays
+    return ContactCurve(name, h, pressure, area, _json_attr(g, "parameters"))

@@ -104,6 +104,10 @@ class Interrupts:
         if threading.current_thread() is threading.main_thread():
             self._previous = signal.signal(signal.SIGINT, self._handler)
             self._installed = True
+            if getattr(self._previous, "stop_requested", False):
+                # a Ctrl-C before the run began whose KeyboardInterrupt was swallowed on its way (the handler of
+                # ``contactrig`` keeps the request): stop before the first block
+                self.count = 1
         return self
 
     def __exit__(self, *exc: object) -> None:

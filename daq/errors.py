@@ -32,6 +32,9 @@ class ChecksumError(SessionFileError):
         super().__init__(message)
         self.position = position
 
+    def __reduce__(self) -> tuple[type, tuple[str, int | None]]:  # crosses the process boundary of daq.bounded
+        return (type(self), (str(self), self.position))
+
 
 class NewerSchemaError(SessionFileError):
     """The file was written with a newer session schema than this contactrig understands."""

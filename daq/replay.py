@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from daq.acquire import drive
-from daq.errors import SessionStateError
+from daq.errors import SessionFileError, SessionStateError
 from daq.link import InstrumentLink
 from daq.plan import Measure, PlaceWeight, settings_from_record
 from daq.records import BlockRecord
@@ -144,7 +144,7 @@ def replay_session(path: str | Path, *, pace: bool = False) -> ReplayReport:
         session = load_session(p)
     if session.imported:
         raise SessionStateError(f"{p} is an imported table: it has no recorded instrument exchanges to replay")
-    pair, settings = settings_from_record(session.start["plan"])
+    pair, settings = _recorded_settings(session)
     tally = _Tally(notes=list(session.warnings))
     run_ids = sorted(set(session.summary["run"].tolist()) | set(session.exchanges["run"].tolist()))
     for run in run_ids:
@@ -161,6 +161,19 @@ def replay_session(path: str | Path, *, pace: bool = False) -> ReplayReport:
         complete=session.complete,
         notes=tuple(tally.notes),
     )
+
+
+def _recorded_settings(session: Session) -> tuple[InstrumentPair, object]:
+    """The instrument pair and block settings of the start record's plan; a plan that cannot be read is one line."""
+    plan = session.start.get("plan")
+    if not isinstance(plan, dict):
+        raise SessionFileError(f"{session.path}: /entry/start/record has no plan: nothing to replay")
+    try:
+        return settings_from_record(plan)
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise SessionFileError(
+            f"{session.path}: the plan in /entry/start/record cannot be read ({type(exc).__name__}: {exc})"
+        ) from None
 
 
 def _replay_run(session: Session, run: int, pair: InstrumentPair, settings: object, pace: bool, tally: _Tally) -> None:
@@ -194,8 +207,9 @@ def _replay_run(session: Session, run: int, pair: InstrumentPair, settings: obje
 def _driver_options(start: dict[str, Any]) -> dict[str, Any]:
     """The driver options the recording was taken with (a serial link's chunk size), so that the replayed driver
     sends the same commands."""
-    chunk = start.get("instrument", {}).get("chunk_size")
-    return {"chunk_size": int(chunk)} if chunk is not None else {}
+    instrument = start.get("instrument", {})
+    chunk = instrument.get("chunk_size") if isinstance(instrument, dict) else None
+    return {"chunk_size": int(chunk)} if isinstance(chunk, int) and not isinstance(chunk, bool) else {}
 
 
 #: summary column → the block statistic it holds

@@ -1,6 +1,6 @@
 """The HDF5 session file: a versioned, NeXus-lite layout written block by block and read back with checks.
 
-Layout (schema 2; every numeric field has a ``units`` attribute)::
+Layout (schema 3; every numeric field has a ``units`` attribute)::
 
     /                         attrs contactrig_format, contactrig_schema, creator, HDF5_Version, h5py_version,
                               file_time, default="entry"
@@ -18,12 +18,21 @@ Layout (schema 2; every numeric field has a ``units`` attribute)::
     /entry/exchanges          NXcollection: every instrument exchange — run, block (−1 outside blocks), kind,
                               message, reply, t_s, error — what replay serves back to the driver
     /entry/runs/run_<k>       NXcollection: ``record`` (JSON) for each run (the first and every --resume)
-    /entry/stop               NXcollection: ``record`` (JSON: status, reason, counts, checksums); absent = incomplete
+    /entry/stop               NXcollection: ``record`` (JSON: status, reason, counts, checksums, and — schema 3 —
+                              ``seal``: SHA-256 of start record, scene text, run records, summary, readings,
+                              exchanges and the stop record itself); absent = incomplete
 
 Durability (reference notes, data-and-sessions.md): chunked resizable datasets appended per block, then
 ``flush()`` and ``os.fsync`` before the next block starts; default ``libver`` (no SWMR), so a file whose writer
 was killed still opens and holds every flushed block. The summary row is written last in a block, so a block
 cut short by a kill has readings beyond the last summary row, which the reader ignores.
+
+Reading (:func:`load_session`) treats the file as untrusted: it runs in a child process with a deadline
+(:mod:`daq.bounded`), checks every member it uses (:class:`_Reader`: type, shape, dtype, JSON type, size) and names
+the member at fault in a one-line :class:`SessionFileError`, verifies each block's SHA-256 and then the stop
+record's seal, and says when a session is incomplete, running or unsealed. A session being acquired is readable from
+another process: the writer holds HDF5's file lock, so the reader opens it without locking and reads again if it
+catches the writer mid-flush; every block it reports has passed its checksum.
 """
 
 from __future__ import annotations
@@ -33,6 +42,7 @@ import hashlib
 import json
 import os
 import re
+import time
 import warnings
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
@@ -70,7 +80,7 @@ __all__ = [
 ]
 
 FORMAT_NAME = "contactrig-session"
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 
 
 def _upgrade_1(raw: dict[str, Any]) -> dict[str, Any]:
@@ -81,10 +91,16 @@ def _upgrade_1(raw: dict[str, Any]) -> dict[str, Any]:
     return {**raw, "summary": summary}
 
 
+def _upgrade_2(raw: dict[str, Any]) -> dict[str, Any]:
+    """Schema 2 → 3: the stop record's seal (SHA-256 over start record, scene text, runs, tables, exchanges and stop
+    record). Nothing to convert: a schema-2 file has no seal and is reported as unsealed."""
+    return raw
+
+
 # Upgrade functions, keyed by the schema they read: UPGRADES[k](raw) turns a loaded schema-k structure into a
 # schema-(k+1) one, so every older file keeps loading. A file opened to be continued (--resume) is upgraded in place
 # (:func:`_upgrade_in_place`).
-UPGRADES: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {1: _upgrade_1}
+UPGRADES: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {1: _upgrade_1, 2: _upgrade_2}
 
 _STR = h5py.string_dtype()
 _SUMMARY_FIELDS: dict[str, tuple[Any, str]] = {
@@ -565,6 +581,10 @@ class SessionFile:
             "sha256_blocks": _chain_digest(self._block_hashes),
         }
         try:
+            self._h5.flush()
+            # the seal: SHA-256 of everything readers use, computed from what the file holds (read back through the
+            # reader itself), so that any later change to the file is reported as such
+            record["seal"] = _seal(_read_raw(self._h5, self.path, stop_override=record), record)
             g = self._entry.require_group("stop")
             g.attrs["NX_class"] = "NXcollection"
             g.attrs["status"] = stop.status
@@ -647,11 +667,18 @@ class Session:
     exchanges: pd.DataFrame = field(repr=False)
     scene_text: str = field(repr=False, default="")
     warnings: tuple[str, ...] = ()
+    #: the stop record's seal holds: start record, scene text, runs, tables, exchanges and stop record unaltered
+    sealed: bool = False
+    #: another process is writing the file right now (no stop record yet)
+    running: bool = False
 
     @property
     def status(self) -> str:
-        """``success``, ``aborted``, ``failed``, or ``incomplete`` (no stop record)."""
-        return str(self.stop["status"]) if self.stop else "incomplete"
+        """``success``, ``aborted``, ``failed``; without a stop record ``running`` (another process is writing it)
+        or ``incomplete`` (killed, power loss, lost disk)."""
+        if self.stop:
+            return str(self.stop["status"])
+        return "running" if self.running else "incomplete"
 
     @property
     def compliance(self) -> np.ndarray:
@@ -667,15 +694,138 @@ class Session:
 
 def _check_readable_schema(path: Path) -> int:
     with _open_h5(path, "r") as h5:
-        return _schema_of(h5, path)
+        return _schema_of(_Reader(h5, path))
 
 
-def _schema_of(h5: h5py.File, path: Path) -> int:
-    if h5.attrs.get("contactrig_format") != FORMAT_NAME:
+#: Largest record or text read from a file (JSON records, the scene text): far above any real one.
+_MAX_TEXT_BYTES = 64 << 20
+_KIND_NAMES = {"i": "integers", "u": "integers", "f": "numbers", "S": "text", "O": "text", "b": "booleans"}
+
+
+class _Reader:
+    """Reads the members of an untrusted file with checks; every failure names the file and the member.
+
+    ``member`` is the member being read, so that an unexpected failure can still say where it happened.
+    """
+
+    def __init__(self, h5: h5py.File, path: Path) -> None:
+        self.h5 = h5
+        self.path = path
+        self.member = "/"
+        self._nodes: dict[str, Any] = {}
+        self._rows: dict[str, int] = {}
+        try:
+            self.max_rows = max(int(os.path.getsize(path)), 1 << 16)  # a row takes at least one byte on disk
+        except OSError:
+            self.max_rows = 1 << 40
+
+    def fail(self, what: str) -> SessionFileError:
+        return SessionFileError(f"{self.path}: /{self.member.lstrip('/')} {what}")
+
+    def has(self, name: str) -> bool:
+        self.member = name
+        parent, _, leaf = name.rpartition("/")
+        node = self.h5 if not parent else self.h5.get(parent)
+        return isinstance(node, h5py.Group) and leaf in node
+
+    def node(self, name: str, kind: type) -> Any:
+        self.member = name
+        obj = self._nodes.get(name)
+        if obj is None:
+            obj = self._nodes[name] = self.h5.get(name)  # h5py lookups cost ~0.1 ms each: once per member
+        if obj is None:
+            raise self.fail("is missing")
+        if not isinstance(obj, kind):
+            raise self.fail(f"is a {type(obj).__name__.lower()}, not a {kind.__name__.lower()}")
+        return obj
+
+    def group(self, name: str) -> h5py.Group:
+        return self.node(name, h5py.Group)
+
+    def rows(self, name: str, dtype: Any) -> int:
+        """The number of rows of the column ``name``, after checking it is a 1-D column of the right kind."""
+        if name in self._rows:
+            self.member = name
+            return self._rows[name]
+        ds = self.node(name, h5py.Dataset)
+        if ds.ndim != 1:
+            raise self.fail(f"has shape {ds.shape}: expected a column (1-D)")
+        want = np.dtype(dtype)
+        got = ds.dtype
+        is_text = got.kind == "S" or h5py.check_string_dtype(got) is not None
+        ok = is_text if want.kind in "SO" else got.kind in ("iu" if want.kind in "iu" else want.kind)
+        if not ok:
+            found = _KIND_NAMES.get(got.kind, str(got))
+            raise self.fail(f"holds {found} ({got}): expected {_KIND_NAMES.get(want.kind, str(want))}")
+        if ds.shape[0] > self.max_rows:
+            raise self.fail(f"claims {ds.shape[0]} rows, more than the file's {self.max_rows} bytes can hold")
+        self._rows[name] = int(ds.shape[0])
+        return self._rows[name]
+
+    def column(self, name: str, dtype: Any, n: int) -> np.ndarray:
+        self.rows(name, dtype)
+        ds = self._nodes[name]
+        if np.dtype(dtype).kind in "SO":
+            if ds.dtype.kind == "O":
+                return np.asarray(ds.asstr()[:n], dtype=object)
+            return np.asarray(ds[:n])
+        return np.asarray(ds[:n]).astype(np.dtype(dtype))
+
+    def text(self, name: str) -> str:
+        """A scalar text dataset (a JSON record, the scene text), UTF-8."""
+        ds = self.node(name, h5py.Dataset)
+        if ds.shape != () or (ds.dtype.kind != "S" and h5py.check_string_dtype(ds.dtype) is None):
+            raise self.fail(f"is {ds.dtype} of shape {ds.shape}: expected one text string")
+        if ds.dtype.kind == "S" and ds.dtype.itemsize > _MAX_TEXT_BYTES:
+            raise self.fail(f"is {ds.dtype.itemsize} bytes long: too large for a record")
+        value = ds[()]
+        raw = value if isinstance(value, bytes) else str(value).encode("utf-8", "surrogatepass")
+        if len(raw) > _MAX_TEXT_BYTES:
+            raise self.fail(f"is {len(raw)} bytes long: too large for a record")
+        try:
+            return raw.decode("utf-8")
+        except UnicodeDecodeError:
+            raise self.fail("is not UTF-8 text") from None
+
+    def record(self, name: str) -> dict[str, Any]:
+        """A JSON record: a scalar text dataset holding a JSON object."""
+        text = self.text(name)
+        try:
+            value = json.loads(text)
+        except (json.JSONDecodeError, RecursionError) as exc:
+            raise self.fail(f"is not valid JSON ({_first_line(str(exc))})") from None
+        if not isinstance(value, dict):
+            raise self.fail(f"is a JSON {type(value).__name__}, not a record (JSON object)")
+        self.member = name
+        return value
+
+    def attr(self, name: str, where: str = "/") -> Any:
+        """A short scalar attribute (None when absent); a huge or array-valued one is refused unread."""
+        self.member = f"{where.rstrip('/')}/@{name}"
+        obj = self.h5[where]
+        if name not in obj.attrs:
+            return None
+        aid = obj.attrs.get_id(name)
+        if aid.shape not in ((), (1,)) or aid.get_storage_size() > 4096:
+            raise self.fail(f"has shape {aid.shape} and {aid.get_storage_size()} bytes: expected a short value")
+        value = obj.attrs[name]
+        if isinstance(value, np.ndarray):
+            value = value.reshape(-1)[0]
+        return value.decode("utf-8", "replace") if isinstance(value, bytes) else value
+
+
+def _schema_of(reader: _Reader) -> int:
+    path = reader.path
+    if reader.attr("contactrig_format") != FORMAT_NAME:
         raise SessionFileError(f"{path} is an HDF5 file but not a contactrig session (no contactrig_format attribute)")
-    schema = int(h5.attrs.get("contactrig_schema", 0))
+    value = reader.attr("contactrig_schema")
+    if value is None:
+        value = 0
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise SessionFileError(f"{path}: /@contactrig_schema is {str(value)[:40]!r}: expected a schema number")
+    schema = int(value)
     if schema > SCHEMA_VERSION:
-        creator = h5.attrs.get("creator", "a newer contactrig")
+        creator = str(reader.attr("creator") or "a newer contactrig")[:80]
         raise NewerSchemaError(
             f"{path} uses session schema {schema}, written by {creator}; this contactrig reads schemas up to "
             f"{SCHEMA_VERSION}: upgrade contactrig to read it"
@@ -721,30 +871,115 @@ def _readable_rows(group: h5py.Group, fields: Iterable[str], n: int) -> int:
     return lo
 
 
-def _read_raw(h5: h5py.File, path: Path) -> dict[str, Any]:
-    entry = h5["entry"]
-    stop = None
-    stop_note = ""
-    if "stop" in entry and "record" in entry["stop"]:
-        try:
-            stop = json.loads(entry["stop/record"][()])
-        except (json.JSONDecodeError, OSError, UnicodeDecodeError) as exc:  # the writer died writing it
-            stop_note = f"the stop record is unreadable ({_first_line(str(exc))}), so the session counts as incomplete"
-    summary_group = entry["summary"]
-    present = [name for name in _SUMMARY_FIELDS if name in summary_group]  # older schemas lack the newer columns
-    n_blocks = min(summary_group[name].shape[0] for name in present)
+def _table_rows(reader: _Reader, group: str, fields: Mapping[str, tuple[Any, str]]) -> int:
+    """The rows every column of a table has (checked: 1-D, right kind, not absurdly long)."""
+    return min(reader.rows(f"{group}/{name}", dtype) for name, (dtype, _) in fields.items())
+
+
+def _read_columns(reader: _Reader, group: str, fields: Mapping[str, tuple[Any, str]], n: int) -> dict[str, np.ndarray]:
+    return {name: reader.column(f"{group}/{name}", dtype, n) for name, (dtype, _) in fields.items()}
+
+
+def _stop_record(reader: _Reader) -> tuple[dict[str, Any] | None, str]:
+    """The stop record (None when absent or unreadable) and a note when it is there but unreadable."""
+    if not reader.has("entry/stop/record"):
+        return None, ""
+    try:
+        text = reader.text("entry/stop/record")
+        stop = json.loads(text)
+    except (json.JSONDecodeError, OSError, RuntimeError) as exc:  # the writer died writing it
+        return None, f"the stop record is unreadable ({_first_line(str(exc))}), so the session counts as incomplete"
+    if not isinstance(stop, dict):
+        raise reader.fail(f"is a JSON {type(stop).__name__}, not a record (JSON object)")
+    _check_fields(reader, stop, _STOP_FIELDS)
+    return stop, ""
+
+
+#: Fields of the records that readers rely on, with their JSON types (absent is allowed unless listed in _REQUIRED).
+_STOP_FIELDS: dict[str, tuple[type, ...]] = {
+    "status": (str,),
+    "reason": (str,),
+    "blocks_in_file": (int,),
+    "readings_in_file": (int,),
+    "exchanges_in_file": (int,),
+    "blocks_planned": (int,),
+    "blocks_done": (int,),
+    "sha256_blocks": (str,),
+    "seal": (dict,),
+    "weights_skipped": (list,),
+}
+_START_FIELDS: dict[str, tuple[type, ...]] = {
+    "imported": (bool,),
+    "sim": (bool,),
+    "plan": (dict,),
+    "instrument": (dict,),
+    "operator": (str,),
+    "sample": (str,),
+    "host": (str,),
+    "started": (str,),
+}
+_REQUIRED = {"status", "reason", "blocks_in_file", "sha256_blocks"}
+
+
+def _check_fields(reader: _Reader, record: Mapping[str, Any], fields: Mapping[str, tuple[type, ...]]) -> None:
+    for key, types in fields.items():
+        if key not in record:
+            if key in _REQUIRED and fields is _STOP_FIELDS:
+                raise reader.fail(f"lacks the field {key!r}")
+            continue
+        value = record[key]
+        if not isinstance(value, types) or (bool not in types and isinstance(value, bool)):
+            raise reader.fail(f"field {key!r} is a JSON {type(value).__name__}: expected {types[0].__name__}")
+    if fields is _STOP_FIELDS and record["status"] not in ("success", "aborted", "failed"):
+        raise reader.fail(f"field 'status' is {str(record['status'])[:40]!r}: expected success, aborted or failed")
+
+
+def _summary_rows(reader: _Reader, stop: dict[str, Any] | None) -> tuple[dict[str, np.ndarray], list[str]]:
+    """The summary table (older schemas lack the newer columns) and the names of its columns."""
+    present = [name for name in _SUMMARY_FIELDS if reader.has(f"entry/summary/{name}")]
+    missing = [name for name in _SUMMARY_FIELDS if name not in present and name not in _NEW_SUMMARY_FIELDS]
+    if missing:
+        reader.member = f"entry/summary/{missing[0]}"
+        raise reader.fail("is missing")
+    fields = {name: _SUMMARY_FIELDS[name] for name in present}
+    n_blocks = _table_rows(reader, "entry/summary", fields)
     if stop is None:  # a writer that died mid-flush can leave the last summary row unreadable
-        n_blocks = _readable_rows(summary_group, present, n_blocks)
-    summary = _read_table(summary_group, present, n_blocks)
+        n_blocks = _readable_rows(reader.h5["entry/summary"], present, n_blocks)
+    summary = _read_columns(reader, "entry/summary", fields, n_blocks)
+    _check_offsets(reader, summary)
+    return summary, present
+
+
+def _check_offsets(reader: _Reader, s: Mapping[str, np.ndarray]) -> None:
+    """Each block's readings follow the previous block's; exchange ranges are in order and non-negative."""
+    count, first = s["count"].astype(np.int64), s["first_reading"].astype(np.int64)
+    expected = np.concatenate(([0], np.cumsum(count)[:-1])) if count.size else count
+    bad = np.flatnonzero((count < 0) | (first != expected))
+    if bad.size:
+        reader.member = "entry/summary/first_reading"
+        raise reader.fail(f"and count disagree at row {int(bad[0])}: the summary does not match the readings")
+    fe, ne = s["first_exchange"].astype(np.int64), s["n_exchanges"].astype(np.int64)
+    bad = np.flatnonzero((fe < 0) | (ne < 0) | np.concatenate((np.diff(fe) < 0, [False]))[: fe.size])
+    if bad.size:
+        reader.member = "entry/summary/first_exchange"
+        raise reader.fail(f"is out of order at row {int(bad[0])}")
+
+
+def _read_raw(h5: h5py.File, path: Path, stop_override: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The session's tables and records, checked member by member (``stop_override``: the stop record about to be
+    written, when the writer computes its seal)."""
+    reader = h5 if isinstance(h5, _Reader) else _Reader(h5, path)
+    reader.group("entry")
+    stop, stop_note = (stop_override, "") if stop_override is not None else _stop_record(reader)
+    summary, _ = _summary_rows(reader, stop)
+    n_blocks = len(summary["block"])
     n_readings = int(summary["first_reading"][-1] + summary["count"][-1]) if n_blocks else 0
-    readings_group = entry["readings"]
-    on_file = available = min(readings_group[name].shape[0] for name in _READING_FIELDS)
-    has_stop = stop is not None
-    if not has_stop:
-        available = _readable_rows(readings_group, _READING_FIELDS, min(on_file, n_readings))
+    on_file = available = _table_rows(reader, "entry/readings", _READING_FIELDS)
+    if stop is None:
+        available = _readable_rows(reader.h5["entry/readings"], _READING_FIELDS, min(on_file, n_readings))
     dropped = 0
     if available < n_readings:
-        if has_stop:
+        if stop is not None:
             raise SessionFileError(
                 f"{path}: readings are missing ({available} on file, the summary needs {n_readings})"
             )
@@ -755,24 +990,10 @@ def _read_raw(h5: h5py.File, path: Path) -> dict[str, Any]:
         n_blocks = keep
         summary = {k: v[:keep] for k, v in summary.items()}
         n_readings = int(summary["first_reading"][-1] + summary["count"][-1]) if n_blocks else 0
-    readings = _read_table(readings_group, _READING_FIELDS, n_readings)
-    exchanges_group = entry["exchanges"]
-    n_ex_on_file = min(exchanges_group[name].shape[0] for name in _EXCHANGE_FIELDS)
-    if stop is not None and "exchanges_in_file" in stop:
-        n_ex = min(n_ex_on_file, int(stop["exchanges_in_file"]))
-    else:
-        # incomplete: rows after the last complete block's exchanges were never vouched for (a kill or a
-        # failed write leaves them half-written or zero-filled)
-        n_ex = int(summary["first_exchange"][-1] + summary["n_exchanges"][-1]) if n_blocks else 0
-        n_ex = _readable_rows(exchanges_group, _EXCHANGE_FIELDS, min(n_ex, n_ex_on_file))
-    exchanges = _read_table(exchanges_group, _EXCHANGE_FIELDS, n_ex)
-    start = json.loads(entry["start/record"][()]) if "record" in entry["start"] else None
-    scene_text = entry["start/scene_text"].asstr()[()] if "scene_text" in entry["start"] else ""
-    runs = []
-    for k in range(len(entry["runs"])):
-        g = entry["runs"].get(f"run_{k}")
-        if g is not None and "record" in g:
-            runs.append(json.loads(g["record"][()]))
+    readings = _read_columns(reader, "entry/readings", _READING_FIELDS, n_readings)
+    exchanges, n_ex_on_file = _read_exchanges(reader, summary, stop)
+    start, scene_text = _start_and_scene(reader)
+    unit = reader.attr("units", "entry/readings/reading")
     return {
         "summary": summary,
         "readings": readings,
@@ -780,13 +1001,116 @@ def _read_raw(h5: h5py.File, path: Path) -> dict[str, Any]:
         "start": start,
         "scene_text": scene_text,
         "stop": stop,
-        "runs": runs,
+        "runs": _run_records(reader),
         "trailing_readings": max(on_file - n_readings, 0),
         "dropped_blocks": dropped,
         "stop_note": stop_note,
-        "unreadable_exchanges": n_ex_on_file - n_ex,
-        "reading_unit": readings_group["reading"].attrs.get("units", ""),
+        "unreadable_exchanges": n_ex_on_file - len(exchanges["kind"]),
+        "reading_unit": unit if isinstance(unit, str) else "",
     }
+
+
+def _read_exchanges(
+    reader: _Reader, summary: Mapping[str, np.ndarray], stop: dict[str, Any] | None
+) -> tuple[dict[str, np.ndarray], int]:
+    n_ex_on_file = _table_rows(reader, "entry/exchanges", _EXCHANGE_FIELDS)
+    n_blocks = len(summary["block"])
+    if stop is not None and "exchanges_in_file" in stop:
+        n_ex = min(n_ex_on_file, max(int(stop["exchanges_in_file"]), 0))
+    else:
+        # incomplete: rows after the last complete block's exchanges were never vouched for (a kill or a
+        # failed write leaves them half-written or zero-filled)
+        n_ex = int(summary["first_exchange"][-1] + summary["n_exchanges"][-1]) if n_blocks else 0
+        n_ex = _readable_rows(reader.h5["entry/exchanges"], _EXCHANGE_FIELDS, min(n_ex, n_ex_on_file))
+    return _read_columns(reader, "entry/exchanges", _EXCHANGE_FIELDS, n_ex), n_ex_on_file
+
+
+def _start_and_scene(reader: _Reader) -> tuple[dict[str, Any] | None, str]:
+    reader.group("entry/start")
+    start = reader.record("entry/start/record") if reader.has("entry/start/record") else None
+    if start is not None:
+        _check_fields(reader, start, _START_FIELDS)
+    scene_text = reader.text("entry/start/scene_text") if reader.has("entry/start/scene_text") else ""
+    if start is not None and not reader.has("entry/start/scene_text"):
+        raise reader.fail("is missing: the session's scene was not recorded")
+    return start, scene_text
+
+
+def _run_records(reader: _Reader) -> list[dict[str, Any]]:
+    runs_group = reader.group("entry/runs")
+    runs = []
+    for k in range(min(len(runs_group), 100_000)):
+        name = f"entry/runs/run_{k}"
+        if reader.has(name) and reader.has(f"{name}/record"):
+            runs.append(reader.record(f"{name}/record"))
+    return runs
+
+
+# ---- the seal: what a completed session's stop record vouches for ------------------------------------------------
+
+_SEALED_SINCE = 3
+#: The parts of a session the stop record's seal covers, and how a message names each.
+_SEAL_PARTS = {
+    "start": "the start record",
+    "scene_text": "the scene text",
+    "runs": "the run records",
+    "summary": "the summary table",
+    "readings": "the readings",
+    "exchanges": "the recorded instrument exchanges",
+    "stop": "the stop record",
+}
+
+
+def _canonical(value: Any) -> bytes:
+    return json.dumps(value, sort_keys=True, separators=(",", ":"), ensure_ascii=True, allow_nan=True).encode()
+
+
+def _table_digest(table: Mapping[str, np.ndarray], fields: Mapping[str, tuple[Any, str]]) -> str:
+    h = hashlib.sha256()
+    for name in sorted(table):
+        dtype = np.dtype(fields[name][0]) if name in fields and fields[name][0] is not _STR else None
+        values = table[name]
+        if dtype is None or dtype.kind == "S":
+            data = "\x1e".join(_text(v) for v in values).encode("utf-8", "surrogatepass")
+        else:
+            data = np.ascontiguousarray(values, dtype=dtype.newbyteorder("<")).tobytes()
+        h.update(f"{name}\x1f{len(values)}\x1f{len(data)}\x1f".encode())
+        h.update(data)
+    return h.hexdigest()
+
+
+def _seal(raw: Mapping[str, Any], stop: Mapping[str, Any]) -> dict[str, str]:
+    """SHA-256 of every part the analysis and replay use (``stop``: the stop record without its seal)."""
+    sha = lambda data: hashlib.sha256(data).hexdigest()  # noqa: E731
+    return {
+        "start": sha(_canonical(raw["start"])),
+        "scene_text": sha(str(raw["scene_text"]).encode("utf-8", "surrogatepass")),
+        "runs": sha(_canonical(raw["runs"])),
+        "summary": _table_digest(raw["summary"], _SUMMARY_FIELDS),
+        "readings": _table_digest(raw["readings"], _READING_FIELDS),
+        "exchanges": _table_digest(raw["exchanges"], _EXCHANGE_FIELDS),
+        "stop": sha(_canonical({k: v for k, v in stop.items() if k != "seal"})),
+    }
+
+
+def _check_seal(raw: Mapping[str, Any], path: Path, schema: int) -> bool:
+    """True when the session is sealed and the seal holds; False when it has no seal; raises when it does not hold."""
+    stop = raw["stop"]
+    if stop is None or "seal" not in stop:
+        if stop is not None and schema >= _SEALED_SINCE:
+            raise ChecksumError(f"{path}: the stop record has no seal, but schema {schema} files are sealed: altered")
+        return False
+    if schema < _SEALED_SINCE:
+        raise ChecksumError(f"{path}: claims schema {schema}, which had no seal, yet carries one: the file was altered")
+    recorded = stop["seal"]
+    actual = _seal(raw, stop)
+    for part, name in _SEAL_PARTS.items():
+        if recorded.get(part) != actual[part]:
+            raise ChecksumError(
+                f"{path}: {name} changed after the session was sealed (SHA-256 in the stop record): the file was "
+                "altered or damaged and is not analysed"
+            )
+    return True
 
 
 def _verify(raw: dict[str, Any], path: Path) -> None:
@@ -845,7 +1169,7 @@ def _verify(raw: dict[str, Any], path: Path) -> None:
 
 
 def _text(value: Any) -> str:
-    return value.decode() if isinstance(value, bytes) else str(value)
+    return value.decode("utf-8", "replace") if isinstance(value, bytes) else str(value)
 
 
 def exchange_list(ex: Mapping[str, Any], a: int = 0, b: int | None = None) -> list[Exchange]:
@@ -869,25 +1193,61 @@ def _drop_last_block(raw: dict[str, Any]) -> dict[str, Any]:
     return {**raw, "summary": s, "readings": r, "exchanges": e}
 
 
-def load_session(path: str | Path, *, verify: bool = True) -> Session:
-    """Read a session file, check its schema and checksums, and say if it is incomplete.
+def load_session(path: str | Path, *, verify: bool = True, timeout: float | None = None) -> Session:
+    """Read a session file, check its schema, checksums and seal, and say if it is incomplete or running.
 
-    Raises :class:`~daq.errors.NewerSchemaError` for files from a newer contactrig, :class:`SessionFileError`
-    for truncated or corrupted files and :class:`ChecksumError` when data do not match their SHA-256.
-    An incomplete session (no stop record) loads with ``complete=False`` and an :class:`IncompleteSessionWarning`.
+    The file is read in a child process within ``timeout`` seconds (default: 10 s for files up to 50 MB; see
+    :mod:`daq.bounded`), so a damaged file can neither hang nor crash the caller. Raises
+    :class:`~daq.errors.NewerSchemaError` for files from a newer contactrig, :class:`SessionFileError` for truncated,
+    corrupted or malformed files (naming the member) and :class:`ChecksumError` when data do not match their SHA-256
+    or a sealed part was altered. An incomplete session (no stop record) loads with ``complete=False`` and an
+    :class:`IncompleteSessionWarning`; one another process is still writing has ``status == "running"``.
     """
+    from daq.bounded import call_bounded
+
     p = Path(path)
-    schema, raw = _read_file(p)
+    session = call_bounded(_load, (p, verify), path=p, what="session file", timeout=timeout)
+    for note in session.warnings:
+        warnings.warn(note, IncompleteSessionWarning if session.stop is None else UserWarning, stacklevel=2)
+    return session
+
+
+def _load(p: Path, verify: bool, attempts: int = 3) -> Session:
+    """The work of :func:`load_session` (in the child process): read, check, upgrade, verify. A file another process
+    is writing is read again when a read catches it mid-write (at most ``attempts`` times)."""
+    for attempt in range(attempts):
+        schema, raw, running = _read_file(p)
+        try:
+            try:
+                # a running session's blocks are all complete: one that fails its checksum was read mid-write,
+                # so read again (only the last attempt treats it as a block cut short by a dead writer)
+                return _checked(p, schema, raw, running, verify, strict=running and attempt < attempts - 1)
+            except (ValueError, TypeError, KeyError, IndexError, AttributeError) as exc:
+                if isinstance(exc, SessionFileError):
+                    raise
+                # values of the right type and shape that still make no sense together: one line, never a traceback
+                what = f"{type(exc).__name__}: {_first_line(str(exc))}"
+                raise SessionFileError(f"{p}: inconsistent content ({what})") from None
+        except SessionFileError:
+            if not running or attempt == attempts - 1:
+                raise
+        time.sleep(0.05)
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+def _checked(
+    p: Path, schema: int, raw: dict[str, Any], running: bool, verify: bool, *, strict: bool = False
+) -> Session:
+    """``raw`` checked and turned into a :class:`Session`; ``strict``: no block may be dropped as cut short."""
+    notes: list[str] = []
+    if verify:  # the blocks' own checksums first (their messages name the block), then the seal over the rest
+        raw, notes = _verified(raw, p, may_drop_last=not strict)
+    sealed = _check_seal(raw, p, schema) if verify else False
     for k in range(schema, SCHEMA_VERSION):
         raw = UPGRADES[k](raw)
-    notes: list[str] = []
-    if verify:
-        raw, notes = _verified(raw, p)
     if raw["start"] is None:
         raise SessionFileError(f"{p} has no start record: the acquisition died before it began; no data to read")
-    notes += _notes(raw, p)
-    for note in notes:
-        warnings.warn(note, IncompleteSessionWarning if raw["stop"] is None else UserWarning, stacklevel=2)
+    notes += _notes(raw, p, sealed=sealed, schema=schema, running=running)
     summary, readings, exchanges = _frames(raw)
     return Session(
         path=p,
@@ -902,32 +1262,63 @@ def load_session(path: str | Path, *, verify: bool = True) -> Session:
         exchanges=exchanges,
         scene_text=raw["scene_text"],
         warnings=tuple(notes),
+        sealed=sealed,
+        running=running and raw["stop"] is None,
     )
 
 
-def _read_file(p: Path) -> tuple[int, dict[str, Any]]:
-    """The file's schema and raw tables; any failure to read them is one :class:`SessionFileError`."""
-    h5 = _open_h5(p, "r")
+def _open_for_reading(p: Path) -> tuple[h5py.File, bool]:
+    """Open read-only; a file locked by a live writer is opened without locking (True: it is being written)."""
     try:
-        schema = _schema_of(h5, p)
+        return h5py.File(p, "r"), False
+    except OSError as exc:
+        text = str(exc)
+        if "unable to lock file" not in text or _errno_of(exc) not in (errno.EAGAIN, errno.EWOULDBLOCK):
+            raise _explain_open_error(p, exc, writing=False) from exc
+    # another process holds the HDF5 write lock: an acquisition (or --resume) is writing this file. Reading it
+    # without the lock is safe for us: every block we report is checked against its SHA-256, a row being written
+    # is left out as an unfinished block, and any inconsistency seen mid-write is retried (_read_file).
+    try:
+        return h5py.File(p, "r", locking=False), True
+    except OSError as exc:
+        raise _explain_open_error(p, exc, writing=False) from exc
+
+
+def _read_file(p: Path, attempts: int = 1) -> tuple[int, dict[str, Any], bool]:
+    """The file's schema, raw tables and whether a writer holds it; any failure to read them is one
+    :class:`SessionFileError` naming the member. A file being written is read again if a read catches it mid-write."""
+    for attempt in range(attempts):
+        h5, running = _open_for_reading(p)
         try:
-            raw = _read_raw(h5, p)
-        except (KeyError, OSError, ValueError, json.JSONDecodeError) as exc:
-            if isinstance(exc, SessionFileError):
+            return (*_read_open_file(h5, p), running)
+        except SessionFileError:
+            if not running or attempt == attempts - 1:
                 raise
-            raise SessionFileError(f"{p} is damaged: {_first_line(str(exc))}") from exc
-    finally:
-        h5.close()
+        finally:
+            h5.close()
+        time.sleep(0.05)
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+def _read_open_file(h5: h5py.File, p: Path) -> tuple[int, dict[str, Any]]:
+    reader = _Reader(h5, p)
+    try:
+        schema = _schema_of(reader)
+        raw = _read_raw(reader, p)
+    except SessionFileError:
+        raise
+    except Exception as exc:  # untrusted content: one line naming the member, never a traceback
+        raise reader.fail(f"is unreadable ({type(exc).__name__}: {_first_line(str(exc))})") from None
     return schema, raw
 
 
-def _verified(raw: dict[str, Any], p: Path) -> tuple[dict[str, Any], list[str]]:
+def _verified(raw: dict[str, Any], p: Path, *, may_drop_last: bool = True) -> tuple[dict[str, Any], list[str]]:
     """``raw`` after its checksums are checked; an incomplete session's half-written last block is left out."""
     try:
         _verify(raw, p)
     except ChecksumError as exc:
         n = len(raw["summary"]["block"])
-        if raw["stop"] is not None or exc.position != n - 1:
+        if raw["stop"] is not None or exc.position != n - 1 or not may_drop_last:
             raise
         # an incomplete session whose writer died while writing its last block: that block is not complete
         note = f"{p}: the last block was cut short when the writer died and is left out ({exc})"
@@ -935,10 +1326,11 @@ def _verified(raw: dict[str, Any], p: Path) -> tuple[dict[str, Any], list[str]]:
     return raw, []
 
 
-def _notes(raw: dict[str, Any], p: Path) -> list[str]:
-    """What the reader found: rows left out, an unreadable or missing stop record, a session that did not succeed."""
+def _notes(raw: dict[str, Any], p: Path, *, sealed: bool, schema: int, running: bool) -> list[str]:
+    """What the reader found: rows left out, an unreadable or missing stop record, a session that did not succeed,
+    a session without a seal."""
     notes = []
-    if raw["unreadable_exchanges"]:
+    if raw["unreadable_exchanges"] and not running:
         notes.append(
             f"{p}: {raw['unreadable_exchanges']} instrument exchanges after the last complete block (an unfinished "
             "block or run) are left out"
@@ -947,16 +1339,30 @@ def _notes(raw: dict[str, Any], p: Path) -> list[str]:
         notes.append(f"{p}: {raw['stop_note']}")
     if raw["dropped_blocks"]:
         notes.append(f"{p}: {raw['dropped_blocks']} block(s) whose readings never reached the disk are left out")
-    if raw["stop"] is None:
+    stop = raw["stop"]
+    if stop is None and running:
+        notes.append(
+            f"{p} is a RUNNING session (another process is writing it; unsealed until it stops): "
+            f"{len(raw['summary']['block'])} complete blocks read so far"
+        )
+    elif stop is None:
         trailing = raw["trailing_readings"]
         notes.append(
-            f"{p} is an INCOMPLETE session: it has no stop record (the acquisition was killed, lost power or its "
-            f"disk, or is still running); {len(raw['summary']['block'])} complete blocks were read"
+            f"{p} is an INCOMPLETE, UNSEALED session: it has no stop record (the acquisition was killed, lost power "
+            f"or its disk); {len(raw['summary']['block'])} complete blocks were read"
             + (f", {trailing} readings of an unfinished block ignored" if trailing else "")
             + "; `contactrig acquire --resume` continues it"
         )
-    elif raw["stop"]["status"] != "success":
-        notes.append(f"{p}: session {raw['stop']['status']}: {raw['stop']['reason']}")
+    else:
+        if running:
+            notes.append(f"{p} is open for writing in another process (being resumed?): it may change")
+        if not sealed:
+            notes.append(
+                f"{p} is UNSEALED (schema {schema}, written before sessions were sealed): its readings are checked "
+                "against their SHA-256, but its start record, scene text and instrument exchanges cannot be"
+            )
+        if stop["status"] != "success":
+            notes.append(f"{p}: session {stop['status']}: {stop['reason']}")
     return notes
 
 

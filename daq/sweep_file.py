@@ -94,32 +94,129 @@ def _write(result: SweepResult, tmp: Path) -> None:
         f.flush()
 
 
-def load_sweep(path: str | os.PathLike[str]) -> SweepResult:
-    """Read a sweep written by :func:`save_sweep`; a file of another kind is a ``ValueError`` naming it."""
+def load_sweep(path: str | os.PathLike[str], *, timeout: float | None = None) -> SweepResult:
+    """Read a sweep written by :func:`save_sweep`; a file of another kind, or a damaged one, is a ``ValueError``
+    naming it (and the member at fault), a missing one ``FileNotFoundError``.
+
+    Read in a child process within ``timeout`` seconds (:mod:`daq.bounded`: a damaged HDF5 file can neither hang
+    nor crash the caller). A sealed file's seal is checked (:mod:`daq.file_seal`); ``provenance["sealed"]`` says
+    whether it had one, and an unsealed file says so in ``provenance["file_notes"]``.
+    """
+    from daq.bounded import call_bounded
+
+    p = Path(path)
+    return call_bounded(_read_sweep, (p,), path=p, what="sweep file", timeout=timeout)
+
+
+def _read_sweep(path: Path) -> SweepResult:
+    """The work of :func:`load_sweep` (in the child process), every member checked."""
     import h5py
 
+    from daq import file_seal
     from sims.rig.sweep import ModelSweep, SweepResult
 
-    path = Path(path)
     try:
         f = h5py.File(path, "r")
-    except FileNotFoundError:
-        raise FileNotFoundError(f"sweep file not found: {path}") from None
     except OSError as exc:
-        raise ValueError(f"{path} is not a readable HDF5 file ({exc})") from None
+        raise _SweepError(f"{path} is not a readable HDF5 file ({_first(exc)})") from None
     with f:
-        if f.attrs.get("format") != FORMAT:
-            raise ValueError(f"{path} is not a contactrig sweep file (format attribute {f.attrs.get('format')!r})")
-        provenance = json.loads(_text(f["provenance_json"][()]))
-        warnings = [_text(w) for w in f["warnings"][()]]
-        if "fingerprint_json" in f and "fingerprint" not in provenance:
-            provenance["fingerprint"] = json.loads(_text(f["fingerprint_json"][()]))
-        models = {}
-        for name, g in f["models"].items():
-            arrays = {attr: np.asarray(g[attr][()]) for attr in ModelSweep.UNITS}
-            arrays["converged"] = arrays["converged"].astype(bool)
-            models[name] = ModelSweep(name=name, **arrays)
+        where = "/"
+        try:
+            if _attr_text(f, "format") != FORMAT:
+                raise _SweepError(
+                    f"{path} is not a contactrig sweep file (format attribute {_attr_text(f, 'format')!r})"
+                )
+            sealed = file_seal.check(f, str(path), "sweep file")
+            where = "/provenance_json"
+            provenance = _json_object(_scalar_text(f, "provenance_json", path), path, where)
+            where = "/warnings"
+            warnings = _text_list(f, "warnings", path)
+            if "fingerprint_json" in f and "fingerprint" not in provenance:
+                where = "/fingerprint_json"
+                provenance["fingerprint"] = _json_object(_scalar_text(f, "fingerprint_json", path), path, where)
+            where = "/models"
+            models = {}
+            for name, g in _group(f, "models", path).items():
+                where = f"/models/{name}"
+                arrays = {attr: _numeric_column(g, attr, path) for attr in ModelSweep.UNITS}
+                arrays["converged"] = arrays["converged"].astype(bool)
+                models[name] = ModelSweep(name=name, **arrays)
+        except ValueError:
+            raise
+        except Exception as exc:  # untrusted content: one line naming the member, never a traceback
+            raise _SweepError(f"{path}: {where} is unreadable ({type(exc).__name__}: {_first(exc)})") from None
+    provenance["sealed"] = sealed
+    if not sealed:
+        provenance["file_notes"] = [f"{path} is UNSEALED (written before sweep files were sealed): not verified"]
     return SweepResult(models=models, warnings=warnings, provenance=provenance)
+
+
+class _SweepError(ValueError):
+    """A sweep file that cannot be read (crosses the process boundary of :mod:`daq.bounded`)."""
+
+
+def _first(exc: BaseException) -> str:
+    lines = [ln for ln in str(exc).splitlines() if ln.strip()]
+    return lines[0].strip() if lines else type(exc).__name__
+
+
+def _attr_text(f: Any, name: str) -> str | None:
+    if name not in f.attrs:
+        return None
+    aid = f.attrs.get_id(name)
+    if aid.shape not in ((), (1,)) or aid.get_storage_size() > 4096:
+        return "<not a short text>"
+    value = f.attrs[name]
+    return value.decode("utf-8", "replace") if isinstance(value, bytes) else str(value)
+
+
+def _member(f: Any, name: str, path: Path, kind: str) -> Any:
+    import h5py
+
+    obj = f.get(name)
+    want = h5py.Group if kind == "group" else h5py.Dataset
+    if not isinstance(obj, want):
+        raise _SweepError(f"{path}: /{name} is {'missing' if obj is None else 'not a ' + kind}")
+    return obj
+
+
+def _group(f: Any, name: str, path: Path) -> Any:
+    return _member(f, name, path, "group")
+
+
+def _scalar_text(f: Any, name: str, path: Path) -> str:
+    import h5py
+
+    ds = _member(f, name, path, "dataset")
+    if ds.shape != () or (ds.dtype.kind != "S" and h5py.check_string_dtype(ds.dtype) is None):
+        raise _SweepError(f"{path}: /{name} is {ds.dtype} of shape {ds.shape}: expected one text string")
+    return _text(ds[()])
+
+
+def _json_object(text: str, path: Path, where: str) -> dict[str, Any]:
+    try:
+        value = json.loads(text)
+    except (json.JSONDecodeError, RecursionError):
+        raise _SweepError(f"{path}: {where} is not valid JSON") from None
+    if not isinstance(value, dict):
+        raise _SweepError(f"{path}: {where} is a JSON {type(value).__name__}, not a record (JSON object)")
+    return value
+
+
+def _text_list(f: Any, name: str, path: Path) -> list[str]:
+    import h5py
+
+    ds = _member(f, name, path, "dataset")
+    if ds.ndim != 1 or (ds.dtype.kind != "S" and h5py.check_string_dtype(ds.dtype) is None):
+        raise _SweepError(f"{path}: /{name} is {ds.dtype} of shape {ds.shape}: expected a list of texts")
+    return [_text(w) for w in ds[()]]
+
+
+def _numeric_column(g: Any, name: str, path: Path) -> np.ndarray:
+    ds = _member(g, name, path, "dataset")
+    if ds.ndim != 1 or ds.dtype.kind not in "biuf":
+        raise _SweepError(f"{path}: {ds.name} is {ds.dtype} of shape {ds.shape}: expected a column of numbers")
+    return np.asarray(ds[()])
 
 
 def _text(value: Any) -> str:
@@ -133,7 +230,7 @@ def _database_settings(settings: Any) -> dict[str, Any]:
 
 def config_fingerprint(config: SimConfig) -> dict[str, Any]:
     """The fingerprint of what a simulation of ``config`` would be computed from (materials, surfaces, database
-    settings, rig settings; :mod:`contactrig.core.fingerprint`)."""
+    settings, rig settings, and the press's sphere for a press scene; :mod:`contactrig.core.fingerprint`)."""
     from contactrig.core.provenance import software_version
 
     tables = {
@@ -142,6 +239,8 @@ def config_fingerprint(config: SimConfig) -> dict[str, Any]:
         "database": _database_settings(config.database),
         "rig": config.rig.as_dict(),
     }
+    if config.press is not None:  # a press scene: the sphere and its mesh matter; its load sweep, like the rig's, not
+        tables["press"] = {k: v for k, v in config.press.as_dict().items() if k != "weights_kg"}
     return fingerprint(tables, scene_text=config.text, software_version=software_version())
 
 

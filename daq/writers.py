@@ -25,8 +25,9 @@ __all__ = ["FileWriter", "LiveDisplay", "MemoryWriter"]
 class FileWriter:
     """Writes records to a :class:`~daq.session_file.SessionFile`; each block is flushed and fsynced.
 
-    If a block cannot be written (full disk, lost drive), its data are saved to a rescue ``.npz`` in the
-    temporary folder and the error says where; blocks already on file stay there.
+    If a block cannot be written (full disk, lost drive), its data are saved to a rescue ``.npz`` next to the
+    session (or in a private temporary folder; see :func:`_rescue`) and the error says where; blocks already on
+    file stay there.
     """
 
     def __init__(self, session_file: SessionFile) -> None:
@@ -62,23 +63,55 @@ class FileWriter:
 
 
 def _rescue(rec: BlockRecord, path: Path) -> str:
-    target = Path(tempfile.gettempdir()) / f"{path.stem}.block{rec.block}.rescue.npz"
-    try:
-        np.savez(
-            target,
-            weight_kg=rec.weight_kg,
-            repeat=rec.repeat,
-            reading=rec.reading,
-            time_s=rec.time_s,
-            resistance_ohm=rec.resistance_ohm,
-            valid=rec.valid,
-            started=rec.started,
-            unit=rec.unit,
-        )
-    except OSError as exc:
-        target.unlink(missing_ok=True)
-        return f"block {rec.block} could not be rescued either ({target}: {exc.strerror or exc})"
-    return f"block {rec.block} was saved to {target}; every earlier block is safe in the session file"
+    """Save a block the session file could not take, and say where it went.
+
+    Next to the session (``<stem>.block<N>.rescue.npz``), or — when that folder refuses it (the full disk itself) —
+    in a private folder of our own (``mkdtemp``: mode 0700, unpredictable name) under the system's temporary folder.
+    The file is created exclusively and never through a symbolic link (``O_CREAT | O_EXCL | O_NOFOLLOW``): an
+    existing name gets a numbered sibling, a pre-placed symlink is never followed nor overwritten.
+    """
+    errors = []
+    for folder in (path.parent, None):
+        try:
+            target = _rescue_into(rec, path, folder)
+        except OSError as exc:
+            errors.append(f"{folder or 'a private temporary folder'}: {exc.strerror or exc}")
+            continue
+        return f"block {rec.block} was saved to {target}; every earlier block is safe in the session file"
+    return f"block {rec.block} could not be rescued either ({'; '.join(errors)})"
+
+
+def _rescue_into(rec: BlockRecord, path: Path, folder: Path | None) -> Path:
+    import os
+
+    where = folder if folder is not None else Path(tempfile.mkdtemp(prefix="contactrig-rescue-"))
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_BINARY", 0)
+    for k in range(100):
+        target = where / f"{path.stem}.block{rec.block}{f'.{k}' if k else ''}.rescue.npz"
+        try:
+            fd = os.open(target, flags, 0o600)
+        except FileExistsError:  # also a symlink planted under this name: never followed
+            continue
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                np.savez(
+                    fh,
+                    weight_kg=rec.weight_kg,
+                    repeat=rec.repeat,
+                    reading=rec.reading,
+                    time_s=rec.time_s,
+                    resistance_ohm=rec.resistance_ohm,
+                    valid=rec.valid,
+                    started=rec.started,
+                    unit=rec.unit,
+                )
+                fh.flush()
+                os.fsync(fh.fileno())
+        except OSError:
+            target.unlink(missing_ok=True)
+            raise
+        return target
+    raise FileExistsError(errno.EEXIST, f"{where} holds 100 rescue files of block {rec.block} already")
 
 
 class MemoryWriter:

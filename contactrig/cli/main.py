@@ -4,27 +4,34 @@ Each package registers its own subcommands in ``<package>/commands.py`` (``regis
 modules import nothing heavy at module level, so ``contactrig --help`` starts fast and a command that needs no
 instrument never imports pyvisa, and none imports matplotlib until a figure is drawn.
 
-Errors a user can act on (bad settings, unreadable files, instrument faults) print one line and exit 2;
-``--debug`` shows the traceback instead. Ctrl-C exits 130.
+One exit-code contract for every command: 0 done, 1 stopped early (Ctrl-C, however often it is pressed, or the
+operator's ``q``), 2 error. Errors a user can act on (bad settings, unreadable files, instrument faults) print one
+line, with control characters from files escaped, and exit 2; ``--debug`` shows the traceback instead.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
+import signal
 import sys
+import threading
 from collections.abc import Sequence
+from types import FrameType
 from typing import NoReturn
 
-from contactrig.core.provenance import software_version
-
 _COMMAND_MODULES = (
+    "contactrig.cli.scene",
     "contactrig.cli.instruments",
     "contactrig.cli.database",
     "contactrig.cli.simulate",
     "contactrig.cli.sessions",
     "contactrig.cli.analysis",
     "contactrig.cli.bench",
+    "contactrig.cli.design",
+    "contactrig.cli.compare",
+    "contactrig.cli.live",
 )
 
 
@@ -42,6 +49,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Piston/liner contact area by electrical contact resistance: bench, simulation, analysis.",
     )
     parser.add_argument("--debug", action="store_true", help="show tracebacks instead of one-line errors")
+    from contactrig.core.provenance import software_version  # numpy: after main() has taken charge of Ctrl-C
+
     parser.add_argument("--version", action="version", version=f"%(prog)s {software_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_OneLineErrors)
     for name in _COMMAND_MODULES:
@@ -50,27 +59,80 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+_interrupted = False
+
+
+class _StopOnInterrupt:
+    """The SIGINT handler of a command: the first Ctrl-C stops it (KeyboardInterrupt); any further one is ignored,
+    so that the clean-up and the exit code of a stopped command (1) cannot be cut short.
+
+    ``stop_requested`` stays True after the first Ctrl-C, also if some library swallowed the KeyboardInterrupt (a
+    bare ``except:`` in an import): acquisition installs its own policy while blocks run
+    (:class:`daq.engine.Interrupts`), which takes such an earlier Ctrl-C as "stop before the next block"."""
+
+    def __init__(self) -> None:
+        self.stop_requested = False
+
+    def __call__(self, signum: int, frame: FrameType | None) -> None:
+        self.stop_requested = True
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        raise KeyboardInterrupt
+
+
+def _one_line(exc: BaseException) -> str:
+    from contactrig.core.text import escape_terminal
+
+    return escape_terminal(str(exc))
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``contactrig`` console script; returns the exit code."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    handler = getattr(args, "handler", None)
-    if handler is None:
-        parser.print_help()
-        return 2
+    if threading.current_thread() is not threading.main_thread():  # signal handlers belong to the main thread
+        return _main(argv)
+    previous = signal.signal(signal.SIGINT, _StopOnInterrupt())
     try:
+        code = _main(argv)
+    finally:
+        if argv is None:  # the process' entry point: a Ctrl-C from now on must not turn the exit code into −2/130
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+        else:  # called from Python (tests, notebooks): leave SIGINT as it was
+            signal.signal(signal.SIGINT, previous)
+    if argv is None and _interrupted:
+        # A Ctrl-C that lands while an extension module is being imported can leave CPython's "unhandled
+        # KeyboardInterrupt" flag set even though we handled it, and the interpreter then kills itself with SIGINT
+        # on the way out (exit −2). Everything is closed by now: leave with the documented code instead.
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    return code
+
+
+def _main(argv: Sequence[str] | None) -> int:
+    args: argparse.Namespace | None = None
+    try:
+        parser = build_parser()  # imports every command module: a Ctrl-C may land here too
+        args = parser.parse_args(argv)
+        handler = getattr(args, "handler", None)
+        if handler is None:
+            parser.print_help()
+            return 2
         return int(handler(args) or 0)
     except KeyboardInterrupt:
-        print("contactrig: interrupted", file=sys.stderr)
-        return 130
+        global _interrupted
+        _interrupted = True
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C while saying so changes nothing
+        name = f"contactrig {args.command}" if args is not None else "contactrig"
+        print(f"{name}: interrupted (Ctrl-C): stopped early", file=sys.stderr)
+        return 1
     except BrokenPipeError:
         # output piped into a reader that stopped early (| head): not an error of ours
         sys.stderr.close()
         return 141
     except (ValueError, OSError, RuntimeError, TimeoutError) as exc:
-        if args.debug:
+        if args is None or args.debug:
             raise
-        print(f"contactrig {args.command}: error: {exc}", file=sys.stderr)
+        print(f"contactrig {args.command}: error: {_one_line(exc)}", file=sys.stderr)
         return 2
 
 

@@ -38,6 +38,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     acq.add_argument("--resume", action="store_true", help="continue an incomplete session file where it stopped")
     acq.add_argument("--force", action="store_true", help="overwrite an existing output file")
     acq.add_argument(
+        "--live", nargs="?", const="", default=None, metavar="PNG",
+        help="show the live view (as `contactrig watch`) in a window, or rewrite the snapshot PNG (headless); a "
+        "failure of the view is reported once and turns it off, the acquisition goes on",
+    )  # fmt: skip
+    acq.add_argument(
         "--visa-library",
         default="",
         metavar="LIB",
@@ -107,6 +112,7 @@ def _speed(text: str) -> float:
 
 def acquire_command(args: argparse.Namespace) -> int:
     from analysis.simulated_session import DEFAULT_SIM_SPEED, SimulatedRigBench
+    from contactrig.core.text import escape_terminal as safe
     from daq.acquire import acquire
     from daq.link import VisaBench
 
@@ -118,34 +124,52 @@ def acquire_command(args: argparse.Namespace) -> int:
         raise ValueError("--visa-library applies to the real bench, not to --sim")
     speed = args.sim_speed if args.sim_speed is not None else DEFAULT_SIM_SPEED
     bench = SimulatedRigBench(speed) if args.sim else VisaBench(visa_library=args.visa_library)
-    result = acquire(args.scene, args.output, bench=bench, yes=args.yes, resume=args.resume, force=args.force)
+    live = _live_view(args)
+    result = acquire(
+        args.scene, args.output, bench=bench, yes=args.yes, resume=args.resume, force=args.force, extra_writers=live
+    )
     print(
-        f"{result.path}: {result.status}, {result.blocks_done} of {result.blocks_planned} blocks — {result.reason}",
+        f"{safe(result.path)}: {result.status}, {result.blocks_done} of {result.blocks_planned} blocks — "
+        f"{safe(result.reason)}",
         file=sys.stderr,
     )
-    return 0 if result.status == "success" else 1
+    if result.status == "success":
+        return 0
+    return 1 if result.status == "aborted" else 2  # aborted: stopped early (Ctrl-C, q); failed: an error
+
+
+def _live_view(args: argparse.Namespace) -> list:
+    """``--live [PNG]``: the live view as one more writer, guarded (its failures never reach the acquisition)."""
+    if args.live is None:
+        return []
+    from analysis.watch import Guarded, LiveView
+
+    png = args.live or None
+    return [Guarded(LiveView(png, every=1.0, name=str(args.output), force=args.force))]
 
 
 def replay_command(args: argparse.Namespace) -> int:
+    from contactrig.core.text import escape_terminal as safe
     from daq.replay import replay_session
 
     report = replay_session(args.session, pace=args.pace)
     if args.json:
-        print(json.dumps(report.as_dict(), indent=2))
+        print(json.dumps(report.as_dict(), indent=2))  # JSON escapes control characters itself
     else:
         verdict = "identical" if report.identical else "DIFFERENT"
         print(
-            f"{report.path}: replayed {report.blocks_replayed} of {report.blocks_recorded} blocks "
+            f"{safe(report.path)}: replayed {report.blocks_replayed} of {report.blocks_recorded} blocks "
             f"({report.readings_replayed} readings, {report.runs} run(s)) in {report.elapsed_s:.3f} s: {verdict}"
         )
         for line in report.notes:
-            print(f"  note: {line}")
+            print(f"  note: {safe(line)}")
         for line in report.differences:
-            print(f"  difference: {line}")
+            print(f"  difference: {safe(line)}")
     return 0 if report.identical else 1
 
 
 def import_command(args: argparse.Namespace) -> int:
+    from contactrig.core.text import escape_terminal as safe
     from daq.table_import import import_table, read_table, tab1_path
 
     if args.tab1:
@@ -162,11 +186,12 @@ def import_command(args: argparse.Namespace) -> int:
     read = read_table(table, unit, **options)  # every error before the output file is created
     out = import_table(table, args.output, unit=unit, force=args.force, operator=args.operator, **options)
     for note in read.notes:
-        print(f"note: {note}", file=sys.stderr)
+        print(f"note: {safe(note)}", file=sys.stderr)
     missing = int((read.resistance_ohm != read.resistance_ohm).sum())  # NaN: a missing repeat
     gaps = f", {missing} missing repeat(s)" if missing else ""
     print(
-        f"{out}: imported {table}: {read.weight_kg.size} weights × {len(read.columns)} repeats ({read.unit}{gaps})",
+        f"{safe(out)}: imported {safe(table)}: {read.weight_kg.size} weights × {len(read.columns)} repeats "
+        f"({read.unit}{gaps})",
         file=sys.stderr,
     )
     return 0

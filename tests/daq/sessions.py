@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import warnings
 from pathlib import Path
 
@@ -58,3 +59,31 @@ def written_commands(path: Path) -> list[str]:
         kinds = h5["entry/exchanges/kind"].asstr()[:]
         messages = h5["entry/exchanges/message"].asstr()[:]
     return [m for k, m in zip(kinds, messages, strict=True) if k == "write"]
+
+
+def _rewrite_stop(path: Path, edit) -> None:
+    import h5py
+
+    from daq.session_file import _json_dataset
+
+    with h5py.File(path, "a") as h5:
+        stop = json.loads(h5["entry/stop/record"][()])
+        edit(h5, stop)
+        _json_dataset(h5["entry/stop"], "record", stop)
+
+
+def unseal(path: Path) -> None:
+    """Remove the stop record's seal, as files written before schema 3 have none (tests that fake older files)."""
+    _rewrite_stop(path, lambda h5, stop: stop.pop("seal", None))
+
+
+def reseal(path: Path) -> None:
+    """Recompute the seal after a test edited the file: what a deliberate forgery (or a changed driver, for replay's
+    own comparison) would look like — the seal is a checksum, not a signature."""
+    from daq.session_file import _read_raw, _seal
+
+    def edit(h5, stop):
+        stop.pop("seal", None)
+        stop["seal"] = _seal(_read_raw(h5, path, stop_override=stop), stop)
+
+    _rewrite_stop(path, edit)

@@ -88,7 +88,7 @@ class SignalTwice(SignalAfter):
     """SIGINT at the INIT:IMM of block 1, and again at the next status poll (while the block runs)."""
 
     def query(self, message):
-        if message == "STAT:OPER:EVEN?" and self.inits == 2 and not getattr(self, "second", False):
+        if message.startswith("STAT:OPER:EVEN?") and self.inits == 2 and not getattr(self, "second", False):
             self.second = True
             signal.raise_signal(signal.SIGINT)
         return self.inner.query(message)

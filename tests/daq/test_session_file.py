@@ -31,7 +31,7 @@ from daq.records import BlockRecord, StopRecord, now_iso
 from daq.session_file import SCHEMA_VERSION, SessionFile, load_session
 from daq.writers import FileWriter
 
-from .sessions import write_session
+from .sessions import unseal, write_session
 
 
 @pytest.fixture
@@ -189,23 +189,25 @@ def test_newer_schema_is_refused_with_advice(session_path):
 
 
 def test_older_schema_goes_through_upgrade_functions(session_path, monkeypatch):
+    unseal(session_path)
     with h5py.File(session_path, "a") as h5:
         h5.attrs["contactrig_schema"] = 0
     with pytest.raises(SessionFileError, match="no upgrade path"):
         load_session(session_path)
-    calls = []
 
-    def upgrade(raw):
-        calls.append(0)
-        return raw
+    def upgrade(raw):  # runs in the reading child process: it leaves its mark on what comes back
+        return {**raw, "scene_text": raw["scene_text"] + "# upgraded from 0\n"}
 
     monkeypatch.setitem(session_file.UPGRADES, 0, upgrade)
-    s = load_session(session_path)
-    assert calls == [0] and s.schema_version == 0
+    with pytest.warns(UserWarning, match="UNSEALED"):
+        s = load_session(session_path)
+    assert s.scene_text.endswith("# upgraded from 0\n") and s.schema_version == 0 and not s.sealed
 
 
 def _as_schema_1(path):
     """Turn a file written now into what schema 1 wrote: no compliance column, schema attribute 1."""
+    if "stop" in h5py.File(path, "r")["entry"]:
+        unseal(path)
     with h5py.File(path, "a") as h5:
         del h5["entry/summary/compliance"]
         h5.attrs["contactrig_schema"] = 1
@@ -213,7 +215,8 @@ def _as_schema_1(path):
 
 def test_schema_1_file_loads_with_no_block_flagged_and_its_checksums_hold(session_path, plan):
     _as_schema_1(session_path)
-    s = load_session(session_path)  # checksums verified: schema 1's digests are unchanged for unflagged blocks
+    with pytest.warns(UserWarning, match="UNSEALED"):
+        s = load_session(session_path)  # checksums verified: schema 1 digests are unchanged for unflagged blocks
     assert s.schema_version == 1 and len(s.summary) == plan.blocks_planned
     assert s.summary["compliance"].dtype == bool and not s.compliance.any() and s.compliant_blocks == []
 
@@ -296,8 +299,13 @@ def test_file_in_use_by_another_process(session_path):
     )  # fmt: skip
     try:
         assert holder.stdout.readline().strip() == "ok"
+        # readers are not locked out (a session is readable while written), but told the file may change …
+        with pytest.warns(UserWarning, match="open for writing in another process"):
+            s = load_session(session_path)
+        assert s.complete and s.status == "success"
+        # … while a second writer is refused
         with pytest.raises(FileLockingError, match="open in another process"):
-            load_session(session_path)
+            SessionFile.open_for_resume(session_path)
     finally:
         holder.stdin.close()
         holder.wait(timeout=10)
@@ -356,10 +364,8 @@ def test_full_disk_keeps_written_blocks_and_rescues_the_failing_one(tmp_path):
 
 
 def _rescue_file(path):
-    import tempfile
-    from pathlib import Path
 
-    return Path(tempfile.gettempdir()) / f"{path.stem}.block2.rescue.npz"
+    return path.parent / f"{path.stem}.block2.rescue.npz"
 
 
 def test_stop_record_counts(tmp_path):

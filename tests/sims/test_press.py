@@ -49,3 +49,25 @@ def test_press_settings_are_validated() -> None:
         PressSettings(sphere_radius_m=-1.0)
     with pytest.raises(SettingError, match="press"):
         PressSettings.from_table({"radius": 1.0})
+
+
+def test_press_scenes_that_differ_in_the_sphere_have_different_fingerprints():
+    """A sweep of one press cannot be fitted to a session of another without a word (issue #11 fingerprints)."""
+    from dataclasses import replace
+    from pathlib import Path
+
+    import contactrig
+    from contactrig.core.fingerprint import differences
+    from contactrig.core.scene import load_scene
+    from daq.sweep_file import config_fingerprint
+    from sims.config import SimConfig
+
+    press = SimConfig.from_scene(load_scene(Path(contactrig.__file__).parent / "scenes" / "press.toml"))
+    other = press.with_changes(press=replace(press.press, sphere_radius_m=0.02))
+    more_loads = press.with_changes(press=replace(press.press, weights_kg=(1.0, 3.0)))
+    a, b, c = (config_fingerprint(x) for x in (press, other, more_loads))
+    assert a["tables"]["press"] != b["tables"]["press"]
+    assert any("sphere_radius_m" in line for line in differences(a, b))
+    assert a["tables"]["press"] == c["tables"]["press"]  # the load sweep is not what the curve is computed from
+    rig = SimConfig.from_scene(load_scene())
+    assert "press" not in config_fingerprint(rig)["tables"]

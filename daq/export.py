@@ -1,0 +1,365 @@
+"""Sessions and fits out of contactrig as CSV or Excel (``contactrig export``).
+
+A session gives two tables:
+
+- **summary** — Tab. 1-style: one row per weight (in the order the weights were placed), one column per repeat
+  (``M1_mohm`` … ``Mk_mohm``: the block means, with the unit in the header, the unit the data call for — ohm, mohm
+  or uohm). It is exactly what ``contactrig import`` reads: importing it gives back the same numbers (the values
+  are written with 17 significant digits). A repeat without a value (a block taken in compliance, a skipped or
+  not yet measured block) is an empty cell, so importing such a table needs ``--allow-missing``. In CSV, ``#``
+  lines before the header say where the table came from (the import skips them).
+- **readings** — every reading: block, weight_kg, repeat, index, time_s, reading (in the instruments' unit, named
+  in the header), resistance_ohm, valid.
+
+A fit (the JSON that ``contactrig fit … --json`` prints, :func:`fit_tables`) gives **fits** (one row per model in
+ranking order: R_s, s, their standard errors and t-intervals, χ², AIC, ΔAIC, Akaike weight, RMSE, physical or
+not) and **points** (per model and weight: area, measured, σ, fitted, residual).
+
+CSV: one file per table, the first at the output path, the others beside it (``out.csv``, ``out-readings.csv``).
+Excel (``.xlsx``, one sheet per table plus ``about``) needs the optional ``excel`` extra (openpyxl); without it,
+:class:`ExcelUnavailable` says so in one line. Every file is written atomically and none is replaced without
+``force`` (:mod:`contactrig.core.files`); every output is checked before anything is written.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from contactrig.core.files import atomic_write, refuse_existing
+from contactrig.core.text import escape_terminal
+from contactrig.core.validation import SettingError, check_choice
+
+__all__ = [
+    "FORMATS",
+    "ExcelUnavailable",
+    "Table",
+    "export_fit",
+    "export_session",
+    "fit_tables",
+    "output_paths",
+    "session_tables",
+    "write_tables",
+]
+
+#: Output formats.
+FORMATS = ("csv", "xlsx")
+_UNIT_FACTORS = (("ohm", 1.0), ("mohm", 1e3), ("uohm", 1e6))
+_INSTALL = "pip install 'contactrig[excel]'"
+
+
+class ExcelUnavailable(RuntimeError):
+    """``--to xlsx`` without the ``excel`` extra (openpyxl) installed."""
+
+
+@dataclass(frozen=True)
+class Table:
+    """A named table: ``columns`` (headers, with units), ``rows`` (numbers, strings, None = empty cell)."""
+
+    name: str
+    columns: tuple[str, ...]
+    rows: list[list[Any]]
+    notes: tuple[str, ...] = field(default=())
+
+
+# ---- tables from a session ---------------------------------------------------------------------------------------
+def _summary_unit(means: np.ndarray) -> tuple[str, float]:
+    """ohm, mohm or uohm: the largest in which the median finite mean is ≥ 1 (as the figures choose)."""
+    x = np.abs(means[np.isfinite(means) & (means != 0)])
+    typical = float(np.median(x)) if x.size else 1e-3
+    for unit, factor in _UNIT_FACTORS:
+        if typical * factor >= 1.0:
+            return unit, factor
+    return _UNIT_FACTORS[-1]
+
+
+def _number(x: Any) -> float | None:
+    """A finite float, or None (an empty cell)."""
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) else None
+
+
+def summary_table(summary: Any) -> Table:
+    """Tab. 1-style: weight × repeat block means (``summary``: a session's summary DataFrame)."""
+    means = summary["mean_ohm"].to_numpy(dtype=float)
+    unit, factor = _summary_unit(means)
+    weights: list[float] = []
+    for w in summary["weight_kg"].to_numpy(dtype=float):
+        if w not in weights:
+            weights.append(float(w))
+    repeats = sorted({int(r) for r in summary["repeat"]})
+    cells: dict[tuple[float, int], float | None] = {}
+    notes = []
+    for w, r, m, comp, b in zip(
+        summary["weight_kg"], summary["repeat"], means, summary["compliance"], summary["block"], strict=True
+    ):
+        cells[(float(w), int(r))] = _number(m * factor)
+        if bool(comp):
+            notes.append(f"block {int(b)} ({float(w):g} kg, repeat {int(r)}) was taken in compliance: left empty")
+    rows = [[w, *(cells.get((w, r)) for r in repeats)] for w in weights]
+    if any(v is None for row in rows for v in row[1:]):
+        notes.append("empty cells are missing repeats: import with --allow-missing")
+    return Table("summary", ("weight_kg", *(f"M{r}_{unit}" for r in repeats)), rows, tuple(notes))
+
+
+def readings_table(readings: Any, reading_unit: str) -> Table:
+    """Every reading (``readings``: a session's readings DataFrame)."""
+    unit = reading_unit or "as_returned"
+    cols = ("block", "weight_kg", "repeat", "index", "time_s", f"reading_{unit}", "resistance_ohm", "valid")
+    data = [
+        readings["block"].to_numpy(dtype=np.int64).tolist(),
+        readings["weight_kg"].to_numpy(dtype=float).tolist(),
+        readings["repeat"].to_numpy(dtype=np.int64).tolist(),
+        readings["index"].to_numpy(dtype=np.int64).tolist(),
+        [_number(x) for x in readings["time_s"]],
+        [_number(x) for x in readings["reading"]],
+        [_number(x) for x in readings["resistance_ohm"]],
+        readings["valid"].to_numpy(dtype=bool).astype(int).tolist(),
+    ]
+    return Table("readings", cols, [list(r) for r in zip(*data, strict=True)])
+
+
+def _reading_unit(start: Mapping[str, Any]) -> str:
+    plan = start.get("plan") if isinstance(start, Mapping) else None
+    for table in (plan or {}).values():
+        if isinstance(table, Mapping) and isinstance(table.get("unit"), str):
+            unit = str(table["unit"]).upper()
+            return "ohm" if unit in ("OHMS", "OHM") else str(table["unit"])
+    return "ohm" if start.get("imported") else ""
+
+
+def _about(session: Any) -> list[tuple[str, str]]:
+    start = session.start if isinstance(session.start, Mapping) else {}
+    planned = _get(start, "plan", "session")
+    sample = start.get("sample", planned.get("sample", "") if isinstance(planned, Mapping) else "")
+    return [
+        ("source", str(session.path)),
+        ("status", str(session.status)),
+        ("started", str(start.get("started", ""))),
+        ("sample", str(sample)),
+        ("operator", str(start.get("operator", ""))),
+        ("kind", "imported" if session.imported else ("simulated" if start.get("sim") else "real")),
+        ("blocks", str(len(session.summary))),
+        ("exported by", "contactrig export"),
+    ]
+
+
+def session_tables(session: Any) -> tuple[list[Table], list[tuple[str, str]]]:
+    """The summary and readings tables of a loaded :class:`~daq.session_file.Session`, and its ``about`` lines."""
+    if len(session.summary) == 0:
+        raise SettingError("SESSION", str(session.path), "a session with at least one block on disk")
+    tables = [summary_table(session.summary), readings_table(session.readings, _reading_unit(session.start))]
+    return tables, _about(session)
+
+
+# ---- tables from a fit ---------------------------------------------------------------------------------------------
+_FIT_COLUMNS = (
+    "rank", "model", "R_series_ohm", "R_series_se_ohm", "R_series_t_low_ohm", "R_series_t_high_ohm", "scale_ohm_m",
+    "scale_se_ohm_m", "chi2", "dof", "reduced_chi2", "p_value", "aic", "delta_aic", "akaike_weight", "rmse_ohm",
+    "conversion", "weighting", "physical", "unphysical",
+)  # fmt: skip
+_POINT_COLUMNS = (
+    "model", "weight_kg", "area_m2", "regressor_per_m", "measured_ohm", "sigma_ohm", "fitted_ohm", "residual_ohm",
+    "normalised_residual",
+)  # fmt: skip
+
+
+def _get(d: Any, *keys: str) -> Any:
+    for k in keys:
+        if not isinstance(d, Mapping):
+            return None
+        d = d.get(k)
+    return d
+
+
+def _fit_row(rank: int, name: str, fit: Mapping[str, Any], fit_json: Mapping[str, Any]) -> list[Any]:
+    t_ci = _get(fit, "intervals", "t", "R_series_ohm")
+    lo, hi = (t_ci[0], t_ci[1]) if isinstance(t_ci, list) and len(t_ci) == 2 else (None, None)
+    unphysical = fit.get("unphysical") or []
+    goodness = [_number(_get(fit, "goodness", k)) for k in ("chi2", "dof", "reduced_chi2", "p_value", "aic")]
+    return [
+        rank, name,
+        *(_number(_get(fit, "estimate", k)) for k in ("R_series_ohm", "R_series_se")),
+        _number(lo), _number(hi),
+        *(_number(_get(fit, "estimate", k)) for k in ("scale", "scale_se")),
+        *goodness,
+        _number(_get(fit_json, "delta_aic", name)), _number(_get(fit_json, "akaike_weights", name)),
+        _number(_get(fit, "goodness", "rmse_ohm")),
+        str(fit.get("conversion", "")), str(fit.get("weighting", "")),
+        "no" if unphysical else "yes", "; ".join(str(u) for u in unphysical),
+    ]  # fmt: skip
+
+
+def _point_rows(name: str, fit: Mapping[str, Any]) -> list[list[Any]]:
+    p = fit.get("points")
+    if not isinstance(p, Mapping) or not isinstance(p.get("weight_kg"), list):
+        return []
+    keys = (
+        "area_m2", "regressor_per_m", "measured_ohm", "sigma_ohm", "fitted_ohm", "residuals_ohm",
+        "normalised_residuals",
+    )  # fmt: skip
+    columns = [p[k] if isinstance(p.get(k), list) else [] for k in keys]
+    rows = []
+    for i, w in enumerate(p["weight_kg"]):
+        rows.append([name, _number(w), *(_number(c[i]) if i < len(c) else None for c in columns)])
+    return rows
+
+
+def fit_tables(fit_json: Mapping[str, Any], source: str = "") -> tuple[list[Table], list[tuple[str, str]]]:
+    """The fits and points tables of a fit (the dict ``contactrig fit … --json`` prints), and its ``about`` lines."""
+    models = fit_json.get("models") if isinstance(fit_json, Mapping) else None
+    if not isinstance(models, Mapping) or not models:
+        raise SettingError("fit", source or "<fit>", "the JSON of `contactrig fit … --json` (a 'models' object)")
+    ranking = [m for m in (fit_json.get("ranking") or []) if m in models]
+    ranking += [m for m in models if m not in ranking]
+    fits = [_fit_row(i + 1, m, models[m], fit_json) for i, m in enumerate(ranking) if isinstance(models[m], Mapping)]
+    points = [row for m in ranking if isinstance(models[m], Mapping) for row in _point_rows(m, models[m])]
+    about = [
+        ("source", source),
+        ("measured", str(_get(fit_json, "measured", "path") or "")),
+        ("simulation", str(fit_json.get("simulation") or "")),
+        ("statement", str(fit_json.get("statement") or "")),
+        ("exported by", "contactrig export"),
+    ]
+    return [Table("fits", _FIT_COLUMNS, fits), Table("points", _POINT_COLUMNS, points)], about
+
+
+# ---- writing -------------------------------------------------------------------------------------------------------
+def output_paths(output: str | Path, to: str, tables: Sequence[str]) -> list[Path]:
+    """The files an export writes: xlsx → ``output``; csv → ``output`` for the first table and
+    ``<stem>-<name>.csv`` beside it for the others."""
+    check_choice("--to", to, FORMATS)
+    out = Path(output)
+    if to == "xlsx":
+        return [out]
+    return [out] + [out.with_name(f"{out.stem}-{name}{out.suffix or '.csv'}") for name in tables[1:]]
+
+
+def _csv_cell(v: Any) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        return repr(v)  # shortest text that reads back as the same float
+    return str(v)
+
+
+def _csv_text(table: Table, about: Sequence[tuple[str, str]], first: bool) -> str:
+    buf = io.StringIO(newline="")
+    if first:  # provenance as comment lines (`contactrig import` skips them); one line each, whatever they hold
+        for key, value in about:
+            buf.write(f"# {key}: {escape_terminal(value)}\r\n")
+        for note in table.notes:
+            buf.write(f"# note: {escape_terminal(note)}\r\n")
+    w = csv.writer(buf, lineterminator="\r\n")
+    w.writerow(table.columns)
+    for row in table.rows:
+        w.writerow([_csv_cell(_text_cell(v)) for v in row])
+    return buf.getvalue()
+
+
+def _text_cell(v: Any) -> Any:
+    """A string cell that a spreadsheet would run as a formula (``=``, ``+``, ``-``, ``@``) gets a leading ``'``."""
+    if isinstance(v, str) and v[:1] in ("=", "+", "-", "@", "\t", "\r"):
+        return "'" + v
+    return v
+
+
+def _openpyxl() -> Any:
+    import importlib
+
+    try:
+        openpyxl = importlib.import_module("openpyxl")
+    except ImportError:
+        raise ExcelUnavailable(f"--to xlsx needs the optional 'excel' extra (openpyxl): {_INSTALL}") from None
+    return openpyxl
+
+
+def _xlsx(tables: Sequence[Table], about: Sequence[tuple[str, str]], path: Path) -> None:
+    openpyxl = _openpyxl()
+    WriteOnlyCell = openpyxl.cell.WriteOnlyCell
+
+    wb = openpyxl.Workbook(write_only=True)
+
+    def text(ws: Any, value: str) -> Any:  # always a text cell: a string from a file never becomes a formula
+        cell = WriteOnlyCell(ws, value=escape_terminal(value))
+        cell.data_type = "s"
+        return cell
+
+    for t in tables:
+        ws = wb.create_sheet(t.name)
+        ws.append([text(ws, c) for c in t.columns])
+        for row in t.rows:
+            ws.append([text(ws, v) if isinstance(v, str) else v for v in row])
+    ws = wb.create_sheet("about")
+    for key, value in [*about, *(("note", n) for t in tables for n in t.notes)]:
+        ws.append([text(ws, key), text(ws, value)])
+    wb.save(path)
+
+
+def write_tables(
+    tables: Sequence[Table], about: Sequence[tuple[str, str]], output: str | Path, to: str, *, force: bool = False
+) -> list[Path]:
+    """Write ``tables`` as CSV files or one workbook (see :func:`output_paths`); every path is checked first (none
+    replaced without ``force``), every file written atomically. Returns the paths written."""
+    if to == "xlsx":
+        _openpyxl()  # the one-line error before anything else
+    paths = refuse_existing(output_paths(output, to, [t.name for t in tables]), force=force)
+    if to == "xlsx":
+        with atomic_write(paths[0], force=force) as tmp:
+            _xlsx(tables, about, tmp)
+        return paths
+    for i, (table, path) in enumerate(zip(tables, paths, strict=True)):
+        text = _csv_text(table, about, first=i == 0)
+        with atomic_write(path, force=force) as tmp:
+            tmp.write_bytes(text.encode("utf-8"))
+    return paths
+
+
+def default_output(source: str | Path, to: str, suffix: str = "") -> Path:
+    """``SESSION.h5`` → ``SESSION<suffix>.csv`` / ``.xlsx`` beside it."""
+    p = Path(source)
+    return p.with_name(f"{p.stem}{suffix}.{to}")
+
+
+def export_session(
+    path: str | Path, to: str = "csv", output: str | Path | None = None, *, force: bool = False
+) -> list[Path]:
+    """Export the session file at ``path`` (summary and readings; see the module docstring). Returns the paths."""
+    import warnings
+
+    from daq.session_file import load_session
+
+    check_choice("--to", to, FORMATS)
+    if to == "xlsx":
+        _openpyxl()
+    out = Path(output) if output is not None else default_output(path, to)
+    refuse_existing(output_paths(out, to, ["summary", "readings"]), force=force)  # before reading anything
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # an incomplete or running session is exported as it stands (about: status)
+        session = load_session(path)
+    tables, about = session_tables(session)
+    return write_tables(tables, about, out, to, force=force)
+
+
+def export_fit(
+    fit_json: Mapping[str, Any],
+    to: str = "csv",
+    output: str | Path = "fit.csv",
+    *,
+    source: str = "",
+    force: bool = False,
+) -> list[Path]:
+    """Export a fit (the dict ``contactrig fit … --json`` prints): fits and points tables. Returns the paths."""
+    check_choice("--to", to, FORMATS)
+    tables, about = fit_tables(fit_json, source)
+    return write_tables(tables, about, output, to, force=force)

@@ -1,0 +1,200 @@
+"""The sessions index: one row per session file under a folder (``contactrig sessions [DIR]``).
+
+Each file is read with :func:`daq.session_file.load_session` (bounded time, in a child process, checksums
+verified), so a damaged file can neither hang nor crash the index: it is listed as ``corrupt`` with the reader's
+one-line reason, and nothing raises. HDF5 files that are not contactrig sessions (sweep and database files of
+``simulate``/``database``) are left out unless asked for (``include_other``).
+
+Strings in a row (sample, operator, reason) come from the files: they are data, and whoever shows them escapes
+them (:func:`format_table` does, for the terminal).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import warnings
+from collections.abc import Iterable, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from contactrig.core.text import escape_terminal
+from daq.errors import NewerSchemaError
+
+__all__ = ["SESSION_SUFFIXES", "SORT_KEYS", "SessionEntry", "format_table", "index_sessions", "session_entry"]
+
+#: File names looked at (case-insensitive suffixes).
+SESSION_SUFFIXES = (".h5", ".hdf5", ".nxs")
+#: Columns the index can be sorted by.
+SORT_KEYS = ("start", "sample", "operator", "status", "path")
+_NOT_A_SESSION = "not a contactrig session"
+
+
+@dataclass(frozen=True)
+class SessionEntry:
+    """One session file: ``status`` is the session's (success, aborted, failed, running, incomplete) or, for a file
+    that cannot be read, ``corrupt`` / ``newer`` (written by a newer contactrig) / ``other`` (an HDF5 file that is
+    not a session); ``kind`` is ``simulated``, ``real`` or ``imported`` (empty when unreadable); ``note`` the
+    reader's reason for an unreadable file."""
+
+    path: str
+    status: str
+    start_time: str = ""
+    sample: str = ""
+    operator: str = ""
+    blocks_done: int | None = None
+    blocks_planned: int | None = None
+    kind: str = ""
+    compliant_blocks: int = 0
+    note: str = ""
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def _kind(start: dict[str, Any], imported: bool) -> str:
+    if imported:
+        return "imported"
+    return "simulated" if start.get("sim") else "real"
+
+
+def _planned(start: dict[str, Any], stop: dict[str, Any] | None) -> int | None:
+    for source in (stop or {}, start.get("plan") or {}):
+        value = source.get("blocks_planned")
+        if isinstance(value, int) and not isinstance(value, bool):
+            return value
+        if isinstance(value, float) and math.isfinite(value):
+            return int(value)
+    return None
+
+
+def _text(value: Any) -> str:
+    return value if isinstance(value, str) else ("" if value is None else str(value))
+
+
+def session_entry(path: str | Path, *, timeout: float | None = None) -> SessionEntry:
+    """The index row of one file; never raises for anything the file holds (only KeyboardInterrupt goes through)."""
+    from daq.session_file import load_session
+
+    p = Path(path)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            s = load_session(p, timeout=timeout)
+    except NewerSchemaError as exc:
+        return SessionEntry(str(p), "newer", note=_first_line(exc))
+    except Exception as exc:  # untrusted files: any failure is one row, never an exception
+        status = "other" if _NOT_A_SESSION in str(exc) else "corrupt"
+        return SessionEntry(str(p), status, note=_first_line(exc))
+    start = s.start if isinstance(s.start, dict) else {}
+    session_plan = (start.get("plan") or {}).get("session") or {}
+    return SessionEntry(
+        path=str(p),
+        status=s.status,
+        start_time=_text(start.get("started", "")),
+        sample=_text(start.get("sample", session_plan.get("sample", ""))),
+        operator=_text(start.get("operator", "")),
+        blocks_done=len(s.summary),
+        blocks_planned=_planned(start, s.stop),
+        kind=_kind(start, s.imported),
+        compliant_blocks=len(s.compliant_blocks),
+        note="" if s.status in ("success", "running") else _first_line(_last_note(s.warnings)),
+    )
+
+
+def _last_note(notes: Sequence[str]) -> str:
+    return notes[-1] if notes else ""
+
+
+def _first_line(value: object) -> str:
+    lines = [ln.strip() for ln in str(value).splitlines() if ln.strip()]
+    return lines[0] if lines else ""
+
+
+def _session_files(folder: Path) -> list[Path]:
+    found = []
+    for root, dirs, files in os.walk(folder):  # does not follow symbolic links to folders: no loops
+        dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+        found += [Path(root) / f for f in sorted(files) if f.lower().endswith(SESSION_SUFFIXES)]
+    return found
+
+
+def index_sessions(
+    folder: str | Path,
+    *,
+    sample: str | None = None,
+    sort: str = "start",
+    include_other: bool = False,
+    timeout: float | None = None,
+) -> list[SessionEntry]:
+    """Every session file under ``folder`` (recursively; ``.h5``, ``.hdf5``, ``.nxs``), one :class:`SessionEntry`
+    each, sorted by ``sort`` (one of :data:`SORT_KEYS`; unreadable files last). ``sample``: keep the sessions whose
+    sample contains it (case-insensitive). A file that is ``folder`` itself is indexed alone."""
+    from contactrig.core.validation import SettingError, check_choice
+
+    check_choice("--sort", sort, SORT_KEYS)
+    root = Path(folder)
+    if root.is_file():
+        files = [root]
+    elif root.is_dir():
+        files = _session_files(root)
+    else:
+        raise SettingError("DIR", str(root), "an existing folder")
+    entries = [session_entry(f, timeout=timeout) for f in files]
+    if not include_other:
+        entries = [e for e in entries if e.status != "other"]
+    if sample is not None:
+        needle = sample.casefold()
+        entries = [e for e in entries if needle in e.sample.casefold()]
+    return sorted(entries, key=lambda e: _sort_key(e, sort))
+
+
+def _sort_key(e: SessionEntry, sort: str) -> tuple[int, str, str]:
+    readable = 1 if e.status in ("corrupt", "newer", "other") else 0
+    value = {"start": e.start_time, "sample": e.sample.casefold(), "operator": e.operator.casefold()}.get(
+        sort, e.status if sort == "status" else e.path
+    )
+    return readable, value, e.path
+
+
+_COLUMNS = ("start", "status", "blocks", "kind", "sample", "operator", "file")
+
+
+def _row(e: SessionEntry, base: Path | None) -> list[str]:
+    done = "" if e.blocks_done is None else str(e.blocks_done)
+    planned = "?" if e.blocks_planned is None else str(e.blocks_planned)
+    blocks = f"{done}/{planned}" if done else ""
+    if e.compliant_blocks:
+        blocks += f" ({e.compliant_blocks} compliance)"
+    shown = e.path
+    if base is not None:
+        try:
+            shown = os.path.relpath(e.path, base)
+        except ValueError:  # another drive (Windows)
+            pass
+    status = e.status.upper() if e.status in ("corrupt", "newer") else e.status
+    return [e.start_time[:19].replace("T", " "), status, blocks, e.kind, e.sample, e.operator, shown]
+
+
+def format_table(entries: Iterable[SessionEntry], *, base: str | Path | None = None, notes: bool = True) -> str:
+    """The index as an aligned text table for the terminal (every string escaped: no control character from a
+    file reaches the terminal); unreadable files get their reason on the next line when ``notes``."""
+    items = list(entries)
+    rows = [[escape_terminal(c) for c in _row(e, Path(base) if base is not None else None)] for e in items]
+    widths = [max([len(h), *(len(r[i]) for r in rows)]) for i, h in enumerate(_COLUMNS)]
+    widths = [min(w, 48) for w in widths[:-1]] + [widths[-1]]
+
+    def line(cells: Sequence[str]) -> str:
+        return "  ".join(_fit(c, w) for c, w in zip(cells, widths, strict=True)).rstrip()
+
+    out = [line(_COLUMNS)]
+    for e, r in zip(items, rows, strict=True):
+        out.append(line(r))
+        if notes and e.note and e.status not in ("success", "running"):
+            out.append(f"    {escape_terminal(e.note)}")
+    return "\n".join(out)
+
+
+def _fit(text: str, width: int) -> str:
+    return text.ljust(width) if len(text) <= width else text[: width - 1] + "…"

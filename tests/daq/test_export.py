@@ -1,0 +1,178 @@
+"""``contactrig export``: a session as a Tab. 1-style summary and raw readings (CSV, Excel), a fit as its table;
+the summary imports back to the same numbers."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from contactrig.cli.main import main
+from daq.export import ExcelUnavailable, export_fit, export_session, fit_tables, summary_table
+from daq.plan import SessionPlan
+from daq.table_import import parse_table
+
+from .conftest import small_scene
+from .sessions import load_quietly, write_session
+
+
+@pytest.fixture(scope="module")
+def session_path(tmp_path_factory):
+    path = tmp_path_factory.mktemp("export") / "s.h5"
+    write_session(SessionPlan.from_scene(small_scene(sample='sample = "=HYPERLINK(\\"http://x\\")"')), path)
+    return path
+
+
+def _means(session):
+    return {
+        (float(w), int(r)): float(m)
+        for w, r, m in zip(*(session.summary[c] for c in ("weight_kg", "repeat", "mean_ohm")), strict=True)
+    }
+
+
+def test_csv_summary_round_trips_through_contactrig_import(session_path, tmp_path, capsys):
+    out = tmp_path / "out" / "s.csv"
+    assert main(["export", str(session_path), "--to", "csv", "-o", str(out)]) == 0
+    text = out.read_text(encoding="utf-8")
+    header = next(ln for ln in text.splitlines() if not ln.startswith("#"))
+    assert header == "weight_kg,M1_mohm,M2_mohm"  # Tab. 1 layout, unit in the headers
+    back = tmp_path / "back.h5"
+    assert main(["import", str(out), "-o", str(back)]) == 0
+    original, imported = load_quietly(session_path), load_quietly(back)
+    a, b = _means(original), _means(imported)
+    assert a.keys() == b.keys() and len(a) == 6
+    for key in a:
+        assert math.isclose(a[key], b[key], rel_tol=1e-15, abs_tol=0), key
+    # the order the weights were placed is kept
+    assert list(imported.summary["weight_kg"].unique()) == list(original.summary["weight_kg"].unique())
+
+
+def test_csv_readings_hold_every_reading_exactly(session_path, tmp_path):
+    paths = export_session(session_path, "csv", tmp_path / "x.csv")
+    assert [p.name for p in paths] == ["x.csv", "x-readings.csv"]
+    rows = list(csv.DictReader(paths[1].open(encoding="utf-8")))
+    s = load_quietly(session_path)
+    assert len(rows) == len(s.readings) == 6 * 8
+    assert list(rows[0]) == ["block", "weight_kg", "repeat", "index", "time_s", "reading_V", "resistance_ohm", "valid"]
+    np.testing.assert_array_equal([float(r["resistance_ohm"]) for r in rows], s.readings["resistance_ohm"])
+    np.testing.assert_array_equal([float(r["time_s"]) for r in rows], s.readings["time_s"])
+    assert [int(r["valid"]) for r in rows] == s.readings["valid"].astype(int).tolist()
+
+
+def test_existing_outputs_are_refused_before_anything_is_written(session_path, tmp_path, capsys):
+    (tmp_path / "s-readings.csv").write_text("keep me")
+    assert main(["export", str(session_path), "-o", str(tmp_path / "s.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "s-readings.csv exists; use --force to overwrite it" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "s.csv").exists() and (tmp_path / "s-readings.csv").read_text() == "keep me"
+    assert main(["export", str(session_path), "-o", str(tmp_path / "s.csv"), "--force"]) == 0
+    assert (tmp_path / "s-readings.csv").read_text().startswith("block,")
+    assert not list(tmp_path.glob("*.tmp")) and not list(tmp_path.glob(".*.tmp"))
+
+
+def test_missing_and_compliant_repeats_are_empty_cells_that_import_with_allow_missing():
+    summary = pd.DataFrame(
+        {
+            "block": [0, 1, 2, 3],
+            "weight_kg": [5.0, 5.0, 10.0, 10.0],
+            "repeat": [1, 2, 1, 2],
+            "mean_ohm": [2e-3, 2.1e-3, math.nan, 1.1e-3],
+            "compliance": [False, False, True, False],
+        }
+    )
+    t = summary_table(summary.iloc[:2])  # the second weight not measured yet: no row for it
+    assert t.rows == [[5.0, 2.0, 2.1]] and t.columns == ("weight_kg", "M1_mohm", "M2_mohm")
+    t = summary_table(summary)
+    assert t.rows[1][1] is None and any("compliance" in n for n in t.notes)
+    text = "weight_kg,M1_mohm,M2_mohm\n" + "\n".join(
+        ",".join("" if v is None else repr(v) for v in row) for row in t.rows
+    )
+    table = parse_table(text, allow_missing=True)
+    assert math.isnan(table.resistance_ohm[1, 0]) and table.resistance_ohm[1, 1] == pytest.approx(1.1e-3, rel=1e-15)
+
+
+def test_xlsx_workbook_keeps_numbers_and_strings_as_text(session_path, tmp_path):
+    openpyxl = pytest.importorskip("openpyxl")
+    out = tmp_path / "s.xlsx"
+    assert export_session(session_path, "xlsx", out) == [out]
+    wb = openpyxl.load_workbook(out)
+    assert wb.sheetnames == ["summary", "readings", "about"]
+    rows = list(wb["summary"].iter_rows(values_only=True))
+    assert rows[0] == ("weight_kg", "M1_mohm", "M2_mohm")
+    s = load_quietly(session_path)
+    means = _means(s)
+    for w, *values in rows[1:]:
+        for r, v in enumerate(values, start=1):
+            assert v == pytest.approx(means[(w, r)] * 1e3, rel=1e-14)  # openpyxl writes 15 digits
+    about = dict(wb["about"].iter_rows(values_only=True))
+    assert about["sample"] == '=HYPERLINK("http://x")'  # a string from the file, not a formula
+    assert wb["about"]["B4"].data_type == "s"
+
+
+def test_xlsx_without_the_extra_is_one_line_naming_it(session_path, tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "openpyxl", None)  # import openpyxl → ImportError
+    with pytest.raises(ExcelUnavailable, match=r"'excel' extra .*pip install 'contactrig\[excel\]'"):
+        export_session(session_path, "xlsx", tmp_path / "s.xlsx")
+    assert main(["export", str(session_path), "--to", "xlsx", "-o", str(tmp_path / "s.xlsx")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "contactrig[excel]" in err
+    assert not (tmp_path / "s.xlsx").exists()
+
+
+FIT = {
+    "models": {
+        name: {
+            "conversion": "bulk",
+            "weighting": "relative",
+            "estimate": {"R_series_ohm": rs, "R_series_se": 1e-4, "scale": 4e-7, "scale_se": 1e-8},
+            "intervals": {"t": {"R_series_ohm": [rs - 2e-4, rs + 2e-4]}},
+            "goodness": {"chi2": 1.0, "dof": 4, "reduced_chi2": 0.25, "p_value": 0.9, "aic": aic, "rmse_ohm": 5e-5},
+            "points": {"weight_kg": [5.0, 10.0], "measured_ohm": [2e-3, 1e-3], "fitted_ohm": [2.1e-3, 0.9e-3]},
+            "unphysical": unphys,
+        }
+        for name, rs, aic, unphys in (("hertz", -4e-3, 3.0, ["R_s < 0"]), ("greenwood_tripp", 3e-4, 5.0, []))
+    },
+    "ranking": ["greenwood_tripp", "hertz"],
+    "delta_aic": {"greenwood_tripp": 0.0, "hertz": -2.0},
+    "statement": "the data do not tell the models apart",
+}
+
+
+def test_fit_table_from_a_saved_fit_json(tmp_path, capsys):
+    tables, _ = fit_tables(FIT, "fit.json")
+    fits = tables[0]
+    assert [r[1] for r in fits.rows] == ["greenwood_tripp", "hertz"]  # ranking order
+    col = dict(zip(fits.columns, fits.rows[1], strict=True))
+    assert col["R_series_ohm"] == -4e-3 and col["physical"] == "no" and col["unphysical"] == "R_s < 0"
+    assert col["R_series_t_low_ohm"] == pytest.approx(-4.2e-3)
+    saved = tmp_path / "fit.json"
+    saved.write_text(json.dumps(FIT))
+    assert main(["export", str(saved), "--to", "csv", "-o", str(tmp_path / "f.csv")]) == 0
+    rows = [r for r in csv.reader((tmp_path / "f.csv").open(encoding="utf-8")) if not r[0].startswith("#")]
+    assert rows[0][:4] == ["rank", "model", "R_series_ohm", "R_series_se_ohm"]
+    assert float(rows[2][2]) == -4e-3
+    points = list(csv.DictReader((tmp_path / "f-points.csv").open(encoding="utf-8")))
+    assert len(points) == 4 and points[0]["model"] == "greenwood_tripp" and float(points[0]["fitted_ohm"]) == 2.1e-3
+    with pytest.raises(ValueError, match="models"):
+        export_fit({"ranking": []}, "csv", tmp_path / "g.csv")
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    assert main(["export", str(bad)]) == 2 and "not the JSON of" in capsys.readouterr().err
+
+
+def test_export_fit_of_a_session_fits_now(tmp_path, capsys):
+    """``export SESSION --fit``: the same numbers as ``fit --json`` on the same inputs."""
+    src = tmp_path / "t.h5"
+    assert main(["import", "--tab1", "-o", str(src)]) == 0
+    assert main(["fit", str(src), "--json", "--bootstrap", "0", "--models", "hertz"]) == 0
+    fit = json.loads(capsys.readouterr().out)
+    args = ["export", str(src), "--fit", "--bootstrap", "0", "--models", "hertz", "-o", str(tmp_path / "fit.csv")]
+    assert main(args) == 0
+    rows = list(csv.DictReader(line for line in (tmp_path / "fit.csv").open(encoding="utf-8") if line[0] != "#"))
+    hertz = next(r for r in rows if r["model"] == "hertz")
+    assert float(hertz["R_series_ohm"]) == pytest.approx(fit["models"]["hertz"]["estimate"]["R_series_ohm"], rel=1e-9)
