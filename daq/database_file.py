@@ -22,6 +22,7 @@ import numpy as np
 from contactrig.core.files import atomic_write
 from contactrig.core.provenance import to_json
 from contactrig.core.validation import SettingError
+from daq import file_seal
 from sims.database import ContactCurve, ContactDatabase
 
 __all__ = ["FORMAT", "load_database", "save_database"]
@@ -46,6 +47,7 @@ def save_database(db: ContactDatabase, path: str | Path, *, force: bool = False)
             for key, unit in _UNITS.items():
                 g.create_dataset(key, data=np.asarray(getattr(curve, key))).attrs["units"] = unit
             g.attrs["parameters"] = to_json(curve.parameters)
+        file_seal.seal(f)  # last: the loader reports any member changed, added or removed after this
     return Path(path)
 
 

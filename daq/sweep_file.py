@@ -36,6 +36,7 @@ import numpy as np
 from contactrig.core.files import atomic_write
 from contactrig.core.fingerprint import fingerprint, has_tables
 from contactrig.core.provenance import json_default
+from daq import file_seal
 
 if TYPE_CHECKING:
     from sims.config import SimConfig
@@ -91,6 +92,7 @@ def _write(result: SweepResult, tmp: Path) -> None:
             for attr, unit in ModelSweep.UNITS.items():
                 d = g.create_dataset(attr, data=np.asarray(getattr(m, attr)))
                 d.attrs["units"] = unit
+        file_seal.seal(f)  # last: the loader reports any member changed, added or removed after this
         f.flush()
 
 

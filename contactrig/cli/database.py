@@ -44,6 +44,7 @@ def run_database(args: argparse.Namespace) -> int:
     """Handler of ``contactrig database``."""
     from contactrig.core.files import refuse_existing
     from contactrig.core.scene import load_scene
+    from contactrig.core.text import escape_terminal
     from daq.database_file import save_database
     from daq.sweep_file import plasticity_warnings
     from sims.config import SimConfig
@@ -57,7 +58,7 @@ def run_database(args: argparse.Namespace) -> int:
     out = save_database(db, args.output, force=args.force)
     prov = db.provenance
     for w in list(prov.get("warnings", [])) + plasticity_warnings(list(db), prov):
-        print(f"warning: {w}", file=sys.stderr)
+        print(f"warning: {escape_terminal(w)}", file=sys.stderr)
     gt = prov.get("greenwood_tripp", {})
     print(
         f"contact database of scene {prov.get('scene_name', '')!r}: {', '.join(db)}; "

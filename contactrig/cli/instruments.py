@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -138,12 +139,13 @@ def _open(args: argparse.Namespace, pair: InstrumentPair) -> PairDriver:
 
 def identify_command(args: argparse.Namespace) -> int:
     """Print the identity of the source and of the voltmeter."""
+    from contactrig.core.text import escape_terminal
     from instruments.pairs import DEFAULT_PAIR, get_pair
 
     with _open(args, get_pair(args.pair or DEFAULT_PAIR)) as k:
         ident = k.identify()
-    print(f"source:    {ident.source}")
-    print(f"voltmeter: {ident.voltmeter}")
+    print(f"source:    {escape_terminal(ident.source)}")  # replies are data: no control character reaches the terminal
+    print(f"voltmeter: {escape_terminal(ident.voltmeter)}")
     return 0
 
 
@@ -177,6 +179,7 @@ def verify_command(args: argparse.Namespace) -> int:
     """Run the day-one checks; print the Markdown report; exit 0 if every check ran and the source is idle."""
     from pathlib import Path
 
+    from contactrig.core.text import escape_terminal
     from contactrig.core.validation import check_range
     from instruments.pairs import DEFAULT_PAIR, get_pair
     from instruments.verify import verify, write_report
@@ -187,9 +190,12 @@ def verify_command(args: argparse.Namespace) -> int:
     report = verify(transport, args.address or SIM_DEFAULT_ADDRESS, current_a=current)
     driver._closed = True  # type: ignore[attr-defined]  # verify closed the transport after its last SOUR:SWE:ABOR
     js, md = write_report(report, Path(args.out))
-    print(report.markdown())
+    print(escape_terminal(report.markdown(), keep_newlines=True))  # it quotes instrument replies
     print(f"written: {js} and {md}")
-    return 0 if report.passed else 1
+    if report.passed:
+        return 0
+    print(f"contactrig instruments verify: error: a check failed or could not run; see {md}", file=sys.stderr)
+    return 2  # the exit-code contract: 0 done, 1 stopped early, 2 error
 
 
 def serve_sim_command(args: argparse.Namespace) -> int:

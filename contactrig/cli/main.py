@@ -111,7 +111,10 @@ def _main(argv: Sequence[str] | None) -> int:
     args: argparse.Namespace | None = None
     try:
         parser = build_parser()  # imports every command module: a Ctrl-C may land here too
-        args = parser.parse_args(argv)
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as exc:  # usage errors (one line, exit 2), --help/--version (0): returned like any code
+            return exc.code if isinstance(exc.code, int) else 2
         handler = getattr(args, "handler", None)
         if handler is None:
             parser.print_help()
