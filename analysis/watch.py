@@ -23,6 +23,7 @@ canvas without pyplot (no display needed).
 from __future__ import annotations
 
 import math
+import os
 import queue
 import sys
 import time
@@ -557,6 +558,19 @@ def _ended(code: int | None) -> str:
     return f"{ViewProcessError.__name__}: the view process ended unexpectedly ({how})"
 
 
+_VIEW_NICENESS = 10  # the view's process runs this much nicer than the acquisition: short of CPUs, the view waits
+
+
+def _give_way(pid: int | None) -> None:
+    """Lower the priority of the view's process (POSIX; elsewhere, and if refused, it keeps the same priority)."""
+    if sys.platform == "win32" or pid is None:
+        return
+    try:
+        os.setpriority(os.PRIO_PROCESS, pid, min(19, os.getpriority(os.PRIO_PROCESS, 0) + _VIEW_NICENESS))
+    except OSError:
+        pass
+
+
 class _ViewProcess:
     """The acquiring process's end of the view's process (spawned, daemon): a bounded queue of updates that is never
     waited on (an update that does not fit is merged into the next one), a pipe on which the view reports its one
@@ -578,6 +592,7 @@ class _ViewProcess:
             self.process.start()
         finally:
             failures_w.close()  # the view holds the write end: the pipe reads EOF once it is gone
+        _give_way(self.process.pid)
         self._rows: list[BlockRow] = []
         self._current: _Readings | None = None
 

@@ -1,5 +1,6 @@
 """The live view: ``contactrig watch`` in another process while ``acquire`` writes, a SIGKILLed writer, the view as
-one more writer of the acquisition (a failing view never stops it), and the status line."""
+one more writer of the acquisition drawing in a process of its own (a failing, stuck or killed view never stops or
+delays it), and the status line."""
 
 from __future__ import annotations
 
@@ -165,10 +166,166 @@ def test_a_window_without_a_display_turns_the_view_off(tmp_path, monkeypatch):
     import matplotlib
 
     monkeypatch.setattr(matplotlib, "get_backend", lambda: "agg")
+    monkeypatch.setenv("MPLBACKEND", "agg")  # the view's process (spawned) sees the environment, not the patch
     stream = io.StringIO()
     view = LiveView(stream=stream)
     _run(SessionPlan.from_scene(small_scene()), tmp_path / "s.h5", view)
     assert view.off and "no display" in stream.getvalue() and load_quietly(tmp_path / "s.h5").status == "success"
+
+
+def _stuck(state):
+    time.sleep(600)  # a draw that never returns (a hung GUI, a deadlock): the view's process is stuck
+
+
+class Paced:
+    """A writer taking ``seconds`` per block (as the instruments would), so blocks still come while the view's
+    process is up — and stuck."""
+
+    def __init__(self, seconds):
+        self.seconds = seconds
+
+    def start(self, start, scene_text):
+        pass
+
+    def exchanges(self, exchanges, block):
+        pass
+
+    def block(self, rec):
+        time.sleep(self.seconds)
+
+    def stop(self, stop):
+        pass
+
+
+class Timed:
+    """Wraps a writer and keeps how long each call took, as the acquisition sees it."""
+
+    def __init__(self, writer):
+        self.writer = writer
+        self.seconds = {"start": [], "exchanges": [], "block": [], "stop": []}
+
+    def _call(self, name, *args):
+        t = time.perf_counter()
+        getattr(self.writer, name)(*args)
+        self.seconds[name].append(time.perf_counter() - t)
+
+    def start(self, start, scene_text):
+        self._call("start", start, scene_text)
+
+    def exchanges(self, exchanges, block):
+        self._call("exchanges", exchanges, block)
+
+    def block(self, rec):
+        self._call("block", rec)
+
+    def stop(self, stop):
+        self._call("stop", stop)
+
+
+def test_a_stuck_view_process_never_holds_the_acquisition(tmp_path):
+    stream = io.StringIO()
+    view = LiveView(every=0.0, stream=stream, draw=_stuck, stop_timeout=1.0)
+    timed = Timed(view)
+    outcome = _run(SessionPlan.from_scene(small_scene()), tmp_path / "s.h5", Paced(0.5), timed)
+    first, *rest = timed.seconds["block"]
+    assert view.frames == 0  # the view's process took the first update and never came back from drawing it
+    # the updates after it are merged while the queue is full, never waited for (measured: ~0.2 ms a block)
+    assert len(rest) == 5 and max(rest) < 0.1, timed.seconds
+    assert first < 2.0, timed.seconds  # the first block also spawns the view's process (~20 ms)
+    (stop,) = timed.seconds["stop"]
+    assert stop < 1.0 + 4.0, timed.seconds  # stop_timeout for the last frame (after the file is sealed), then ended
+    assert outcome.stop.status == "success" and outcome.error is None
+    s = load_quietly(tmp_path / "s.h5")
+    assert s.status == "success" and s.sealed and len(s.summary) == 6
+    text = stream.getvalue()
+    assert view.off and text.count("live view off") == 1 and "not drawn within 1 s" in text, text
+    assert view.state.blocks_done == 6 and not view.process.is_alive()
+
+
+class KillTheView:
+    """Kills the view's process after block ``at`` (SIGKILL on POSIX) and notes the first block at which the
+    view was off."""
+
+    def __init__(self, view, at):
+        self.view, self.at, self.off_at = view, at, None
+
+    def start(self, start, scene_text):
+        pass
+
+    def exchanges(self, exchanges, block):
+        pass
+
+    def block(self, rec):
+        if self.view.off and self.off_at is None:
+            self.off_at = rec.block
+        if rec.block == self.at:
+            self.view.process.kill()
+            self.view.process.join(10)
+
+    def stop(self, stop):
+        pass
+
+
+def test_a_killed_view_process_turns_the_view_off_once_and_the_session_completes_sealed(tmp_path):
+    stream = io.StringIO()
+    view = LiveView(tmp_path / "view.png", every=0.0, stream=stream)
+    killer = KillTheView(view, at=1)
+    outcome = _run(SessionPlan.from_scene(small_scene()), tmp_path / "s.h5", view, killer)
+    assert outcome.stop.status == "success" and outcome.error is None
+    s = load_quietly(tmp_path / "s.h5")
+    assert s.status == "success" and s.sealed and len(s.summary) == 6
+    text = stream.getvalue()
+    assert killer.off_at == 2, text  # noticed at the next block, not only at the end
+    assert view.off and text.count("live view off") == 1 and "view process ended unexpectedly" in text, text
+    if sys.platform != "win32":
+        assert "killed by SIGKILL" in text
+    assert view.state.status == "success" and not view.process.is_alive()
+
+
+_ORPHAN = """
+import sys, time, types
+import numpy as np
+from analysis.watch import LiveView
+
+view = LiveView(sys.argv[1], every=0.0, force=True)
+view.start({"plan": {"blocks_planned": 3}}, "")
+stats = types.SimpleNamespace(mean=1e-3, n=3, n_invalid=0)
+view.block(types.SimpleNamespace(
+    block=0, weight_kg=5.0, repeat=1, stats=stats, compliance=False, started="2026-01-01T00:00:00+00:00",
+    time_s=np.arange(3.0), resistance_ohm=np.full(3, 1e-3), valid=np.ones(3, dtype=bool),
+))
+print(view.process.pid, flush=True)
+time.sleep(600)
+"""
+
+
+def _gone(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0] == "Z"  # a zombie: it has ended
+    except FileNotFoundError:
+        return True
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
+def test_the_view_process_ends_when_the_acquiring_process_is_killed(tmp_path):
+    png = tmp_path / "orphan.png"
+    parent = subprocess.Popen(
+        [sys.executable, "-c", _ORPHAN, str(png)], cwd=ROOT, stdout=subprocess.PIPE, text=True, env=ENV
+    )
+    try:
+        child = int(parent.stdout.readline())
+        deadline = time.monotonic() + 30
+        while not png.exists() and time.monotonic() < deadline:  # the view is up and has drawn
+            time.sleep(0.05)
+        assert png.exists() and not _gone(child)
+        parent.send_signal(signal.SIGKILL)
+        parent.wait(timeout=10)
+        deadline = time.monotonic() + 10
+        while not _gone(child) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert _gone(child), "the view's process outlived the acquisition"
+    finally:
+        parent.kill()
 
 
 def _row(block, w, rep, mean, started, compliance=False, n_invalid=0):
@@ -242,6 +399,7 @@ def test_acquire_live_without_a_display_says_so_once_and_completes(sim_scene, tm
     import matplotlib
 
     monkeypatch.setattr(matplotlib, "get_backend", lambda: "agg")
+    monkeypatch.setenv("MPLBACKEND", "agg")
     assert _acquire_live(sim_scene, tmp_path / "s.h5") == 0
     err = capsys.readouterr().err
     assert err.count("live view off") == 1 and "no display" in err
