@@ -336,6 +336,7 @@ def analyse_session(
     ``kw`` goes to :func:`analyse` (conversion, weighting, n_boot, seed, ci_level, boot_interval, title).
     """
     from daq import load_session
+    from daq.records import session_history
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -356,6 +357,7 @@ def analyse_session(
         "stop": session.stop,
         "warnings": list(session.warnings) + [str(w.message) for w in caught if str(w.message) not in session.warnings],
         "scene_source": scene.source,
+        "history": session_history(session),  # loading order, skips, resumes, interruptions (text from the file)
     }
     kw.setdefault("title", f"Session {Path(session_path).name}")
     return analyse(curve, sweep_result, scene, measured_info=measured_info, sim_info=sim_info, database=database, **kw)

@@ -529,6 +529,15 @@ def _provenance(a: Any) -> list[Any]:
     return blocks
 
 
+def _history_section(a: Any) -> list[Any]:
+    """The session's history (``measured_info["history"]``, :func:`daq.records.session_history`): loading order,
+    skips, resumes, interruptions. Its lines carry text from the file: shown as data."""
+    history = a.measured_info.get("history") or []
+    if not history:
+        return []
+    return [Heading(3, "Session history"), Bullets(tuple(Data(line) for line in history))]
+
+
 def _fingerprint_lines(fp: dict[str, Any]) -> list[Any]:
     """What the analysis was computed from (hashes of the scene tables on both sides) and any mismatch allowed."""
     if not fp:
@@ -624,6 +633,7 @@ def report_blocks(
         if banner is not None:
             blocks.append(banner)
         blocks += [Heading(3, "Provenance"), *_provenance(a)]
+        blocks += _history_section(a)
         caveats = _warnings_section(a)
         if caveats:
             blocks += [Heading(3, "Warnings and what was left out"), *caveats]

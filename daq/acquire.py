@@ -23,11 +23,27 @@ from contactrig.core.scene import Scene, load_scene, parse_scene
 from daq.engine import AcquisitionEngine, Decision, Interrupts, OperatorQuit, Prompter, RunOutcome, Writer, answer_yes
 from daq.errors import MissingFileError, SessionExistsError, SessionStateError, SessionWriteError
 from daq.link import Bench, InstrumentLink, OpenedBench, VisaBench
-from daq.plan import Measure, PlaceWeight, SessionPlan, session_steps
+from daq.plan import (
+    CONVERSION_OVERHEAD_S,
+    Measure,
+    PlaceWeight,
+    SessionPlan,
+    estimate_duration,
+    session_steps,
+)
 from daq.session_file import SCHEMA_VERSION, SessionFile, load_session, software_versions
 from daq.writers import FileWriter, LiveDisplay
 
-__all__ = ["AcquisitionResult", "acquire", "drive", "terminal_prompter"]
+__all__ = [
+    "AcquisitionResult",
+    "ResumeChooser",
+    "acquire",
+    "drive",
+    "plan_lines",
+    "skipped_weights",
+    "terminal_prompter",
+    "terminal_resume_chooser",
+]
 
 
 @dataclass(frozen=True)
@@ -50,6 +66,18 @@ class _Prior:
     done: frozenset[int] = frozenset()
     readings: int = 0
     first_start: dict[str, Any] | None = None
+    #: weights the stop records of earlier runs list as skipped
+    recorded_skips: frozenset[float] = frozenset()
+
+
+@dataclass(frozen=True)
+class _Order:
+    """This run's loading order: weight indices placed first (skipped earlier, measured now), weight indices kept
+    skipped, and the resume questions with their answers (for the start record)."""
+
+    first: tuple[int, ...] = ()
+    leave_out: frozenset[int] = frozenset()
+    choices: tuple[dict[str, Any], ...] = ()
 
 
 def terminal_prompter(stream: TextIO | None = None, read: Callable[[], str] = input) -> Prompter:
@@ -72,12 +100,60 @@ def terminal_prompter(stream: TextIO | None = None, read: Callable[[], str] = in
             if answer in ("", "g", "go", "y", "yes"):
                 return "go"
             if answer in ("s", "skip"):
-                return "skip"
+                if _confirmed(f"skip {step.weight_kg:g} kg? [y/N]: ", out, read):
+                    return "skip"
+                print(f"not skipped: {step.weight_kg:g} kg stays in the plan", file=out, flush=True)
+                continue
             if answer in ("q", "quit", "stop"):
                 return "quit"
             print(f"'{answer}' is not an answer: press Enter, s or q", file=out, flush=True)
 
     return prompt
+
+
+def _confirmed(question: str, out: TextIO, read: Callable[[], str]) -> bool:
+    """Ask a yes/no question; only ``y``/``yes`` is yes (Enter, anything else: no)."""
+    print(question, end="", file=out, flush=True)
+    try:
+        answer = read().strip().lower()
+    except EOFError:
+        raise OperatorQuit("no operator input (stdin closed): run unattended with --yes") from None
+    return answer in ("y", "yes")
+
+
+#: Asked on ``--resume`` for each weight an earlier run skipped: True = measure it now (placed first in this run),
+#: False = keep it skipped.
+ResumeChooser = Callable[[float], bool]
+MEASURE_NOW, KEEP_SKIPPED = "measure it now", "keep it skipped"
+
+
+def terminal_resume_chooser(stream: TextIO | None = None, read: Callable[[], str] = input) -> ResumeChooser:
+    """Ask the operator at the terminal about a weight an earlier run skipped: ``m`` measure it now, Enter keep it
+    skipped (the default)."""
+    out = stream if stream is not None else sys.stderr
+
+    def choose(weight_kg: float) -> bool:
+        while True:
+            print(
+                f"{weight_kg:g} kg was skipped: m {MEASURE_NOW} (placed first in this run), [Enter] {KEEP_SKIPPED}: ",
+                end="",
+                file=out,
+                flush=True,
+            )
+            try:
+                answer = read().strip().lower()
+            except EOFError:
+                raise SessionStateError(
+                    f"no operator input (stdin closed) to say whether to measure the skipped {weight_kg:g} kg: "
+                    "answer at the terminal, or resume with --yes (keeps it skipped)"
+                ) from None
+            if answer in ("", "k", "keep"):
+                return False
+            if answer in ("m", "measure"):
+                return True
+            print(f"'{answer}' is not an answer: press m or Enter", file=out, flush=True)
+
+    return choose
 
 
 def drive(
@@ -94,6 +170,7 @@ def drive(
     blocks_planned: int = 0,
     blocks_before: int = 0,
     readings_before: int = 0,
+    skipped_before: Sequence[float] = (),
 ) -> RunOutcome:
     """The acquisition path shared by acquire and replay: identify, start record, blocks, close, stop record.
 
@@ -120,6 +197,7 @@ def drive(
         blocks_planned=blocks_planned,
         blocks_before=blocks_before,
         readings_before=readings_before,
+        skipped_before=skipped_before,
     )
     try:
         engine.start(start, scene_text)
@@ -153,7 +231,52 @@ def _resume_state(path: Path, scene: Scene | None, simulated: bool) -> tuple[Sce
         raise SessionStateError(f"{path} was recorded {how}; resume it the same way")
     done = frozenset(int(b) for b in session.summary["block"])
     readings = int(session.summary["n"].sum() + session.summary["n_invalid"].sum())
-    return recorded, _Prior(resumed=True, done=done, readings=readings, first_start=session.start)
+    stops = [r.get("stop") for r in session.runs if isinstance(r, dict)] + [session.stop]
+    skips = frozenset(
+        float(w)
+        for stop in stops
+        if isinstance(stop, dict) and isinstance(stop.get("weights_skipped"), list)
+        for w in stop["weights_skipped"]
+        if isinstance(w, (int, float)) and not isinstance(w, bool)
+    )
+    prior = _Prior(resumed=True, done=done, readings=readings, first_start=session.start, recorded_skips=skips)
+    return recorded, prior
+
+
+def skipped_weights(plan: SessionPlan, done: frozenset[int], recorded: frozenset[float] = frozenset()) -> list[int]:
+    """Weight indices an earlier run skipped and whose blocks are not all done: those its stop records list as
+    skipped (``recorded``), and — a killed run leaves no stop record — those without a block while a weight placed
+    after them in the plan has blocks."""
+    repeats, weights = plan.session.repeats, plan.session.weights_kg
+    blocks = [{wi * repeats + r for r in range(repeats)} for wi in range(len(weights))]
+    has = [bool(b & done) for b in blocks]
+    return [
+        wi
+        for wi, w in enumerate(weights)
+        if not blocks[wi] <= done and (float(w) in recorded or (not has[wi] and any(has[wi + 1 :])))
+    ]
+
+
+def _resume_order(plan: SessionPlan, prior: _Prior, choose: ResumeChooser | None, say: Callable[[str], None]) -> _Order:
+    """Ask about each weight an earlier run skipped (``choose``; None: ``--yes``, which keeps it skipped and says
+    so): measure it now (placed first) or keep it skipped. The answers go into the start record."""
+    if not prior.resumed:
+        return _Order()
+    first: list[int] = []
+    kept: list[int] = []
+    choices: list[dict[str, Any]] = []
+    for wi in skipped_weights(plan, prior.done, prior.recorded_skips):
+        weight = plan.session.weights_kg[wi]
+        if choose is None:
+            now, by = False, "default with --yes"
+            say(f"{weight:g} kg was skipped: {KEEP_SKIPPED} — the default with --yes (resume without --yes to be "
+                "asked)")  # fmt: skip
+        else:
+            now, by = choose(weight), "operator"
+        (first if now else kept).append(wi)
+        choices.append({"weight_kg": weight, "weight_index": wi, "choice": MEASURE_NOW if now else KEEP_SKIPPED,
+                        "by": by})  # fmt: skip
+    return _Order(first=tuple(first), leave_out=frozenset(kept), choices=tuple(choices))
 
 
 def acquire(
@@ -169,6 +292,7 @@ def acquire(
     quiet: bool = False,
     fsync: bool = True,
     extra_writers: Sequence[Writer] = (),
+    resume_chooser: ResumeChooser | None = None,
 ) -> AcquisitionResult:
     """Run a bench session and write it to ``output`` (see the module docstring for the order of work).
 
@@ -180,12 +304,31 @@ def acquire(
     a power cut may then lose the last blocks). ``extra_writers`` get every record too (``acquire --live``: the
     live view; an optional writer must contain its own failures, e.g. ``analysis.watch.Guarded``). Raises the error
     that ended the session, after its stop record.
+
+    At the start the plan is printed to ``stream`` (unless ``quiet``): the weights in loading order, repeats,
+    readings per block and the estimated duration (:func:`daq.plan.estimate_duration`). On ``resume``, each weight an
+    earlier run skipped is asked about (``resume_chooser``, default: at the terminal; with ``yes`` it is kept
+    skipped and the output says so): measured now (placed first) or kept skipped; the answers are recorded in the
+    run's start record (``resume_choices``), with the run's ``loading_order_kg``.
     """
     path = Path(output)
     bench = bench if bench is not None else VisaBench()
     scene, prior = _scene_and_prior(scene, path, resume=resume, force=force, simulated=bench.simulated)
     plan = SessionPlan.from_scene(scene)
     created = _prepare_file(path, plan, resume=resume, force=force, fsync=fsync)
+    out = stream if stream is not None else sys.stderr
+
+    def say(text: str) -> None:
+        if not quiet:
+            print(text, file=out, flush=True)
+
+    chooser = resume_chooser if resume_chooser is not None else None if yes else terminal_resume_chooser(stream)
+    order = _resume_order(plan, prior, chooser, say)
+    steps = list(session_steps(plan, prior.done, first=order.first, leave_out=order.leave_out))
+    time_scale = float(getattr(bench, "time_scale", 1.0)) if bench.simulated else 1.0
+    for line in plan_lines(plan, steps, blocks_on_file=len(prior.done), attended=prompter is not None or not yes,
+                           time_scale=time_scale):  # fmt: skip
+        say(line)
     opened = _open_bench(bench, plan, path, created)
     ask = prompter or (answer_yes if yes else terminal_prompter(stream))
     sf: SessionFile | None = None
@@ -204,11 +347,14 @@ def acquire(
         try:
             sf = SessionFile.open_for_resume(path, fsync=fsync, keep_blocks=len(prior.done) if prior.resumed else None)
             start = _start_record(plan, scene, simulated=bench.simulated, opened=opened, run=sf.run, prior=prior)
+            start["loading_order_kg"] = _loading_order(steps)
+            start["resume_choices"] = list(order.choices)
             display = LiveDisplay(plan.blocks_planned, done=len(prior.done), stream=stream, quiet=quiet)
             notices.append(display.message)
             for note in opened.notes:
                 display.message(note)
-            outcome = _run(opened.link, plan, start, sf, display, prior, ask, interrupts, extra_writers)
+            kept = [plan.session.weights_kg[wi] for wi in sorted(order.leave_out)]
+            outcome = _run(opened.link, plan, start, sf, display, (steps, kept, prior), ask, interrupts, extra_writers)
         finally:
             interrupts.phase = "writing"  # deferred, never raised: the run has ended already
             _clean_up(opened.link, display, sf, outcome, path, created)
@@ -267,12 +413,14 @@ def _run(
     start: dict[str, Any],
     sf: SessionFile,
     display: LiveDisplay,
-    prior: _Prior,
+    todo: tuple[list[PlaceWeight | Measure], list[float], _Prior],
     prompter: Prompter,
     interrupts: Interrupts,
     extra_writers: Sequence[Writer] = (),
 ) -> RunOutcome:
-    """The blocks still to do, to the file and the live display, the operator asked with the display paused."""
+    """The blocks still to do (``todo``: the steps, the weights kept skipped, what the file holds), to the file and
+    the live display, the operator asked with the display paused."""
+    steps, kept, prior = todo
 
     def ask(step: PlaceWeight) -> Decision:
         with display.paused():
@@ -281,7 +429,7 @@ def _run(
     return drive(
         link,
         plan.block_settings,
-        session_steps(plan, prior.done),
+        steps,
         [FileWriter(sf), display, *extra_writers],
         start,
         plan.scene.text,
@@ -291,7 +439,64 @@ def _run(
         blocks_planned=plan.blocks_planned,
         blocks_before=len(prior.done),
         readings_before=prior.readings,
+        skipped_before=kept,
     )
+
+
+def _loading_order(steps: Sequence[PlaceWeight | Measure]) -> list[float]:
+    return [s.weight_kg for s in steps if isinstance(s, PlaceWeight)]
+
+
+def plan_lines(
+    plan: SessionPlan,
+    steps: Sequence[PlaceWeight | Measure],
+    *,
+    blocks_on_file: int = 0,
+    attended: bool = True,
+    time_scale: float = 1.0,
+) -> list[str]:
+    """What ``acquire`` prints at the start: the plan (weights in loading order, repeats, readings per block) and
+    the estimated duration, the operator's allowance per weight stated as such."""
+    order = _loading_order(steps)
+    est = estimate_duration(plan, steps, attended=attended, time_scale=time_scale)
+    count = getattr(plan.block_settings, "count", "?")
+    still = f" still to take ({blocks_on_file} on file)" if blocks_on_file else ""
+    lines = [
+        f"plan: {est.blocks} blocks{still} — {len(order)} weight(s) in loading order "
+        f"{', '.join(f'{w:g}' for w in order) or 'none'} kg; {plan.session.repeats} repeat(s) per weight; "
+        f"{count} readings per block"
+    ]
+    if est.block_s is None or est.measuring_s is None or est.total_s is None:
+        return [*lines, "estimated duration: not known for this instrument pair's settings"]
+    s = plan.block_settings
+    how = (
+        f"{count} × ({s.delay_s * 1e3:g} ms delay + NPLC {s.nplc:g} / {s.line_frequency_hz:g} Hz + "
+        f"{CONVERSION_OVERHEAD_S * 1e3:g} ms assumed overhead per conversion)"
+    )
+    if time_scale != 1.0:
+        how += f", simulated bench: instrument time × {time_scale:g}"
+    operator = (
+        f" + {_duration(est.operator_s)} operator allowance ({_duration(est.operator_allowance_s)} per weight to "
+        "place it: an allowance, not a measurement)"
+        if est.operator_allowance_s
+        else " (unattended: no operator time)"
+    )
+    lines.append(
+        f"estimated duration: {_duration(est.measuring_s)} measuring ({est.blocks} blocks × {est.block_s:.3g} s: "
+        f"{how}){operator} ≈ {_duration(est.total_s)}"
+    )
+    return lines
+
+
+def _duration(seconds: float) -> str:
+    s = round(seconds)
+    if seconds < 10:
+        return f"{seconds:.2g} s"
+    if s >= 3600:
+        return f"{s // 3600} h {s % 3600 // 60:02d} min"
+    if s >= 60:
+        return f"{s // 60} min {s % 60:02d} s"
+    return f"{s} s"
 
 
 def _clean_up(

@@ -145,7 +145,8 @@ class AcquisitionEngine:
 
     ``settings`` are the instrument pair's block settings (e.g. :class:`instruments.delta.DeltaSettings`), the
     same for every block. ``blocks_planned`` and ``blocks_before`` (already on file, for ``--resume``) only feed
-    the counts of the stop record.
+    the counts of the stop record; ``skipped_before`` are weights skipped in an earlier run and kept skipped on
+    ``--resume`` (the stop record lists them with this run's skips).
     """
 
     def __init__(
@@ -160,6 +161,7 @@ class AcquisitionEngine:
         blocks_planned: int = 0,
         blocks_before: int = 0,
         readings_before: int = 0,
+        skipped_before: Sequence[float] = (),
     ) -> None:
         self.link = link
         self.settings = settings
@@ -170,6 +172,7 @@ class AcquisitionEngine:
         self.blocks_planned = blocks_planned
         self.blocks_before = blocks_before
         self.readings_before = readings_before
+        self.skipped_before = tuple(float(w) for w in skipped_before)
 
     def _emit_exchanges(self, block: int) -> None:
         ex = self.link.take_exchanges()
@@ -185,7 +188,7 @@ class AcquisitionEngine:
 
     def run(self, steps: Iterable[PlaceWeight | Measure]) -> RunOutcome:
         """Carry out ``steps``; close the link; write the stop record. Never raises: see ``RunOutcome.error``."""
-        state = _RunState()
+        state = _RunState(skipped=list(self.skipped_before))
         try:
             self._carry_out(steps, state)
         except KeyboardInterrupt:

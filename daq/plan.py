@@ -25,8 +25,9 @@ the pair's settings table — ``[delta]`` for the Keithley pair
     ``nplc``, ``unit``, ``compliance_v``, ``compliance_abort`` …); ``count`` = readings per block
 ``[session]``
     ``repeats``     blocks per weight, 1 … 1000
-    ``weights_kg``  weights placed in the piston, in order (optional: default ``[rig].weights_kg``), each in
-                    (0, 1000] kg
+    ``weights_kg``  weights placed in the piston, in order (optional: default ``[press].weights_kg`` for a press
+                    scene — one with a ``[press]`` table, :attr:`sims.config.SimConfig.press` —, else
+                    ``[rig].weights_kg``), each in (0, 1000] kg
     ``operator``    who runs the session (empty: the login name is recorded)
     ``sample``      free-text sample description
     ``rig``         free-text rig description
@@ -41,7 +42,7 @@ the pair's settings table — ``[delta]`` for the Keithley pair
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -53,11 +54,14 @@ from instruments.transport import SerialSettings
 __all__ = [
     "INSTRUMENT_KEYS",
     "SESSION_KEYS",
+    "DurationEstimate",
     "InstrumentSettings",
     "Measure",
     "PlaceWeight",
     "SessionPlan",
     "SessionSettings",
+    "estimate_duration",
+    "loading_order",
     "session_steps",
     "settings_from_record",
 ]
@@ -68,6 +72,11 @@ SESSION_KEYS = ("repeats", "weights_kg", "operator", "sample", "rig", "sim_model
 #: (analysis.simulated_session).
 DEFAULT_SIM_REPEAT_SD = 0.15
 MAX_WEIGHT_KG = 1000.0
+#: Assumed instrument time per Delta conversion beyond delay and integration (trigger, A/D, the 6221 ↔ 2182A link):
+#: an allowance for the duration estimate, not a measured value.
+CONVERSION_OVERHEAD_S = 0.005
+#: Time allowed per weight for the operator to place it (the duration estimate states it as such).
+OPERATOR_ALLOWANCE_S = 60.0
 
 
 def _check_str(field: str, value: Any, *, nonempty: bool = False) -> str:
@@ -190,19 +199,42 @@ class SessionPlan:
 
 
 def _session(scene: Scene) -> SessionSettings:
-    """``[session]``, its weights defaulting to ``[rig].weights_kg``; ``sim_model`` one of ``[database].models``."""
+    """``[session]``, its weights defaulting to the specimen's (:func:`_default_weights`); ``sim_model`` one of
+    ``[database].models``."""
     table = dict(scene.table("session"))
     check_keys("session", table, SESSION_KEYS)
     if "weights_kg" not in table:
-        rig_weights = scene.table("rig").get("weights_kg")
-        if rig_weights is None:
-            raise SettingError("session.weights_kg", None, "give the weights here or in [rig].weights_kg")
-        table["weights_kg"] = rig_weights
+        table["weights_kg"], origin = _default_weights(scene)
+        try:
+            return _checked_session(scene, table)
+        except SettingError as exc:  # the weights came from another table: say which
+            if exc.field.startswith("session.weights_kg"):
+                raise SettingError(origin, table["weights_kg"], f"as the session's weights: {exc.allowed}") from None
+            raise
+    return _checked_session(scene, table)
+
+
+def _checked_session(scene: Scene, table: dict[str, Any]) -> SessionSettings:
     session = SessionSettings(**table)
     models = scene.table("database").get("models")
     if isinstance(models, list) and models:
         check_choice("session.sim_model", session.sim_model, models)
     return session
+
+
+def _default_weights(scene: Scene) -> tuple[Any, str]:
+    """The session's weights when ``[session]`` gives none, and where they came from: a press scene's
+    ``[press].weights_kg`` (the press specimen's load sweep, :attr:`sims.config.SimConfig.press`), else
+    ``[rig].weights_kg``."""
+    from sims.press import PressSettings
+
+    press = PressSettings.from_scene(scene)
+    if press is not None:
+        return list(press.weights_kg), "press.weights_kg"
+    rig_weights = scene.table("rig").get("weights_kg")
+    if rig_weights is None:
+        raise SettingError("session.weights_kg", None, "give the weights here or in [rig].weights_kg")
+    return rig_weights, "rig.weights_kg"
 
 
 def settings_from_record(plan_record: Mapping[str, Any]) -> tuple[InstrumentPair, Any]:
@@ -236,17 +268,83 @@ class Measure:
     repeat: int
 
 
-def session_steps(plan: SessionPlan, done: set[int] | frozenset[int] = frozenset()) -> Iterator[PlaceWeight | Measure]:
+def session_steps(
+    plan: SessionPlan,
+    done: set[int] | frozenset[int] = frozenset(),
+    *,
+    first: tuple[int, ...] = (),
+    leave_out: frozenset[int] = frozenset(),
+) -> Iterator[PlaceWeight | Measure]:
     """The steps of ``plan`` in order, leaving out blocks whose number is in ``done`` (for ``--resume``).
 
     Block numbers are positions in the full plan (weight index × repeats + repeat − 1), so a resumed session
-    numbers its blocks exactly as an uninterrupted one would.
+    numbers its blocks exactly as an uninterrupted one would. ``first``: weight indices to measure before all others
+    (a skipped weight the operator chose to measure now, on ``--resume``); ``leave_out``: weight indices not to
+    measure at all (a skipped weight kept skipped).
     """
     repeats = plan.session.repeats
-    for wi, weight in enumerate(plan.session.weights_kg):
+    for wi in loading_order(plan, first=first, leave_out=leave_out):
+        weight = plan.session.weights_kg[wi]
         todo = [r for r in range(1, repeats + 1) if wi * repeats + r - 1 not in done]
         if not todo:
             continue
         yield PlaceWeight(weight_index=wi, weight_kg=weight, repeats_left=len(todo))
         for r in todo:
             yield Measure(block=wi * repeats + r - 1, weight_index=wi, weight_kg=weight, repeat=r)
+
+
+def loading_order(
+    plan: SessionPlan, *, first: tuple[int, ...] = (), leave_out: frozenset[int] = frozenset()
+) -> list[int]:
+    """Weight indices in the order they are placed: ``first``, then the plan's order; ``leave_out`` left out."""
+    rest = [i for i in range(len(plan.session.weights_kg)) if i not in first]
+    return [i for i in (*first, *rest) if i not in leave_out]
+
+
+@dataclass(frozen=True)
+class DurationEstimate:
+    """A session's expected duration: ``block_s`` per block from the block settings (None when the pair's settings
+    do not say), ``blocks`` to take, ``weights`` to place, and the operator's allowance per weight."""
+
+    block_s: float | None
+    blocks: int
+    weights: int
+    operator_allowance_s: float
+
+    @property
+    def measuring_s(self) -> float | None:
+        return None if self.block_s is None else self.block_s * self.blocks
+
+    @property
+    def operator_s(self) -> float:
+        return self.operator_allowance_s * self.weights
+
+    @property
+    def total_s(self) -> float | None:
+        return None if self.measuring_s is None else self.measuring_s + self.operator_s
+
+
+def block_duration_s(settings: Any) -> float | None:
+    """count × (delay + NPLC / line frequency + :data:`CONVERSION_OVERHEAD_S`) in s for Delta-like settings; None
+    for settings without these fields."""
+    try:
+        count, delay = float(settings.count), float(settings.delay_s)
+        integration = float(settings.nplc) / float(settings.line_frequency_hz)
+    except (AttributeError, TypeError, ValueError, ZeroDivisionError):
+        return None
+    return count * (delay + integration + CONVERSION_OVERHEAD_S)
+
+
+def estimate_duration(
+    plan: SessionPlan, steps: Iterable[PlaceWeight | Measure], *, attended: bool, time_scale: float = 1.0
+) -> DurationEstimate:
+    """The duration of ``steps``: blocks × :func:`block_duration_s` (× ``time_scale``, a simulated bench's real
+    seconds per instrument second), plus :data:`OPERATOR_ALLOWANCE_S` per weight when an operator places them."""
+    steps = list(steps)
+    block_s = block_duration_s(plan.block_settings)
+    return DurationEstimate(
+        block_s=None if block_s is None else block_s * time_scale,
+        blocks=sum(isinstance(s, Measure) for s in steps),
+        weights=sum(isinstance(s, PlaceWeight) for s in steps),
+        operator_allowance_s=OPERATOR_ALLOWANCE_S if attended else 0.0,
+    )

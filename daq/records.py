@@ -11,9 +11,9 @@ Units: resistance in Ω, weight in kg, times in s; ISO-8601 timestamps carry the
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -22,7 +22,15 @@ from instruments.block import BlockStatistics, block_statistics
 from instruments.transport import Exchange
 
 # now_iso is contactrig.core.provenance's, re-exported for the writers that import it from here
-__all__ = ["BlockRecord", "StopRecord", "block_digest", "exchanges_digest", "now_iso"]
+__all__ = [
+    "BlockRecord",
+    "StopRecord",
+    "block_digest",
+    "exchanges_digest",
+    "how_run_ended",
+    "now_iso",
+    "session_history",
+]
 
 StopStatus = Literal["success", "aborted", "failed"]
 
@@ -126,3 +134,103 @@ class StopRecord:
     blocks_done: int
     readings_done: int
     weights_skipped: tuple[float, ...] = ()
+
+
+# ---- the session's history, from its run records and stop records ------------------------------------------------
+
+
+def _kg(values: Any) -> str:
+    """``5.44, 10.526 kg`` (values from a file: anything that is not a number is shown as it is)."""
+    items = values if isinstance(values, (list, tuple)) else [values]
+    return ", ".join(f"{v:g}" if isinstance(v, (int, float)) and not isinstance(v, bool) else str(v) for v in items) + (
+        " kg"
+    )
+
+
+def how_run_ended(stop: Mapping[str, Any] | None, *, running: bool = False) -> str:
+    """How a run ended, from its stop record: ``done``, ``stopped early (Ctrl-C)``, ``stopped early (operator)``,
+    ``failed``; without one ``running`` or ``killed (no stop record: killed or lost power)``."""
+    if not isinstance(stop, Mapping):
+        return "running" if running else "killed (no stop record: killed or lost power)"
+    status, reason = stop.get("status"), str(stop.get("reason", ""))
+    if status == "success":
+        return "done"
+    if status == "aborted":
+        return "stopped early (Ctrl-C)" if reason.startswith("interrupted") else "stopped early (operator)"
+    return str(status)
+
+
+def _run_stop(session: Any, k: int, last: int) -> Mapping[str, Any] | None:
+    if k == last:
+        stop = getattr(session, "stop", None)
+        return stop if isinstance(stop, Mapping) else None
+    rec = session.runs[k] if k < len(session.runs) else {}
+    stop = rec.get("stop") if isinstance(rec, Mapping) else None
+    return stop if isinstance(stop, Mapping) else None
+
+
+def _placed(summary: Any, run: int) -> list[float]:
+    """The weights of ``run``'s blocks in the order they were placed (consecutive repeats once)."""
+    out: list[float] = []
+    for r, w in zip(summary["run"].tolist(), summary["weight_kg"].tolist(), strict=True):
+        if r == run and (not out or out[-1] != w):
+            out.append(float(w))
+    return out
+
+
+def _choices(record: Mapping[str, Any]) -> tuple[list[str], list[Any]]:
+    """The resume questions of a run record, as text, and the weights kept skipped by them."""
+    lines, kept = [], []
+    choices = record.get("resume_choices")
+    for c in choices if isinstance(choices, list) else []:
+        if not isinstance(c, Mapping):
+            continue
+        weight = c.get("weight_kg")
+        lines.append(f"{_kg(weight)} was skipped: {c.get('choice', '?')} ({c.get('by', '?')})")
+        if c.get("choice") == "keep it skipped":
+            kept.append(weight)
+    return lines, kept
+
+
+def _run_line(session: Any, k: int, last: int) -> str:
+    record = session.runs[k] if k < len(session.runs) and isinstance(session.runs[k], Mapping) else {}
+    started = record.get("started", "?")
+    parts = [f"run {k} ({'resumed' if k else 'started'} {started})"]
+    asked, kept = _choices(record)
+    parts += asked
+    placed = _placed(session.summary, k)
+    parts.append(f"placed {_kg(placed)}" if placed else "no block completed")
+    stop = _run_stop(session, k, last)
+    skipped = stop.get("weights_skipped") if stop is not None else None
+    new_skips = [w for w in skipped if w not in kept] if isinstance(skipped, list) else []
+    if new_skips:
+        parts.append(f"skipped by the operator: {_kg(new_skips)}")
+    ended = how_run_ended(stop, running=bool(getattr(session, "running", False)) and k == last)
+    reason = f" — {stop.get('reason', '')}" if stop is not None and stop.get("status") != "success" else ""
+    parts.append(f"ended: {ended}{reason}")
+    return "; ".join(parts)
+
+
+def session_history(session: Any) -> list[str]:
+    """The history of a session (a :class:`daq.session_file.Session`) as lines of text: the loading order, then one
+    line per run — started or resumed when, the resume questions about skipped weights and their answers, the
+    weights placed, those skipped, how it ended (done, stopped early by Ctrl-C or the operator, failed, killed).
+
+    Everything comes from the file's run records, stop records and summary: the lines hold text from the file and
+    must be escaped where they are shown. An imported table has no history (empty list).
+    """
+    if getattr(session, "imported", False):
+        return []
+    runs = list(session.summary["run"].tolist())
+    last = max([len(session.runs) - 1, *runs, 0])
+    order = [float(w) for i, w in enumerate(session.summary["weight_kg"].tolist()) if i == 0 or
+             w != session.summary["weight_kg"].iloc[i - 1] or runs[i] != runs[i - 1]]  # fmt: skip
+    ends = [how_run_ended(_run_stop(session, k, last), running=bool(getattr(session, "running", False)) and k == last)
+            for k in range(last + 1)]  # fmt: skip
+    ctrl_c = sum(e == "stopped early (Ctrl-C)" for e in ends)
+    killed = sum(e.startswith("killed") for e in ends)
+    lines = [
+        f"loading order: {_kg(order)}" if order else "loading order: no block completed",
+        f"runs: {last + 1} ({last} resume(s)); interruptions: {ctrl_c} by Ctrl-C, {killed} killed",
+    ]
+    return lines + [_run_line(session, k, last) for k in range(last + 1)]

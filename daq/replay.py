@@ -25,7 +25,7 @@ from daq.acquire import drive
 from daq.errors import SessionFileError, SessionStateError
 from daq.link import InstrumentLink
 from daq.plan import Measure, PlaceWeight, settings_from_record
-from daq.records import BlockRecord
+from daq.records import BlockRecord, how_run_ended
 from daq.session_file import Session, exchange_list, load_session
 from daq.writers import MemoryWriter
 from instruments.errors import ReplayMismatch
@@ -63,6 +63,15 @@ class ReplayReport:
             "differences": list(self.differences),
             "notes": list(self.notes),
         }
+
+    def verdict(self) -> str:
+        """One line saying what differs (empty when identical)."""
+        if self.identical:
+            return ""
+        if self.differences:
+            more = f" (and {len(self.differences) - 1} more)" if len(self.differences) > 1 else ""
+            return f"{self.path}: replay DIFFERENT: {self.differences[0]}{more}"
+        return f"{self.path}: replay DIFFERENT: {self.blocks_replayed} of {self.blocks_recorded} blocks reproduced"
 
 
 class _PacedTransport:
@@ -105,6 +114,48 @@ def _exchanges(session: Session, run: int, blocks: set[int]) -> list[Exchange]:
     block = ex["block"].to_numpy()
     sel = (ex["run"].to_numpy() == run) & ((block == -1) | np.isin(block, sorted(blocks)))
     return exchange_list({name: ex[name].to_numpy()[sel] for name in ("kind", "message", "reply", "t_s", "error")})
+
+
+#: What the driver sends last when it closes the instrument: the source left idle.
+_ABORT = "SOUR:SWE:ABOR"
+
+
+def _run_stop(session: Session, run: int) -> dict[str, Any] | None:
+    """The stop record of ``run``: the session's own for its last run, else the one ``--resume`` moved into the run
+    record; None when the run has none (killed, or still running)."""
+    stop = session.stop
+    if isinstance(stop, dict) and stop.get("run", run) == run:
+        return stop
+    record = session.runs[run] if 0 <= run < len(session.runs) else None
+    moved = record.get("stop") if isinstance(record, dict) else None
+    return moved if isinstance(moved, dict) and moved.get("run", run) == run else None
+
+
+def _close_after_discarded_block(session: Session, run: int, blocks: set[int]) -> tuple[list[Exchange], str]:
+    """The close of a run stopped inside a block (Ctrl-C twice, or an error): the engine tagged it with the block it
+    discarded, so it is not among the exchanges replayed. When the run's transcript ends with ``SOUR:SWE:ABOR`` and
+    its stop record says it stopped early or failed, that closing abort is served back too, and a note says how the
+    run ended; otherwise (a killed run: no stop record, no close) nothing."""
+    stop = _run_stop(session, run)
+    if stop is None or stop.get("status") not in ("aborted", "failed"):
+        return [], ""
+    ex = session.exchanges
+    rows = np.flatnonzero(ex["run"].to_numpy() == run)
+    if not rows.size:
+        return [], ""
+    last = int(rows[-1])
+    block = int(ex["block"].iloc[last])
+    if block == -1 or block in blocks:
+        return [], ""  # closed between blocks: already among the exchanges replayed
+    tail = exchange_list({name: ex[name].to_numpy()[last : last + 1] for name in ("kind", "message", "reply", "t_s",
+                                                                               "error")})  # fmt: skip
+    if tail[0].kind != "write" or tail[0].message != _ABORT or tail[0].error:
+        return [], ""
+    note = (
+        f"run {run}: {how_run_ended(stop)} during block #{block}, which was discarded; the recording ends with "
+        f"{_ABORT} (source left idle)"
+    )
+    return tail, note
 
 
 def _steps(rows: pd.DataFrame) -> Iterator[PlaceWeight | Measure]:
@@ -179,9 +230,14 @@ def _recorded_settings(session: Session) -> tuple[InstrumentPair, object]:
 def _replay_run(session: Session, run: int, pair: InstrumentPair, settings: object, pace: bool, tally: _Tally) -> None:
     """Run ``run`` again on its recorded replies through :func:`daq.acquire.drive`, and compare its blocks."""
     rows = session.summary[session.summary["run"] == run]
-    exchanges = _exchanges(session, run, set(rows["block"].tolist()))
+    blocks = set(rows["block"].tolist())
+    exchanges = _exchanges(session, run, blocks)
     if not exchanges:
         return
+    close, ended = _close_after_discarded_block(session, run, blocks)
+    exchanges += close
+    if ended:
+        tally.notes.append(ended)
     replay = ReplayTransport(exchanges, strict=True)
     transport = _PacedTransport(replay) if pace else replay
     link = InstrumentLink(

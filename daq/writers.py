@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import errno
 import shutil
+import statistics
 import sys
 import tempfile
-from collections.abc import Iterator, Sequence
+import time
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, TextIO
@@ -138,19 +140,48 @@ class MemoryWriter:
 
 class LiveDisplay:
     """Progress bar (tqdm) with the live line — weight, mean R, SEM — on a terminal; one plain line per block
-    otherwise (logs, pipes, tests)."""
+    otherwise (logs, pipes, tests).
 
-    def __init__(self, total: int, done: int = 0, stream: TextIO | None = None, quiet: bool = False) -> None:
+    The bar's ETA (:attr:`eta_s`) counts block time only: the time spent waiting for the operator (the prompt, run
+    inside :meth:`paused`) is left out of each block's duration, so a long pause to change weights does not inflate
+    the estimate; tqdm's own remaining-time field (which would include it) is not shown. ``clock``: seconds (tests).
+    """
+
+    #: the bar without tqdm's own remaining time: the postfix carries the block-time ETA
+    BAR_FORMAT = "{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]"
+
+    def __init__(
+        self,
+        total: int,
+        done: int = 0,
+        stream: TextIO | None = None,
+        quiet: bool = False,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
         self.total = total
         self.index = done
         self.stream = stream if stream is not None else sys.stderr
         self.quiet = quiet
+        self._clock = clock
+        self._mark = clock()  # end of the last block (or the start)
+        self._waited = 0.0  # time spent waiting for the operator since then
+        self.block_times_s: list[float] = []
         self._bar: Any = None
         if not quiet and _isatty(self.stream):
             from tqdm import tqdm
 
             width = shutil.get_terminal_size((100, 24)).columns  # a pty reporting 0 columns would hide the bar
-            self._bar = tqdm(total=total, initial=done, unit="block", file=self.stream, ncols=width)
+            self._bar = tqdm(
+                total=total, initial=done, unit="block", file=self.stream, ncols=width, bar_format=self.BAR_FORMAT
+            )
+
+    @property
+    def eta_s(self) -> float | None:
+        """Time still needed (s): the median block time (operator waits left out) × blocks left; None before the
+        first block."""
+        if not self.block_times_s:
+            return None
+        return statistics.median(self.block_times_s[-20:]) * max(self.total - self.index, 0)
 
     def message(self, text: str) -> None:
         if self.quiet:
@@ -162,12 +193,15 @@ class LiveDisplay:
 
     @contextmanager
     def paused(self) -> Iterator[None]:
-        """Clear the bar while the operator is asked something; draw it again afterwards."""
+        """Clear the bar while the operator is asked something; draw it again afterwards. The time spent here is
+        not block time (see :attr:`eta_s`)."""
+        t0 = self._clock()
         if self._bar is not None:
             self._bar.clear()
         try:
             yield
         finally:
+            self._waited += max(self._clock() - t0, 0.0)
             if self._bar is not None:
                 self._bar.refresh()
 
@@ -183,11 +217,15 @@ class LiveDisplay:
         pass
 
     def block(self, rec: BlockRecord) -> None:
+        now = self._clock()
+        self.block_times_s.append(max(now - self._mark - self._waited, 0.0))
+        self._mark, self._waited = now, 0.0
         self.index += 1
         line = format_live_line(rec, self.index, self.total)
         if self._bar is not None:
+            eta = self.eta_s
             self._bar.update(1)
-            self._bar.set_postfix_str(line.split("  ", 1)[1], refresh=True)
+            self._bar.set_postfix_str(f"{line.split('  ', 1)[1]}  ETA {_duration(eta or 0.0)} (blocks)", refresh=True)
         elif not self.quiet:
             print(line, file=self.stream, flush=True)
 
@@ -195,6 +233,16 @@ class LiveDisplay:
         self.close()
         hint = "" if stop.status == "success" else f" — {stop.blocks_done} block(s) on file; --resume continues"
         self.message(f"session {stop.status}: {stop.reason}{hint}")
+
+
+def _duration(seconds: float) -> str:
+    """``1 h 02 min``, ``3 min 05 s``, ``42 s``."""
+    s = round(seconds)
+    if s >= 3600:
+        return f"{s // 3600} h {s % 3600 // 60:02d} min"
+    if s >= 60:
+        return f"{s // 60} min {s % 60:02d} s"
+    return f"{s} s"
 
 
 def _isatty(stream: TextIO) -> bool:

@@ -158,7 +158,53 @@ def _circuit(args: argparse.Namespace) -> int:
     return 0
 
 
+#: HDF5's format signature; it sits at byte 0 or, after a user block, at 512, 1024, 2048 … (the HDF5 spec).
+_HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+#: Tables of a contactrig scene (contactrig.core.scene); a TOML file holding any of them is a scene.
+_SCENE_TABLES = ("scene", "materials", "surfaces", "database", "rig", "press", "circuit", "instrument", "delta",
+                 "session")  # fmt: skip
+_MAX_SCENE_BYTES = 4 << 20
+
+
+def _is_hdf5(head: bytes) -> bool:
+    offsets = [0] + [512 << k for k in range(12)]
+    return any(head[o : o + len(_HDF5_SIGNATURE)] == _HDF5_SIGNATURE for o in offsets)
+
+
+def _refuse_scene_file(path: str, command: str) -> None:
+    """``fit``/``figures``/``report`` take a session file or ``tab1``: a TOML scene passed instead is named as such.
+
+    Decided by the file's content, whatever its suffix: not HDF5 (no signature where HDF5 puts it) and TOML with
+    scene tables. Anything else goes on to the session reader, which says what is wrong with it. Only regular files
+    of scene size are read (a FIFO or a device is left to the reader, which refuses it unopened)."""
+    import os
+    import stat
+    import tomllib
+
+    try:
+        st = os.stat(path)
+        if not stat.S_ISREG(st.st_mode) or st.st_size > _MAX_SCENE_BYTES:
+            return
+        with open(path, "rb") as fh:
+            head = fh.read(_MAX_SCENE_BYTES)
+    except OSError:
+        return
+    if _is_hdf5(head):
+        return
+    try:
+        data = tomllib.loads(head.decode("utf-8"))
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return
+    if any(isinstance(data.get(name), dict) for name in _SCENE_TABLES):
+        raise ValueError(
+            f"{path} is a scene file (TOML), not a session: {command} takes SESSION.h5 (a session file) or "
+            f"'{_TAB1}', with the scene given by the session (recorded in it) or --sim SIM.h5 (a simulation of it)"
+        )
+
+
 def _analysis(args: argparse.Namespace) -> Any:
+    if args.session != _TAB1:
+        _refuse_scene_file(args.session, args.command)  # before anything is read or simulated
     kw = {
         "conversion": args.conversion,
         "weighting": args.weighting,

@@ -55,7 +55,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="re-run a recorded session through the acquisition code against its recorded instrument replies",
         description=(
             "Replay SESSION through the same acquisition code path with the recorded instrument replies and check "
-            "that every block's summary and readings come out identical. Exit 0 if identical, 1 if not."
+            "that every block's summary and readings come out identical. Exit 0 if identical; 2 if not, with one "
+            "line on stderr saying what differs (the one contract: 0 done, 1 stopped early, 2 error)."
         ),
     )
     rep.add_argument("session", help="session file (HDF5)")
@@ -165,7 +166,10 @@ def replay_command(args: argparse.Namespace) -> int:
             print(f"  note: {safe(line)}")
         for line in report.differences:
             print(f"  difference: {safe(line)}")
-    return 0 if report.identical else 1
+    if report.identical:
+        return 0
+    print(f"contactrig replay: error: {safe(report.verdict())}", file=sys.stderr)
+    return 2  # a replay that does not reproduce the recording is an error, not a run stopped early
 
 
 def import_command(args: argparse.Namespace) -> int:

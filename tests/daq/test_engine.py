@@ -60,7 +60,7 @@ def test_operator_skip_and_quit(plan, tmp_path):
 def test_terminal_prompter_reasks_and_handles_eof(capsys):
     import io
 
-    replies = iter(["what", "s"])
+    replies = iter(["what", "s", "y"])  # a skip is confirmed (issue #11)
     ask = terminal_prompter(io.StringIO(), read=lambda: next(replies))
     assert ask(PlaceWeight(0, 5.44, 2)) == "skip"
 
