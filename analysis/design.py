@@ -252,7 +252,7 @@ def plan_scene_text(scene_text: str, plan: Plan) -> str:
     return scene_text[:start] + body + scene_text[end:]
 
 
-def draw_map(result: DesignResult, path: str) -> None:
+def draw_map(result: DesignResult, path: str, *, force: bool = False) -> None:
     """Discrimination map: probability per plan (rows, by cost) and model pair (columns); saved to ``path``."""
     import matplotlib
 
@@ -269,5 +269,7 @@ def draw_map(result: DesignResult, path: str) -> None:
     ax.set_title(f"{result.geometry}: P(ΔAIC ≥ {DELTA_AIC:g}, both ways)", fontsize=8)
     fig.colorbar(im, ax=ax)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    from analysis.figures import save_figure_file
+
+    save_figure_file(fig, path, force=force)  # atomic; an existing file only with force
     plt.close(fig)
