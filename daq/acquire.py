@@ -86,17 +86,13 @@ def terminal_prompter(stream: TextIO | None = None, read: Callable[[], str] = in
 
     def prompt(step: PlaceWeight) -> Decision:
         while True:
-            print(
+            answer = _ask(
                 f"Place weight {step.weight_index + 1}: {step.weight_kg:g} kg in the piston "
                 f"({step.repeats_left} block(s) to measure). [Enter] go on, s skip, q stop: ",
-                end="",
-                file=out,
-                flush=True,
+                out,
+                read,
+                OperatorQuit("no operator input (stdin closed): run unattended with --yes"),
             )
-            try:
-                answer = read().strip().lower()
-            except EOFError:
-                raise OperatorQuit("no operator input (stdin closed): run unattended with --yes") from None
             if answer in ("", "g", "go", "y", "yes"):
                 return "go"
             if answer in ("s", "skip"):
@@ -111,14 +107,20 @@ def terminal_prompter(stream: TextIO | None = None, read: Callable[[], str] = in
     return prompt
 
 
-def _confirmed(question: str, out: TextIO, read: Callable[[], str]) -> bool:
-    """Ask a yes/no question; only ``y``/``yes`` is yes (Enter, anything else: no)."""
+def _ask(question: str, out: TextIO, read: Callable[[], str], on_eof: Exception) -> str:
+    """Print ``question`` and return the operator's answer, stripped and lower-case; ``on_eof`` is raised when
+    stdin is closed (nobody at the terminal)."""
     print(question, end="", file=out, flush=True)
     try:
-        answer = read().strip().lower()
+        return read().strip().lower()
     except EOFError:
-        raise OperatorQuit("no operator input (stdin closed): run unattended with --yes") from None
-    return answer in ("y", "yes")
+        raise on_eof from None
+
+
+def _confirmed(question: str, out: TextIO, read: Callable[[], str]) -> bool:
+    """Ask a yes/no question; only ``y``/``yes`` is yes (Enter, anything else: no)."""
+    eof = OperatorQuit("no operator input (stdin closed): run unattended with --yes")
+    return _ask(question, out, read, eof) in ("y", "yes")
 
 
 #: Asked on ``--resume`` for each weight an earlier run skipped: True = measure it now (placed first in this run),
@@ -133,20 +135,13 @@ def terminal_resume_chooser(stream: TextIO | None = None, read: Callable[[], str
     out = stream if stream is not None else sys.stderr
 
     def choose(weight_kg: float) -> bool:
+        eof = SessionStateError(
+            f"no operator input (stdin closed) to say whether to measure the skipped {weight_kg:g} kg: "
+            "answer at the terminal, or resume with --yes (keeps it skipped)"
+        )
+        question = f"{weight_kg:g} kg was skipped: m {MEASURE_NOW} (placed first in this run), [Enter] {KEEP_SKIPPED}: "
         while True:
-            print(
-                f"{weight_kg:g} kg was skipped: m {MEASURE_NOW} (placed first in this run), [Enter] {KEEP_SKIPPED}: ",
-                end="",
-                file=out,
-                flush=True,
-            )
-            try:
-                answer = read().strip().lower()
-            except EOFError:
-                raise SessionStateError(
-                    f"no operator input (stdin closed) to say whether to measure the skipped {weight_kg:g} kg: "
-                    "answer at the terminal, or resume with --yes (keeps it skipped)"
-                ) from None
+            answer = _ask(question, out, read, eof)
             if answer in ("", "k", "keep"):
                 return False
             if answer in ("m", "measure"):
