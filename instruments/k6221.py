@@ -122,6 +122,18 @@ def pinned_state() -> dict[str, dict[str, str]]:
     }
 
 
+#: A conservative sustained rate of GPIB and LAN replies [bytes/s] (GPIB reaches ~1 MB/s; the 6221's LAN more).
+FAST_LINK_BYTES_PER_S = 250e3
+
+
+def fast_chunk_size(timeout_ms: int, largest: int = 10_000) -> int:
+    """Readings per ``TRAC:DATA:SEL?`` on GPIB or LAN: a reply (~27 bytes per reading,timestamp pair) takes at most
+    a quarter of the VISA timeout at :data:`FAST_LINK_BYTES_PER_S`, between 1000 (Tektronix's chunk) and
+    ``largest``; fewer, longer replies cost fewer turns (tests/benchmarks/bench_delta_overhead.py)."""
+    fits = int(0.25 * timeout_ms / 1000.0 * FAST_LINK_BYTES_PER_S / 27.0)
+    return max(1000, min(largest, fits))
+
+
 class Keithley6221:
     """A 6221 (+2182A) behind ``transport``.
 
@@ -180,8 +192,9 @@ class Keithley6221:
         buffer chunks unless ``chunk_size`` is given) and a ``timeout_ms`` VISA timeout, on ``resource_manager`` or
         a new one on ``visa_library`` (e.g. ``"@py"``). Use as a context manager."""
         transport = VisaTransport.open(address, resource_manager, timeout_ms, visa_library=visa_library, serial=serial)
-        if transport.serial is not None and "chunk_size" not in kwargs:
-            kwargs["chunk_size"] = transport.serial.chunk_size(timeout_ms)
+        if "chunk_size" not in kwargs:
+            serial_link = transport.serial
+            kwargs["chunk_size"] = serial_link.chunk_size(timeout_ms) if serial_link else fast_chunk_size(timeout_ms)
         try:
             return cls(transport, **kwargs)
         except BaseException:  # invalid driver options: nothing was sent, but the connection must not leak

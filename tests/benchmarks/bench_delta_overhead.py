@@ -3,7 +3,8 @@
 Run by hand:  python tests/benchmarks/bench_delta_overhead.py [--counts 10 100 1000 10000] [--repeats 3]
 
 For each count it times, in one run (pair-wise against the baselines):
-  chunked    driver reads the buffer with TRAC:DATA:SEL? in chunks of 1000, simulator serves replies in chunks
+  chunked    driver reads the buffer with TRAC:DATA:SEL? in chunks sized as Keithley6221.open sizes them on GPIB/LAN
+             for a 5 s timeout (fast_chunk_size: 10000), simulator serves replies in chunks
   single     one TRAC:DATA? for the whole buffer (simulator still serves in chunks; a driver subclass below)
   bytewise   chunked driver reads, but replies served by pyvisa-sim's own byte-by-byte session read (a library
              subclass below)
@@ -33,7 +34,7 @@ import pyvisa
 from pyvisa_sim.highlevel import SimVisaLibrary
 
 from instruments.delta import DeltaSettings
-from instruments.k6221 import Keithley6221
+from instruments.k6221 import Keithley6221, fast_chunk_size
 from instruments.simulated import GPIB_ADDRESS, BenchVisaLibrary, SimulatedBench
 from instruments.transport import RecordingTransport, ReplayTransport, VisaTransport
 
@@ -62,7 +63,8 @@ def run_block(count: int, single: bool, bytewise: bool = False, record: bool = F
     rm = pyvisa.ResourceManager((BytewiseLibrary if bytewise else BenchVisaLibrary).create(bench))
     transport = VisaTransport.open(GPIB_ADDRESS, rm, timeout_ms=60_000)
     rec = RecordingTransport(transport) if record else None
-    k = (SingleReadK6221 if single else Keithley6221)(rec or transport)
+    # chunks as Keithley6221.open sizes them on GPIB/LAN for contactrig's default 5 s timeout
+    k = (SingleReadK6221 if single else Keithley6221)(rec or transport, chunk_size=fast_chunk_size(5000))
     settings = DeltaSettings(high_a=I_A, count=count)
     t0 = time.perf_counter()
     block = k.run_delta(settings)
@@ -113,7 +115,8 @@ def count_messages(count: int) -> int:
 
 
 def replay_block(exchanges, count: int):
-    k = Keithley6221(ReplayTransport(exchanges), clock=lambda: 0.0, sleep=lambda s: None, chunk_size=1000)
+    chunk = fast_chunk_size(5000)
+    k = Keithley6221(ReplayTransport(exchanges), clock=lambda: 0.0, sleep=lambda s: None, chunk_size=chunk)
     t0 = time.perf_counter()
     block = k.run_delta(DeltaSettings(high_a=I_A, count=count))
     return time.perf_counter() - t0, block
