@@ -25,13 +25,14 @@ __all__ = ["escape_html", "escape_markdown", "escape_terminal", "markdown_code_b
 # (bidi overrides and isolates, zero-width joiners): "Trojan source" tricks in a terminal or a rendered report.
 _BIDI = "\u061c\u200b\u200c\u200d\u200e\u200f\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069\ufeff"
 _CONTROL = re.compile(f"[\x00-\x09\x0b-\x1f\x7f-\x9f{_BIDI}\u2028\u2029]")
-# Characters with an inline meaning anywhere: code spans, emphasis, tables, strikethrough, math, attributes, the
-# parentheses of link targets, and "-" (list items, rules, setext headings and table rules are made of it); "]" where
+# Characters with an inline meaning anywhere: code spans, emphasis, tables, strikethrough, math, attributes and the
+# parentheses of link targets ("-" makes lists, rules and setext headings only at the start of a line, and the text
+# is one line here: handled by the line-start rule; table rules need "|", which is escaped); "]" where
 # it could close a link, an image or a reference definition ("](", "][", "]:" — so "[rig]" stays readable); "_" only
 # where it can open or close emphasis (snake_case stays readable); and the block markers that count only at the start
 # of a line (heading, quote, list, rule).
-_MARKDOWN_INLINE = re.compile(r"([\\`*|~$<>{}()-])|\](?=[(\[:])|(?<![0-9A-Za-z])_|_(?![0-9A-Za-z])")
-_MARKDOWN_LINE_START = re.compile(r"^(\s*\d*)([#+=-]|(?<=\d)[.)](?=\s|$))")
+_MARKDOWN_INLINE = re.compile(r"([\\`*|~$<>{}()])|\](?=[(\[:])|(?<![0-9A-Za-z])_|_(?![0-9A-Za-z])")
+_MARKDOWN_LINE_START = re.compile(r"^(\s*)([#+=-])|^(\s*\d+)([.)])(?=\s|$)")
 
 
 def _visible(match: re.Match[str]) -> str:
@@ -63,14 +64,19 @@ def escape_markdown(value: object) -> str:
     """``value`` as inline Markdown text (a paragraph, a list item, a table cell): shown literally.
 
     Line breaks become spaces (a table row or list item stays one line); ``&`` and ``<`` become HTML entities (no
-    raw HTML, no autolink); the characters with an inline meaning (``\\ ` * | ~ $ { } ( ) -``, ``]`` before ``( [ :``
+    raw HTML, no autolink); the characters with an inline meaning (``\\ ` * | ~ $ { } ( )``, ``]`` before ``( [ :``
     and ``_`` outside a word) are backslash-escaped, and so is a block marker at the start (``#``, ``>``, ``-``,
     ``+``, ``=``, ``1.``). No link, image, emphasis, code span, table cell or HTML can come out of it."""
     text = _CONTROL.sub(_visible, _str(value).replace("\r\n", "\n"))
     text = " ".join(text.split("\n"))
     text = _MARKDOWN_INLINE.sub(lambda m: "\\" + m.group(0), text)
     text = text.replace("&", "&amp;").replace("\\<", "&lt;").replace("\\>", "&gt;")
-    return _MARKDOWN_LINE_START.sub(lambda m: m.group(1) + "\\" + m.group(2), text, count=1)
+    return _MARKDOWN_LINE_START.sub(_escape_marker, text, count=1)
+
+
+def _escape_marker(m: re.Match[str]) -> str:
+    lead, marker = (m.group(1), m.group(2)) if m.group(2) is not None else (m.group(3), m.group(4))
+    return f"{lead}\\{marker}"
 
 
 def markdown_code_block(value: object, info: str = "text") -> str:

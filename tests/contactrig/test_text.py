@@ -53,8 +53,10 @@ def test_markdown_shows_markup_as_text(text):
 
 
 def test_markdown_leaves_ordinary_text_readable():
+    assert escape_markdown("2026-11-24T14:45 paper-default") == "2026-11-24T14:45 paper-default"
+    assert escape_markdown("- item") == "\\- item" and escape_markdown("1. first") == "1\\. first"
     assert escape_markdown("ψ = 1.8, [rig] clearance_m = 1e-3 (measured)!") == (
-        "ψ = 1.8, [rig] clearance_m = 1e\\-3 \\(measured\\)!"
+        "ψ = 1.8, [rig] clearance_m = 1e-3 \\(measured\\)!"
     )
 
 
