@@ -33,23 +33,10 @@ def _sweep_file(path, weights=W, scene=None):
 
 
 def _incomplete_session(path):
-    from daq.records import BlockRecord, now_iso
-    from daq.session_file import SessionFile
+    from tests.analysis.sessions import model_resistance, write_session
 
     rng = np.random.default_rng(0)
-    with SessionFile.create(path) as sf:
-        sf.write_start({"started": now_iso(), "operator": "tester"}, "")
-        block = 0
-        for rep in range(3):
-            for w in W:
-                r = 2e-4 + 5e-10 / (1e-7 * (w / 5) ** 0.8) * (1 + 0.01 * rng.normal()) + 1e-7 * rng.normal(size=5)
-                sf.append_block(
-                    BlockRecord(
-                        block=block, run=0, weight_kg=float(w), repeat=rep, unit="V", reading=r,
-                        time_s=np.arange(5.0), resistance_ohm=r, valid=np.ones(5, bool), started=now_iso(),
-                    )
-                )  # fmt: skip
-                block += 1
+    write_session(path, ((w, rep, model_resistance(w, rng, 0.01)) for rep in range(3) for w in W))
     return path
 
 

@@ -82,25 +82,17 @@ def _sweep_file(path, weights=W, scene=None, provenance_extra=None, peak_pa=1e6,
 def _session(path, weights=W, repeats=3, scene_text="", last_repeats=None, seed=0):
     """A session file (no stop record) with ``repeats`` blocks per weight, R = 0.2 mΩ + 5e-10/A(W) with 1 % scatter;
     the last weight gets ``last_repeats`` blocks when given (a partial last weight)."""
-    from daq.records import BlockRecord, now_iso
-    from daq.session_file import SessionFile
+    from tests.analysis.sessions import model_resistance, write_session
 
     rng = np.random.default_rng(seed)
-    with SessionFile.create(path) as sf:
-        sf.write_start({"started": now_iso(), "operator": "tester"}, scene_text)
-        block = 0
-        for rep in range(repeats):
-            for i, w in enumerate(weights):
-                if last_repeats is not None and i == len(weights) - 1 and rep >= last_repeats:
-                    continue
-                r = 2e-4 + 5e-10 / (1e-7 * (w / 5) ** 0.8) * (1 + 0.01 * rng.normal()) + 1e-7 * rng.normal(size=5)
-                sf.append_block(
-                    BlockRecord(
-                        block=block, run=0, weight_kg=float(w), repeat=rep, unit="V", reading=r,
-                        time_s=np.arange(5.0), resistance_ohm=r, valid=np.ones(5, bool), started=now_iso(),
-                    )
-                )  # fmt: skip
-                block += 1
+    last = len(weights) - 1
+    blocks = (
+        (w, rep, model_resistance(w, rng, 0.01))
+        for rep in range(repeats)
+        for i, w in enumerate(weights)
+        if not (last_repeats is not None and i == last and rep >= last_repeats)
+    )
+    write_session(path, blocks, scene_text=scene_text)
     return path
 
 

@@ -153,25 +153,20 @@ def test_simulate_elastic_prints_the_effect_instead_of_the_roughness_warnings(ca
 
 def _press_session(path, weights, sigma):
     """A session of the press scene whose R = σ / A_press(W), areas from a toy list given by the test."""
-    from daq.records import BlockRecord, StopRecord, now_iso
-    from daq.session_file import SessionFile
+    from daq.records import StopRecord, now_iso
+    from tests.analysis.sessions import write_session
 
     rng = np.random.default_rng(2)
-    with SessionFile.create(path) as sf:
-        sf.write_start({"started": now_iso(), "operator": "t"}, PRESS.read_text(encoding="utf-8"))
-        block = 0
-        for rep in range(3):
-            for w, r_true in zip(weights, sigma, strict=True):
-                r = r_true * (1 + 0.01 * rng.normal()) * np.ones(5)
-                sf.append_block(
-                    BlockRecord(
-                        block=block, run=0, weight_kg=float(w), repeat=rep, unit="V", reading=r,
-                        time_s=np.arange(5.0), resistance_ohm=r, valid=np.ones(5, bool), started=now_iso(),
-                    )
-                )  # fmt: skip
-                block += 1
-        sf.write_stop(StopRecord(status="success", reason="done", stopped=now_iso(), blocks_planned=block,
-                                 blocks_done=block, readings_done=5 * block))  # fmt: skip
+    blocks = (
+        (w, rep, r_true * (1 + 0.01 * rng.normal()) * np.ones(5))
+        for rep in range(3)
+        for w, r_true in zip(weights, sigma, strict=True)
+    )
+    stop = lambda n: StopRecord(  # noqa: E731
+        status="success", reason="done", stopped=now_iso(), blocks_planned=n, blocks_done=n, readings_done=5 * n
+    )
+    write_session(path, blocks, start={"started": now_iso(), "operator": "t"},
+                  scene_text=PRESS.read_text(encoding="utf-8"), stop=stop)  # fmt: skip
     return path
 
 

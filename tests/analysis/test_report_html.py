@@ -104,30 +104,21 @@ STOP_REASON = f"operator stopped: {SCRIPT} {ANSI}"
 
 def _hostile_session(path, weights=W, repeats=3, scene_text=""):
     """A complete session whose start and stop records carry markup, links, script and terminal escapes."""
-    from daq.records import BlockRecord, StopRecord, now_iso
-    from daq.session_file import SessionFile
+    from daq.records import StopRecord, now_iso
+    from tests.analysis.sessions import model_resistance, write_session
 
     rng = np.random.default_rng(0)
     start = {"started": now_iso(), "operator": SCRIPT, "sample": LINK, "host": MARKUP, "command": ANSI, "rig": ANSI}
-    with SessionFile.create(path) as sf:
-        sf.write_start(start, scene_text)
-        block = 0
-        for rep in range(repeats):
-            for w in weights:
-                r = 2e-4 + 5e-10 / (1e-7 * (w / 5) ** 0.8) * (1 + 0.02 * rng.normal()) + 1e-7 * rng.normal(size=5)
-                sf.append_block(
-                    BlockRecord(
-                        block=block, run=0, weight_kg=float(w), repeat=rep, unit="V", reading=r,
-                        time_s=np.arange(5.0), resistance_ohm=r, valid=np.ones(5, bool), started=now_iso(),
-                    )
-                )  # fmt: skip
-                block += 1
-        sf.write_stop(
-            StopRecord(
-                status="aborted", reason=STOP_REASON, stopped=now_iso(), blocks_planned=block + 4,
-                blocks_done=block, readings_done=5 * block,
-            )
-        )  # fmt: skip
+    write_session(
+        path,
+        ((w, rep, model_resistance(w, rng, 0.02)) for rep in range(repeats) for w in weights),
+        start=start,
+        scene_text=scene_text,
+        stop=lambda n: StopRecord(
+            status="aborted", reason=STOP_REASON, stopped=now_iso(), blocks_planned=n + 4, blocks_done=n,
+            readings_done=5 * n,
+        ),
+    )
     return path
 
 
