@@ -51,6 +51,13 @@ class DemoResult:
 TITLES = ("Simulated session", "Seed paper Tab. 1", "Seed paper Tab. 1 (M1, M2, M3)")
 
 
+def _session_note(caught: Any) -> bool:
+    """A warning :func:`daq.load_session` raised for a note that ``Session.warnings`` already holds."""
+    from daq.errors import SessionNoteWarning
+
+    return issubclass(caught.category, SessionNoteWarning)
+
+
 def run_demo(
     directory: str | Path = "contactrig-demo",
     *,
@@ -118,7 +125,7 @@ def run_demo(
         "imported": session.imported,
         "start": session.start,
         "stop": session.stop,
-        "warnings": list(session.warnings) + [str(w.message) for w in caught],
+        "warnings": list(session.warnings) + [str(w.message) for w in caught if not _session_note(w)],
     }
     analyses = [
         analyse(

@@ -292,6 +292,13 @@ def _normalised(curve: MeasuredCurve, keep: np.ndarray) -> tuple[NormalisedCurve
     return normalise_simulated(curve.weight_kg, curve.mean_ohm), every, [note]
 
 
+def _session_note(caught: warnings.WarningMessage) -> bool:
+    """A warning :func:`daq.load_session` raised for a note that ``Session.warnings`` already holds."""
+    from daq.errors import SessionNoteWarning
+
+    return issubclass(caught.category, SessionNoteWarning)
+
+
 def _scene_for(session: Any) -> Any:
     from contactrig.core.scene import load_scene, parse_scene
 
@@ -355,7 +362,7 @@ def analyse_session(
         "imported": bool(session.imported),
         "start": session.start,
         "stop": session.stop,
-        "warnings": list(session.warnings) + [str(w.message) for w in caught if str(w.message) not in session.warnings],
+        "warnings": list(session.warnings) + [str(w.message) for w in caught if not _session_note(w)],
         "scene_source": scene.source,
         "history": session_history(session),  # loading order, skips, resumes, interruptions (text from the file)
     }

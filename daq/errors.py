@@ -13,6 +13,7 @@ __all__ = [
     "NewerSchemaError",
     "SessionExistsError",
     "SessionFileError",
+    "SessionNoteWarning",
     "SessionStateError",
     "SessionWriteError",
 ]
@@ -68,5 +69,10 @@ class SessionStateError(RuntimeError):
     """The session cannot do what was asked in its current state (resume a complete session, replay an import…)."""
 
 
-class IncompleteSessionWarning(UserWarning):
+class SessionNoteWarning(UserWarning):
+    """A note :func:`daq.load_session` has about a session (aborted, unsealed, altered…); the same text, unescaped,
+    is in ``Session.warnings``, so callers that keep those need not collect these too."""
+
+
+class IncompleteSessionWarning(SessionNoteWarning):
     """The session has no stop record: it was killed, lost power, or is still being written."""

@@ -54,6 +54,7 @@ import numpy as np
 import pandas as pd
 
 from contactrig.core import provenance
+from contactrig.core.text import escape_terminal
 from daq.errors import (
     ChecksumError,
     FileLockingError,
@@ -62,6 +63,7 @@ from daq.errors import (
     NewerSchemaError,
     SessionExistsError,
     SessionFileError,
+    SessionNoteWarning,
     SessionWriteError,
 )
 from daq.records import BlockRecord, StopRecord, block_digest, exchanges_digest
@@ -1207,8 +1209,9 @@ def load_session(path: str | Path, *, verify: bool = True, timeout: float | None
 
     p = Path(path)
     session = call_bounded(_load, (p, verify), path=p, what="session file", timeout=timeout)
-    for note in session.warnings:
-        warnings.warn(note, IncompleteSessionWarning if session.stop is None else UserWarning, stacklevel=2)
+    for note in session.warnings:  # file text inside: shown escaped wherever Python prints a warning
+        category = IncompleteSessionWarning if session.stop is None else SessionNoteWarning
+        warnings.warn(escape_terminal(note), category, stacklevel=2)
     return session
 
 

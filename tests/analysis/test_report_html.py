@@ -297,3 +297,20 @@ def test_fig9_labels_every_repeat_m1_to_mn():
     b, _ = _toy_analysis(labels=("M1", "M2", "M5", "M6"))  # series with names keep them
     legend = {t.get_text() for t in F.figure_measured(b.curve).axes[0].get_legend().get_texts()}
     assert {"M1", "M2", "M5", "M6"} <= legend and "M3" not in legend
+
+
+def test_load_session_warnings_show_file_text_escaped(hostile_report):
+    """A Python user's terminal gets the notes escaped; Session.warnings keeps the file's text as data."""
+    import warnings
+
+    from daq import load_session
+    from daq.errors import SessionNoteWarning
+
+    session = hostile_report[3]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        loaded = load_session(session)
+    notes = [str(w.message) for w in caught if issubclass(w.category, SessionNoteWarning)]
+    assert notes and all("\x1b" not in n and "\x07" not in n for n in notes)
+    assert any("\\x1b" in n for n in notes)  # shown, not executed
+    assert any("\x1b" in n for n in loaded.warnings)  # the data itself is unchanged
