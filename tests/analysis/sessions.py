@@ -42,3 +42,34 @@ def write_session(
         if stop is not None:
             sf.write_stop(stop(n))
     return Path(path)
+
+
+def write_toy_sweep(
+    path: str | Path,
+    weights_kg: Any,
+    *,
+    scene: Any = None,
+    peak_pa: float = 1e6,
+    warnings: Iterable[str] = (),
+    provenance_extra: Mapping[str, Any] | None = None,
+) -> Path:
+    """A toy sweep file (A ∝ W^0.8 for greenwood_tripp, W^(2/3) for hertz, 0.1 mm² at 5 kg) fingerprinted as a
+    simulation of ``scene`` (the packaged default scene when None), so fit/report accept it for that scene."""
+    from contactrig.core.scene import load_scene
+    from daq.sweep_file import config_fingerprint, save_sweep
+    from sims.config import SimConfig
+    from sims.rig import ModelSweep, SweepResult
+
+    w = np.asarray(weights_kg, dtype=float)
+    n = w.size
+    models = {
+        name: ModelSweep(
+            name=name, weight_kg=w, contact_area_m2=1e-7 * (w / 5) ** expo, min_separation_m=np.full(n, 1e-6),
+            force_n=w * 9.80665, peak_pressure_pa=np.full(n, peak_pa), contact_width_m=np.full(n, 1e-3),
+            n_nodes=np.full(n, 10), converged=np.ones(n, bool),
+        )
+        for name, expo in (("greenwood_tripp", 0.8), ("hertz", 2 / 3))
+    }  # fmt: skip
+    fingerprint = config_fingerprint(SimConfig.from_scene(scene if scene is not None else load_scene()))
+    provenance = {"software_version": "test", "fingerprint": fingerprint, **(provenance_extra or {})}
+    return save_sweep(SweepResult(models=models, warnings=list(warnings), provenance=provenance), path)

@@ -53,30 +53,11 @@ def _scene(clearance="40e-6"):
 
 
 def _sweep_file(path, weights=W, scene=None, provenance_extra=None, peak_pa=1e6, warnings=()):
-    """A toy sweep (A ∝ W^0.8 and W^(2/3)) fingerprinted as a simulation of ``scene`` (default scene when None)."""
-    from daq.sweep_file import config_fingerprint, save_sweep
-    from sims.config import SimConfig
-    from sims.rig import ModelSweep, SweepResult
+    """A toy sweep (A ∝ W^0.8 and W^(2/3)) fingerprinted as a simulation of ``scene`` (the test scene when None)."""
+    from tests.analysis.sessions import write_toy_sweep
 
-    weights = np.asarray(weights, dtype=float)
-    n = weights.size
-    models = {
-        name: ModelSweep(
-            name=name,
-            weight_kg=weights,
-            contact_area_m2=1e-7 * (weights / 5) ** expo,
-            min_separation_m=np.full(n, 1e-6),
-            force_n=weights * 9.80665,
-            peak_pressure_pa=np.full(n, peak_pa),
-            contact_width_m=np.full(n, 1e-3),
-            n_nodes=np.full(n, 10),
-            converged=np.ones(n, bool),
-        )
-        for name, expo in (("greenwood_tripp", 0.8), ("hertz", 2 / 3))
-    }
-    prov = {"software_version": "test", "fingerprint": config_fingerprint(SimConfig.from_scene(scene or _scene()))}
-    prov.update(provenance_extra or {})
-    return save_sweep(SweepResult(models=models, warnings=list(warnings), provenance=prov), path)
+    return write_toy_sweep(path, weights, scene=scene or _scene(), peak_pa=peak_pa, warnings=warnings,
+                           provenance_extra=provenance_extra)  # fmt: skip
 
 
 def _session(path, weights=W, repeats=3, scene_text="", last_repeats=None, seed=0):

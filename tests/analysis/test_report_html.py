@@ -75,28 +75,9 @@ def _shown_markdown(text: str) -> str:
 
 
 def _sweep_file(path, weights=W, warnings=()):
-    from contactrig.core.scene import load_scene
-    from daq.sweep_file import config_fingerprint, save_sweep
-    from sims.config import SimConfig
-    from sims.rig import ModelSweep, SweepResult
+    from tests.analysis.sessions import write_toy_sweep
 
-    n = weights.size
-    models = {
-        name: ModelSweep(
-            name=name,
-            weight_kg=weights,
-            contact_area_m2=1e-7 * (weights / 5) ** expo,
-            min_separation_m=np.full(n, 1e-6),
-            force_n=weights * 9.80665,
-            peak_pressure_pa=np.full(n, 1e5),
-            contact_width_m=np.full(n, 1e-3),
-            n_nodes=np.full(n, 10),
-            converged=np.ones(n, bool),
-        )
-        for name, expo in (("greenwood_tripp", 0.8), ("hertz", 2 / 3))
-    }
-    prov = {"software_version": "test", "fingerprint": config_fingerprint(SimConfig.from_scene(load_scene()))}
-    return save_sweep(SweepResult(models=models, warnings=list(warnings), provenance=prov), path)
+    return write_toy_sweep(path, weights, peak_pa=1e5, warnings=warnings)
 
 
 STOP_REASON = f"operator stopped: {SCRIPT} {ANSI}"

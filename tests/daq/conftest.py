@@ -61,6 +61,17 @@ def sim_scene_text(repeat_sd: float | None = None) -> str:
     return text.replace("[session]\n", "[session]\nweights_kg = [5.44, 10.526, 25.966]\n")
 
 
+def small_sim_scene(folder: Path, count: int = 20, repeats: int = 4) -> Path:
+    """The simulated-bench scene with short blocks (``count`` readings) and ``repeats`` per weight, in ``folder``."""
+    import re
+
+    text = re.sub(r"(?m)^count = .*$", f"count = {count}", sim_scene_text())
+    text = re.sub(r"(?m)^repeats = .*$", f"repeats = {repeats}", text)
+    path = Path(folder) / "scene.toml"
+    path.write_text(text)
+    return path
+
+
 def small_scene(**replace: str):
     """The small test scene, with whole lines replaced: ``small_scene(count="count = 3")``."""
     text = SMALL_SCENE

@@ -21,19 +21,14 @@ import pytest
 
 from daq.session_file import load_session
 
-from .conftest import ROOT, sim_scene_text
+from .conftest import ROOT, small_sim_scene
 
 SPEED = "4"  # simulated instrument time 4× real: a block of 20 readings takes ~0.3 s
 
 
 @pytest.fixture(scope="module")
 def scene(tmp_path_factory) -> Path:
-    text = sim_scene_text()
-    text = re.sub(r"(?m)^count = .*$", "count = 20", text)
-    text = re.sub(r"(?m)^repeats = .*$", "repeats = 4", text)
-    path = tmp_path_factory.mktemp("exit") / "scene.toml"
-    path.write_text(text)
-    return path
+    return small_sim_scene(tmp_path_factory.mktemp("exit"))
 
 
 def _start(*args: str) -> subprocess.Popen:

@@ -5,7 +5,6 @@ reader attached leaves a readable file that ``--resume`` completes."""
 from __future__ import annotations
 
 import os
-import re
 import signal
 import subprocess
 import sys
@@ -19,7 +18,7 @@ from daq.errors import IncompleteSessionWarning
 from daq.replay import replay_session
 from daq.session_file import load_session
 
-from .conftest import ROOT, sim_scene_text
+from .conftest import ROOT, small_sim_scene
 
 READER = """
 import json, sys, time, warnings
@@ -42,12 +41,7 @@ while time.monotonic() < end:
 
 @pytest.fixture(scope="module")
 def scene(tmp_path_factory) -> Path:
-    text = sim_scene_text()
-    text = re.sub(r"(?m)^count = .*$", "count = 20", text)
-    text = re.sub(r"(?m)^repeats = .*$", "repeats = 4", text)
-    path = tmp_path_factory.mktemp("live") / "scene.toml"
-    path.write_text(text)
-    return path
+    return small_sim_scene(tmp_path_factory.mktemp("live"))
 
 
 def _acquire(scene: Path, out: Path, *extra: str, speed: str = "4") -> subprocess.Popen:

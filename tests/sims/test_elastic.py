@@ -20,6 +20,8 @@ R = 0.01
 class PowerLayer:
     """A stiff asperity layer with an onset at h = 0: p = k (−h)^1.5 (σ → 0 when k → ∞)."""
 
+    h_min, h_max = -1e-6, 0.0  # tabulated range [m], as a ContactLaw gives it
+
     def __init__(self, k: float) -> None:
         self.k = k
 

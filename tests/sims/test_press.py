@@ -4,28 +4,13 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 import pytest
 
 from sims.press import PressSettings, press_equilibrium
+from tests.sims.test_elastic import PowerLayer
 
-
-class _StiffLayer:
-    """p = k (−h)^1.5: an asperity layer whose compliance → 0 (σ → 0)."""
-
-    h_min, h_max = -1e-6, 0.0
-
-    def __init__(self, k: float) -> None:
-        self.k = k
-
-    def pressure(self, h: np.ndarray) -> np.ndarray:
-        return self.k * np.maximum(-np.asarray(h, dtype=float), 0.0) ** 1.5
-
-    def dpressure_dh(self, h: np.ndarray) -> np.ndarray:
-        return -1.5 * self.k * np.maximum(-np.asarray(h, dtype=float), 0.0) ** 0.5
-
-    def area_fraction_at(self, h: np.ndarray) -> np.ndarray:
-        return np.minimum(1.0, np.maximum(-np.asarray(h, dtype=float), 0.0) / 1e-9)
+# p = k (−h)^1.5: an asperity layer whose compliance → 0 (σ → 0); the one test law of tests/sims/test_elastic.py
+_StiffLayer = PowerLayer
 
 
 def test_press_smooth_limit_is_hertz() -> None:
