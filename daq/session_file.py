@@ -1219,7 +1219,8 @@ def _load(p: Path, verify: bool, attempts: int = 3) -> Session:
     """The work of :func:`load_session` (in the child process): read, check, upgrade, verify. A file another process
     is writing is read again when a read catches it mid-write (at most ``attempts`` times)."""
     for attempt in range(attempts):
-        schema, raw, running = _read_file(p)
+        # a read that catches a live writer between two of its steps is tried again (a file nobody writes, never)
+        schema, raw, running = _read_file(p, attempts=_LIVE_READ_ATTEMPTS)
         try:
             try:
                 # a running session's blocks are all complete: one that fails its checksum was read mid-write,
@@ -1280,11 +1281,21 @@ def _open_for_reading(p: Path) -> tuple[h5py.File, bool]:
             raise _explain_open_error(p, exc, writing=False) from exc
     # another process holds the HDF5 write lock: an acquisition (or --resume) is writing this file. Reading it
     # without the lock is safe for us: every block we report is checked against its SHA-256, a row being written
-    # is left out as an unfinished block, and any inconsistency seen mid-write is retried (_read_file).
-    try:
-        return h5py.File(p, "r", locking=False), True
-    except OSError as exc:
-        raise _explain_open_error(p, exc, writing=False) from exc
+    # is left out as an unfinished block, and any inconsistency seen mid-write is retried (_read_file). The open
+    # itself can catch the writer extending the file (HDF5: "truncated file", the end recorded before the data
+    # lands): a flush takes milliseconds, so the open is tried again for up to a second before it counts.
+    for attempt in range(_LIVE_OPEN_ATTEMPTS):
+        try:
+            return h5py.File(p, "r", locking=False), True
+        except OSError as exc:
+            if attempt == _LIVE_OPEN_ATTEMPTS - 1:
+                raise _explain_open_error(p, exc, writing=False) from exc
+        time.sleep(0.05)
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+_LIVE_OPEN_ATTEMPTS = 20  # × 50 ms: a file a live writer is extending
+_LIVE_READ_ATTEMPTS = 10  # × 50 ms: a file a live writer is between two steps of
 
 
 def _read_file(p: Path, attempts: int = 1) -> tuple[int, dict[str, Any], bool]:
