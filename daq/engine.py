@@ -86,13 +86,19 @@ class Interrupts:
     def _handler(self, signum: int, frame: Any) -> None:
         self.count += 1
         if self.phase == "idle":
-            raise KeyboardInterrupt
+            self._stop_now()
         if self.count == 1:
             self._notify("Ctrl-C: stopping after this block (press Ctrl-C again to stop now)")
             return
         if self.phase == "instrument":
-            raise KeyboardInterrupt
+            self._stop_now()
         self.deferred = True
+
+    def _stop_now(self) -> None:
+        # From here the run only winds down (source idle, stop record written): a further Ctrl-C is counted, never
+        # raised, so it cannot cut the stop record short. The phase changes before the raise, not after.
+        self.phase = "writing"
+        raise KeyboardInterrupt
 
     def enter(self, phase: Literal["idle", "instrument", "writing"]) -> None:
         self.phase = phase
@@ -210,6 +216,7 @@ class AcquisitionEngine:
         for step in steps:
             intr.enter("idle")
             if intr.stop_requested:
+                intr.phase = "writing"  # winding down: a second Ctrl-C now must not hit the stop record
                 state.status, state.reason = "aborted", _after_block_reason(state.done)
                 state.interrupted = True
                 return
@@ -218,6 +225,7 @@ class AcquisitionEngine:
             elif step.weight_index != state.skip_weight:
                 self._measure(step, state)
         intr.enter("idle")
+        intr.phase = "writing"  # the plan is done: from here only the stop record is written
         state.reason = (
             f"all {self.blocks_planned} planned blocks done"
             if not state.skipped

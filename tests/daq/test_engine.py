@@ -298,3 +298,24 @@ def test_start_record_keeps_the_pinned_state_and_how_the_instrument_was_reached(
     assert inst["pinned_state"]["6221"]["SENS:AVER:STAT OFF"] == "0"
     assert inst["pinned_state"]["2182A"][":SENS:VOLT:DFIL:STAT OFF"] == "0"
     assert inst["visa_library"].startswith("BenchVisaLibrary") and inst["timeout_ms_effective"] == 500
+
+
+def test_a_second_ctrl_c_as_the_run_winds_down_cannot_lose_the_stop_record(plan, tmp_path, monkeypatch):
+    """The first Ctrl-C (block 2) asks to stop after the block; the second lands after the steps have ended and
+    before the stop record is written (the window a 0–2 ms double Ctrl-C hit). It is counted, never raised."""
+    from daq.engine import AcquisitionEngine as Engine
+
+    finish = Engine._finish
+
+    def second_ctrl_c_first(self, state):
+        signal.raise_signal(signal.SIGINT)  # delivered here, between the steps and the stop record
+        return finish(self, state)
+
+    monkeypatch.setattr(Engine, "_finish", second_ctrl_c_first)
+    link = make_link(plan, wrapper=lambda t: SignalAfter(t, at=[2]))
+    with Interrupts() as intr:
+        out, _ = write_session(plan, tmp_path / "w.h5", link=link, interrupts=intr)
+    assert intr.count == 2 and out.stop.status == "aborted"
+    s = load_quietly(tmp_path / "w.h5")
+    assert s.complete and s.sealed and list(s.summary.block) == [0, 1, 2]
+    assert _last_command(link) == "SOUR:SWE:ABOR"
