@@ -122,6 +122,17 @@ class SimulatedRigBench:
         """Real seconds per instrument second."""
         return 0.0 if math.isinf(self.sim_speed) else 1.0 / float(self.sim_speed)
 
+    def check(self, plan: SessionPlan) -> None:
+        """What the simulation will need, checked before ``acquire`` prints the plan or makes a file: the scene's
+        simulation and circuit tables, and the memory of the sweep (``sims.budget``; ``--max-memory``)."""
+        from analysis.circuit import CircuitSettings
+        from sims.budget import check_specimen
+        from sims.config import SimConfig
+
+        config = SimConfig.from_scene(plan.scene)
+        CircuitSettings.from_scene(plan.scene)
+        check_specimen(config, [plan.session.sim_model], list(plan.session.weights_kg))
+
     def open(self, plan: SessionPlan) -> OpenedBench:
         """Simulate the rig for the plan's weights, build the simulated pair and open the plan's address on it."""
         info = simulated_resistances(plan)

@@ -310,6 +310,9 @@ def acquire(
     bench = bench if bench is not None else VisaBench()
     scene, prior = _scene_and_prior(scene, path, resume=resume, force=force, simulated=bench.simulated)
     plan = SessionPlan.from_scene(scene)
+    check = getattr(bench, "check", None)  # a bench's own part of the scene (the --sim simulation), before any output
+    if check is not None:
+        check(plan)
     created = _prepare_file(path, plan, resume=resume, force=force, fsync=fsync)
     out = stream if stream is not None else sys.stderr
 

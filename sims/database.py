@@ -52,6 +52,7 @@ from scipy.interpolate import CubicHermiteSpline, PchipInterpolator, PPoly
 
 from contactrig.core.provenance import software_version
 from contactrig.core.validation import SettingError, check_choice, check_int, check_keys, check_range
+from sims.budget import check_database
 
 if TYPE_CHECKING:
     from contactrig.core.scene import Scene
@@ -380,15 +381,37 @@ def greenwood_tripp_parameters(
     return out
 
 
+#: Largest number of (separation, summit) pairs :func:`asperity_sums` evaluates at once: its memory is bounded
+#: (~100 bytes a pair) whatever the grid and the number of separations (``sims.budget`` counts it).
+PAIR_CHUNK = 1 << 18
+
+
 def asperity_sums(
     asp_model: Any, heights_m: NDArray[np.float64], h: NDArray[np.float64], area_m2: float
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Σ force/A0 (Pa) and Σ area/A0 over summits for each separation in ``h`` (the model's R per summit).
 
     Summits must be sorted by height, highest first (``asp_model.R`` in the same order); at each h only the
-    contacting prefix is evaluated.
+    contacting prefix is evaluated, a run of separations at a time (at most :data:`PAIR_CHUNK` pairs, or one
+    separation) so that memory does not grow with separations × summits.
     """
     n_contact = np.searchsorted(-heights_m, -h, side="left")  # summits with z > h: a prefix of the sorted list
+    p = np.zeros(h.size)
+    af = np.zeros(h.size)
+    ends = np.cumsum(n_contact)
+    start = 0
+    while start < h.size:
+        before = ends[start] - n_contact[start]
+        stop = max(int(np.searchsorted(ends, before + PAIR_CHUNK, side="right")), start + 1)
+        p[start:stop], af[start:stop] = _summed_rows(asp_model, heights_m, h[start:stop], n_contact[start:stop])
+        start = stop
+    return p / area_m2, af / area_m2
+
+
+def _summed_rows(
+    asp_model: Any, heights_m: NDArray[np.float64], h: NDArray[np.float64], n_contact: NDArray[np.intp]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Σ force (N) and Σ area (m²) over the contacting prefix of the summits, for each separation in ``h``."""
     rows = np.repeat(np.arange(h.size), n_contact)
     starts = np.cumsum(n_contact) - n_contact
     cols = np.arange(rows.size) - np.repeat(starts, n_contact)  # 0 … n_contact[k]−1 for each row k
@@ -397,9 +420,8 @@ def asperity_sums(
     sub = replace(asp_model, R=R[cols] if R.ndim else R)
     f = sub.force(delta)
     a = sub.area(delta)
-    p = np.bincount(rows, weights=f, minlength=h.size) / area_m2
-    af = np.bincount(rows, weights=a, minlength=h.size) / area_m2
-    return p, af
+    force = np.bincount(rows, weights=f, minlength=h.size).astype(np.float64, copy=False)
+    return force, np.bincount(rows, weights=a, minlength=h.size).astype(np.float64, copy=False)
 
 
 @dataclass(frozen=True)
@@ -562,6 +584,7 @@ def build_database(
     t_start = time.perf_counter()
     settings = _with_overrides(config.database, models, n_separations, gt_heights)
     config = config.with_changes(database=settings)
+    check_database(config)  # before any surface is generated
     mats = config.materials
     prov: dict[str, Any] = {
         "software": "contactrig",

@@ -40,6 +40,7 @@ from numpy.typing import NDArray
 from scipy import optimize
 
 from contactrig.core.validation import SettingError, check_choice, check_int, check_range
+from sims.budget import check_comparison
 
 if TYPE_CHECKING:
     from sims.config import SimConfig
@@ -329,6 +330,8 @@ def run_comparison(
     jobs = cores if jobs is None else check_int("--jobs", jobs, 1, 1024)
     tasks = make_tasks(settings)
     jobs = min(jobs, len(tasks))
+    if scheduler is None:  # a cluster's memory is its own
+        check_comparison(config, settings.models, settings.refine, jobs, len(settings.pressures_pa))
     workers = cores if (jobs == 1 and scheduler is None) else 1
     fn = partial(run_task, config, settings, workers=workers)
     t0 = time.perf_counter()

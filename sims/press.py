@@ -36,6 +36,7 @@ import numpy as np
 
 from contactrig.core.provenance import software_version
 from contactrig.core.validation import SettingError, check_int, check_keys, check_range
+from sims.budget import check_specimen
 from sims.rig.elastic import LayerSolution, axisymmetric_influence, solve_layer
 from sims.rig.settings import STANDARD_GRAVITY, check_weights
 from sims.rig.sweep import ModelSweep, SweepResult
@@ -150,6 +151,7 @@ def press_sweep(
     [N/m] per model and the solver diagnostics.
     """
     weights = check_weights(weights_kg, "weights_kg") if weights_kg is not None else settings.weights_kg
+    check_specimen(config.with_changes(press=settings), models, weights, build_database=laws is None)
     if laws is None:
         from sims.database import build_database
 

@@ -11,7 +11,7 @@ import json
 import sys
 from typing import Any
 
-from contactrig.cli.options import add_models_option
+from contactrig.cli.options import add_max_memory_option, add_models_option
 from contactrig.core.text import escape_terminal
 
 _TAB1 = "tab1"
@@ -48,6 +48,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     common.add_argument("session", metavar="SESSION.h5", help=f"session file, or '{_TAB1}' for the seed paper's Tab. 1")
     common.add_argument("--sim", metavar="SIM.h5", help="rig sweep file (default: simulate the session's scene now)")
     add_models_option(common, default="all in the sweep")
+    add_max_memory_option(common)
     common.add_argument(
         "--conversion", choices=("bulk", "holm"), default="bulk",
         help="area → resistance: bulk = seed eq. 23 ζh/A (default), holm = Holm single spot ζ√π/(2√A), an upper "
@@ -116,6 +117,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--compare-models", action=argparse.BooleanOptionalAction, default=True,
         help="ask the boundary-element reference which contact model it favours (default: on)",
     )  # fmt: skip
+    add_max_memory_option(d)
     d.set_defaults(handler=_demo)
 
 
@@ -163,7 +165,6 @@ _HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 #: Tables of a contactrig scene (contactrig.core.scene); a TOML file holding any of them is a scene.
 _SCENE_TABLES = ("scene", "materials", "surfaces", "database", "rig", "press", "circuit", "instrument", "delta",
                  "session")  # fmt: skip
-_MAX_SCENE_BYTES = 4 << 20
 
 
 def _is_hdf5(head: bytes) -> bool:
@@ -180,6 +181,8 @@ def _refuse_scene_file(path: str, command: str) -> None:
     import os
     import stat
     import tomllib
+
+    from contactrig.core.inputs import SCENE_MAX_BYTES as _MAX_SCENE_BYTES
 
     try:
         st = os.stat(path)

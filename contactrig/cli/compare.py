@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import argparse
 
+from contactrig.cli.options import add_max_memory_option
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``compare-models`` to ``subparsers``."""
@@ -33,6 +35,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--area", choices=("corrected", "counted"), default="corrected", help="BEM real area")
     p.add_argument("--refine", type=int, default=1, help="Fourier refinement of the surface for BEM (default 1)")
     p.add_argument("--plot", default=None, metavar="FILE", help="also draw the comparison figure to FILE")
+    add_max_memory_option(p)
     p.set_defaults(handler=run_compare)
 
 

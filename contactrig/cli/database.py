@@ -11,7 +11,7 @@ import argparse
 import sys
 import warnings
 
-from contactrig.cli.options import add_models_option
+from contactrig.cli.options import add_max_memory_option, add_models_option
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -37,6 +37,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "asperity models) or 'seed' (eq. 1-3 as printed); default: the scene's [database].gt_heights",
     )
     p.add_argument("--plot", default=None, metavar="FILE", help="also draw pressure vs separation (Fig. 2) to FILE")
+    add_max_memory_option(p)
     p.set_defaults(handler=run_database)
 
 

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import argparse
 
+from contactrig.cli.options import add_max_memory_option
+
 __all__ = ["register"]
 
 
@@ -27,6 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--sessions", type=int, default=400, help="simulated sessions per plan and model (400)")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulated sessions")
     p.add_argument("--repeat-sd", type=float, default=0.15, help="repeat-to-repeat SD of ln f (Tab. 1: 0.15)")
+    add_max_memory_option(p)
     p.set_defaults(handler=_design)
 
 
@@ -39,6 +42,7 @@ def _design(args: argparse.Namespace) -> int:
     from contactrig.core.text import escape_terminal
     from contactrig.core.validation import check_int, check_range
     from daq.plan import SessionPlan
+    from sims.budget import check_specimen
     from sims.config import SimConfig
 
     sessions = check_int("--sessions", args.sessions, 20, 100_000)
@@ -47,6 +51,7 @@ def _design(args: argparse.Namespace) -> int:
     paths = refuse_existing([out / "design.md", out / "discrimination.png", out / "plan.toml"], force=args.force)
     scene = load_scene(args.scene)
     config = SimConfig.from_scene(scene)  # the scene parsed once: rig or press, validated
+    check_specimen(config, None, [1.0] * 10)  # each model's sweep (10 loads), before the first starts
     block = SessionPlan.from_scene(scene).block_settings
     block_s = block.count * (block.delay_s + block.nplc / block.line_frequency_hz)
     w_min, w_max = (min(config.weights_kg), max(config.weights_kg)) if config.press is not None else (2.0, 26.0)

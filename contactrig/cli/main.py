@@ -119,7 +119,10 @@ def _main(argv: Sequence[str] | None) -> int:
         if handler is None:
             parser.print_help()
             return 2
-        return int(handler(args) or 0)
+        from contactrig.core.budget import memory_limit
+
+        with memory_limit(getattr(args, "max_memory", None)):  # --max-memory, on the commands that simulate
+            return int(handler(args) or 0)
     except KeyboardInterrupt:
         global _interrupted
         _interrupted = True

@@ -37,6 +37,25 @@ class _Models(argparse.Action):
             parser.error(str(exc))
 
 
+def _size(text: str) -> int:
+    from contactrig.core.budget import parse_size
+
+    try:
+        return parse_size(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_max_memory_option(parser: argparse.ArgumentParser) -> None:
+    """The one ``--max-memory SIZE`` option (``args.max_memory``: bytes, or None for the machine's available memory);
+    ``contactrig.cli.main`` applies it (:func:`contactrig.core.budget.memory_limit`) around the command."""
+    parser.add_argument(
+        "--max-memory", metavar="SIZE", type=_size, default=None,
+        help="refuse work whose estimated memory exceeds SIZE, e.g. 2G or 512M (default: the memory available now, "
+        "MemAvailable)",
+    )  # fmt: skip
+
+
 def add_models_option(parser: argparse.ArgumentParser, default: str = "the scene's [database] models") -> None:
     """The one ``--models`` option (``args.models``: a list of registered keys, or None for the default)."""
     parser.add_argument("--models", metavar="NAME,NAME", action=_Models, default=None, help=models_help(default))

@@ -10,6 +10,8 @@ import json
 import math
 import sys
 
+from contactrig.cli.options import add_max_memory_option
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add this package's subcommands to ``subparsers``."""
@@ -48,6 +50,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         metavar="LIB",
         help="VISA library for the scene's address, e.g. @py (pyvisa-py); recorded in the start record",
     )
+    add_max_memory_option(acq)  # --sim: the rig simulation behind the simulated bench
     acq.set_defaults(handler=acquire_command)
 
     rep = subparsers.add_parser(

@@ -42,7 +42,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from contactrig.core.validation import SCENE_TABLES, SettingError, check_keys, read_text_file
+from contactrig.core.inputs import HEIGHT_MAP_MAX_BYTES, HEIGHT_MAP_MAX_SIDE, read_text_file
+from contactrig.core.validation import SCENE_TABLES, SettingError, check_keys
 
 __all__ = [
     "KNOWN_TABLES",
@@ -159,13 +160,13 @@ def load_height_maps(data: Mapping[str, Any], base_dir: str | Path) -> Mapping[s
     return MappingProxyType(out)
 
 
-def _parse_row(line: str, where: str, key: str) -> list[float] | None:
+def _parse_row(line: str, where: str, key: str) -> NDArray[np.float64] | None:
     """The numbers of one line of a height-map file (None for a blank or comment line)."""
     line = line.split("#", 1)[0].strip()
     if not line:
         return None
-    try:
-        return [float(v) for v in line.replace(",", " ").replace(";", " ").split()]
+    try:  # one float64 array per row: 8 bytes a number while parsing, not a Python float's 32
+        return np.array(line.replace(",", " ").replace(";", " ").split(), dtype=np.float64)
     except ValueError:
         raise SettingError(key, where, "expected numbers only") from None
 
@@ -174,16 +175,26 @@ def read_height_map(path: str | Path, *, key: str = "path") -> NDArray[np.float6
     """The numbers of a plain-text height map: a grid separated by whitespace, commas or semicolons, ``#`` comments.
 
     Returned as written (no unit conversion, no levelling; that is physics, done by ``sims.surface``), rows × columns,
-    read-only. A missing, unreadable or non-rectangular file is a :class:`SettingError` naming ``key``.
+    read-only. The file is read by :func:`contactrig.core.inputs.read_text_file` (a regular file of at most
+    ``HEIGHT_MAP_MAX_BYTES``); at most ``HEIGHT_MAP_MAX_SIDE`` rows and columns. A missing, unreadable, too large or
+    non-rectangular file is a :class:`SettingError` naming ``key``.
     """
     p = Path(path)
-    rows = []
-    for line_no, line in enumerate(read_text_file(key, p).splitlines(), 1):
+    rows: list[NDArray[np.float64]] = []
+    for line_no, line in enumerate(read_text_file(key, p, max_bytes=HEIGHT_MAP_MAX_BYTES).splitlines(), 1):
         row = _parse_row(line, f"{p}:{line_no}", key)
-        if row is not None:
-            rows.append(row)
-    if not rows or len({len(r) for r in rows}) != 1:
-        raise SettingError(key, str(p), "expected a rectangular grid of numbers (same count on every line)")
-    z = np.asarray(rows, dtype=np.float64)
-    z.setflags(write=False)
-    return z
+        if row is None:
+            continue
+        if row.size > HEIGHT_MAP_MAX_SIDE or len(rows) >= HEIGHT_MAP_MAX_SIDE:
+            raise SettingError(
+                key, f"{p}:{line_no}", f"expected at most {HEIGHT_MAP_MAX_SIDE} rows and columns (the largest grid)"
+            )
+        if rows and row.size != rows[0].size:
+            break
+        rows.append(row)
+    else:
+        if rows:
+            z = np.vstack(rows)
+            z.setflags(write=False)
+            return z
+    raise SettingError(key, str(p), "expected a rectangular grid of numbers (same count on every line)")

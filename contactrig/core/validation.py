@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from pathlib import Path
 from typing import Any
 
 __all__ = [
@@ -20,7 +19,6 @@ __all__ = [
     "check_int",
     "check_keys",
     "check_range",
-    "read_text_file",
     "scene_key",
 ]
 
@@ -152,16 +150,3 @@ def _describe(lo: float | None, hi: float | None, lo_open: bool, hi_open: bool, 
     if hi is not None:
         return f"expected a value {'<' if hi_open else '<='} {hi:g}{u}"
     return "expected a finite number"
-
-
-def read_text_file(field: str, path: str | Path) -> str:
-    """The UTF-8 text of ``path``; a missing or unreadable file is a :class:`SettingError` naming ``field``."""
-    p = Path(path)
-    try:
-        return p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SettingError(field, str(p), "file not found") from None
-    except UnicodeDecodeError:
-        raise SettingError(field, str(p), "not a UTF-8 text file") from None
-    except OSError as exc:
-        raise SettingError(field, str(p), f"cannot be read ({exc.strerror})") from None

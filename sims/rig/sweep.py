@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from contactrig.core.provenance import software_version
+from sims.budget import check_specimen
 from sims.rig.equilibrium import (
     ALPHA_WARN,
     BatchEquilibrium,
@@ -152,6 +153,8 @@ def sweep(
     settings = settings if settings is not None else config.rig
     weights = check_weights(weights_kg, "weights_kg") if weights_kg is not None else settings.weights_kg
     names = _checked_models(models)
+    building = laws is None and database is None  # the whole sweep's memory is checked before any of it is built
+    check_specimen(config.with_changes(rig=settings, press=None), names, weights, build_database=building)
     provenance: dict[str, Any] = {
         "software_version": software_version(),
         **config.provenance(),

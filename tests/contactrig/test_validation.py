@@ -59,22 +59,6 @@ def test_choice_and_keys():
         check_keys("rig", {"radius": 1}, ("radius_m",))
 
 
-def test_read_text_file_names_the_field(tmp_path):
-    from contactrig.core.validation import read_text_file
-
-    good = tmp_path / "a.txt"
-    good.write_text("x = 1\n", encoding="utf-8")
-    assert read_text_file("scene", good) == "x = 1\n"
-    with pytest.raises(SettingError, match=r"^scene = .*file not found"):
-        read_text_file("scene", tmp_path / "missing.txt")
-    binary = tmp_path / "b.bin"
-    binary.write_bytes(b"\xff\xfe\x00\x81")
-    with pytest.raises(SettingError, match="not a UTF-8 text file"):
-        read_text_file("path", binary)
-    with pytest.raises(SettingError, match="cannot be read"):
-        read_text_file("path", tmp_path)  # a directory
-
-
 def test_unit_slips_name_the_scene_key_the_user_typed():
     """A value in the wrong unit is reported on the key the user typed, never on an internal quantity (H, h_min)."""
     from sims.materials import Material
