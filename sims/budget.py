@@ -7,7 +7,7 @@ within a factor of 2, at a few moderate sizes); nothing is allocated to estimate
 ==============  ==============================================================  ======================================
 stage           memory                                                          keys named
 ==============  ==============================================================  ======================================
-``surfaces``    ~72 B per grid point (spectrum, phases, the map; per surface)   ``[surfaces.*] n`` (or a map's size)
+``surfaces``    ~26 B per grid point and surface (spectrum, phases, the map)    ``[surfaces.*] n`` (or a map's size)
 ``database``    statistics-only models (Greenwood–Tripp): ~16 B per grid        ``[surfaces.*] n``, ``[database]
                 point; models summed over summits: ~56 B per point (both maps,  models``
                 the composite, its summits) + at most ``PAIR_CHUNK`` pairs
@@ -37,7 +37,7 @@ if TYPE_CHECKING:
 
 __all__ = ["check_comparison", "check_database", "check_specimen"]
 
-_SURFACE_B = 72.0  # generation: q², PSD, phases, complex spectrum, the map
+_SURFACE_B = 26.0  # generation of one map (spectrum, phases, the map), held while the other is made
 _STATISTICS_B = 16.0  # spectral moments on the half spectrum
 _SUMMED_B = 56.0  # both maps, the composite, derivatives and summit masks
 _PAIR_B = 100.0  # one (separation, summit) pair of asperity_sums

@@ -82,7 +82,7 @@ def read_input_bytes(key: str, path: str | Path, *, max_bytes: int, timeout_s: f
         if not stat.S_ISREG(st.st_mode):
             raise SettingError(key, str(p), f"{allowed}; this is {_kind(st.st_mode)}")
         if st.st_size > max_bytes:
-            raise SettingError(key, str(p), f"{allowed}; this one has {_size_text(st.st_size)}")
+            raise SettingError(key, str(p), f"{allowed}; this one has {st.st_size} bytes")
         return _read_bounded(key, p, fd, max_bytes, timeout_s, allowed)
     finally:
         os.close(fd)

@@ -165,8 +165,11 @@ def _parse_row(line: str, where: str, key: str) -> NDArray[np.float64] | None:
     line = line.split("#", 1)[0].strip()
     if not line:
         return None
+    values = line.replace(",", " ").replace(";", " ").split()
+    if not values:  # separators only
+        return None
     try:  # one float64 array per row: 8 bytes a number while parsing, not a Python float's 32
-        return np.array(line.replace(",", " ").replace(";", " ").split(), dtype=np.float64)
+        return np.array(values, dtype=np.float64)
     except ValueError:
         raise SettingError(key, where, "expected numbers only") from None
 
