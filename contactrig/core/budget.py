@@ -7,8 +7,9 @@ the scene keys that decide it and the estimate, when it exceeds the bound:
 * **Stages.** The work is split into stages — surface generation, the contact database (per model), the rig's mesh,
   the press's rings, the boundary-element reference — each with one registered :class:`Stage` whose ``estimate``
   returns an :class:`Estimate` (peak memory above the process's own, in bytes, and where it can, the time, s). The
-  physics-side estimators live in ``sims.budget`` (loaded on the first look-up of :data:`STAGES`); a test measures
-  each against the peak resident memory of a child process.
+  physics-side estimators live in ``sims.budget``, which registers them when imported (every simulation entry point
+  imports it; this layer imports nothing of ``sims``); a test measures each against the peak resident memory of a
+  child process.
 * **The bound**: :func:`memory_limit` (``--max-memory``), else the memory the machine has available now
   (``MemAvailable`` of ``/proc/meminfo``); with neither (not Linux), nothing is refused.
 * **The check**: :func:`check` raises :class:`BudgetError` (a ValueError: one line, exit 2) for the largest estimate
@@ -66,7 +67,7 @@ class Stage:
 
 
 #: The stage estimators by key; ``sims.budget`` registers the built-in ones.
-STAGES: Registry[Stage] = Registry("work stage", ("sims.budget",))
+STAGES: Registry[Stage] = Registry("work stage")
 
 
 def estimate(stage: str, *args: Any, **kwargs: Any) -> Estimate:

@@ -104,6 +104,8 @@ def test_check_refuses_the_largest_stage_over_the_bound_naming_its_keys():
 
 
 def test_a_registered_stage_is_estimated_through_the_registry():
+    import sims.budget  # noqa: F401  (registers the built-in stages)
+
     @dataclass(frozen=True)
     class Work:
         cells: int
