@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from contactrig.cli.main import main
 from contactrig.core import budget
 from contactrig.core.budget import BudgetError, Estimate, Stage, available_memory_bytes, memory_limit, parse_size
-from contactrig.core.scene import default_scene_text
+from contactrig.core.scene import default_scene_text, load_scene
 
 CHILD = Path(__file__).with_name("budget_child.py")
 
@@ -169,3 +169,37 @@ def test_acquire_sim_checks_the_scene_and_the_budget_before_printing_anything(tm
         got, err = capsys.readouterr()
         assert got == "" and err.count("\n") == 1 and says in err, err  # no plan printed before the error
         assert not out.exists()
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    mesh=st.sampled_from(["uniform", "variable"]),
+    n_theta=st.integers(2, 1_000_000),
+    n_axial=st.integers(1, 100_000),
+    max_nodes=st.integers(16, 100_000_000),
+    crown=st.booleans(),
+    weights=st.integers(1, 10_000),
+    n=st.integers(4, 4096).map(lambda k: 2 * k),
+)
+def test_any_allowed_scene_is_estimated_at_once_and_refused_in_one_line_or_allowed(
+    mesh, n_theta, n_axial, max_nodes, crown, weights, n
+):
+    """Over the whole allowed range of the keys that size the work: an estimate (nothing allocated, so it is
+    instant), and either a one-line refusal naming those keys or no refusal at all."""
+    from dataclasses import replace
+
+    from sims.budget import check_specimen
+    from sims.config import SimConfig
+    from sims.rig.settings import RigSettings
+
+    config = SimConfig.from_scene(load_scene(None))
+    rig = RigSettings(mesh=mesh, n_theta=n_theta, n_axial=n_axial, max_nodes=max_nodes,
+                      crown_m=1e-6 if crown else 0.0, weights_kg=(1.0,) * weights)  # fmt: skip
+    config = config.with_changes(rig=rig, liner=replace(config.liner, n=n), piston=replace(config.piston, n=n))
+    with memory_limit(4 << 30):
+        try:
+            check_specimen(config, ["hertz"])
+        except BudgetError as exc:
+            msg = str(exc)
+            assert "\n" not in msg and ("[rig] mesh" in msg or "[surfaces.liner] n" in msg)
+            assert exc.estimate.peak_bytes > 4 << 30
