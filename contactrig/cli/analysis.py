@@ -182,14 +182,14 @@ def _refuse_scene_file(path: str, command: str) -> None:
     import stat
     import tomllib
 
-    from contactrig.core.inputs import SCENE_MAX_BYTES as _MAX_SCENE_BYTES
+    from contactrig.core.inputs import SCENE_MAX_BYTES
 
     try:
         st = os.stat(path)
-        if not stat.S_ISREG(st.st_mode) or st.st_size > _MAX_SCENE_BYTES:
+        if not stat.S_ISREG(st.st_mode) or st.st_size > SCENE_MAX_BYTES:
             return
         with open(path, "rb") as fh:
-            head = fh.read(_MAX_SCENE_BYTES)
+            head = fh.read(SCENE_MAX_BYTES)
     except OSError:
         return
     if _is_hdf5(head):
