@@ -294,7 +294,11 @@ def _run_local(fn: Callable[[Task], TaskResult], tasks: Sequence[Task], jobs: in
         return [fn(t) for t in tasks]
     import multiprocessing
 
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
+    from contactrig.core.budget import set_process_limit
+
+    # run_comparison checked the memory of all workers together: a worker's own check must not count its siblings
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(jobs, mp_context=context, initializer=set_process_limit, initargs=(math.inf,)) as pool:
         return list(pool.map(fn, tasks))
 
 

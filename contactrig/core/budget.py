@@ -42,6 +42,7 @@ __all__ = [
     "format_bytes",
     "memory_limit",
     "parse_size",
+    "set_process_limit",
 ]
 
 
@@ -91,11 +92,17 @@ class BudgetError(ValueError):
 # ---------------------------------------------------------------------------------------------------------------
 # The bound.
 
-_LIMIT: ContextVar[int | None] = ContextVar("contactrig_memory_limit", default=None)
+_LIMIT: ContextVar[float | None] = ContextVar("contactrig_memory_limit", default=None)
+
+
+def set_process_limit(nbytes: float | None) -> None:
+    """The bound of this whole process (a worker's initializer: ``math.inf`` when its parent checked the work of
+    every worker together already, so that a worker is not refused for what its siblings hold)."""
+    _LIMIT.set(nbytes)
 
 
 @contextmanager
-def memory_limit(nbytes: int | None) -> Iterator[None]:
+def memory_limit(nbytes: float | None) -> Iterator[None]:
     """Within the block, the memory bound is ``nbytes`` (``--max-memory``); None keeps the machine's."""
     token = _LIMIT.set(nbytes if nbytes is not None else _LIMIT.get())
     try:
