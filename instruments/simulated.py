@@ -59,6 +59,7 @@ DEFINITION = "k6221_sim.yaml"
 OVERFLOW = 9.9e37
 
 # SCPI error codes used by the simulator (SCPI-99 numbers, as the 6221 and 2182A report them).
+E_INVALID_CHARACTER = (-101, "Invalid character")
 E_UNDEFINED = (-113, "Undefined header")
 E_CONFLICT = (-221, "Settings conflict")
 E_OUT_OF_RANGE = (-222, "Data out of range")
@@ -67,6 +68,9 @@ E_STALE = (-230, "Data corrupt or stale")
 E_HW_MISSING = (-241, "Hardware missing")
 E_INTERRUPTED = (-410, "Query INTERRUPTED")
 E_QUEUE_OVERFLOW = (-350, "Queue overflow")
+E_INPUT_OVERRUN = (-363, "Input buffer overrun")
+#: what the served simulator queues when its own code fails on a message (a bug; logged, the service goes on)
+E_INTERNAL = (-300, "Device-specific error")
 #: Buffer elements in the instrument's fixed order, whatever the order in FORM:ELEM (RM 6-12).
 ELEMENT_ORDER = ("READ", "TST", "SOUR", "AVOL", "COMP", "RNUM")
 _ELEMENT_NAMES = {"READ": "READ", "READING": "READ", "TST": "TST", "TSTAMP": "TST", "SOUR": "SOUR", "SOURCE": "SOUR"}
@@ -270,7 +274,10 @@ class _ScpiDevice(Device):
         return f'{code:d},"{msg}"'
 
     def execute(self, cmd: Command) -> str | None:
-        """One command: a handler, a declared setting, a static dialogue, or −113."""
+        """One command: a handler, a declared setting, a static dialogue, or −113 (−101 for a non-ASCII byte)."""
+        if cmd.invalid_character:
+            self.push_error(E_INVALID_CHARACTER)
+            return None
         if not cmd.header:
             self.push_error(E_UNDEFINED)
             return None
@@ -308,8 +315,15 @@ class _ScpiDevice(Device):
         return (len(self.errors), self.esr) == before
 
     def static(self, cmd: Command) -> str | None:
-        """Answer ``cmd`` from the YAML dialogues; queue −113 if it is unknown; None = no reply."""
-        response = self._match(cmd.text.encode("latin-1"))
+        """Answer ``cmd`` from the YAML dialogues; queue −113 if it is unknown; None = no reply.
+
+        Only ASCII reaches pyvisa-sim's matcher (it decodes as UTF-8 and raises on anything else); the dialogues are
+        ASCII, so a text that is not cannot match."""
+        text = cmd.text
+        if not text.isascii():
+            self.push_error(E_UNDEFINED)
+            return None
+        response = self._match(text.encode("ascii"))
         if response is None:
             self.push_error(E_UNDEFINED)
             return None
