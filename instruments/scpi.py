@@ -103,9 +103,64 @@ _LONG = {
     "FETC": "FETCH",
     "DCON": "DCONDUCTANCE",
     "PDEL": "PDELTA",
+    # the rest of the 6221 and 2182A SCPI summaries
+    "FILT": "FILTER",
+    "STAR": "START",
+    "STOP": "STOP",
+    "STEP": "STEP",
+    "SPAN": "SPAN",
+    "CENT": "CENTER",
+    "SPAC": "SPACING",
+    "LIST": "LIST",
+    "APP": "APPEND",
+    "WIDT": "WIDTH",
+    "SDEL": "SDELAY",
+    "INT": "INTERVAL",
+    "LME": "LMEASURE",
+    "RESP": "RESPONSE",
+    "TRIP": "TRIPPED",
+    "FREE": "FREE",
+    "NOT": "NOTIFY",
+    "MA1F": "MA1FACTOR",
+    "MA0F": "MA0FACTOR",
+    "LAT": "LATEST",
+    "TEXT": "TEXT",
+    "BORD": "BORDER",
+    "SREG": "SREGISTER",
+    "KEY": "KEY",
+    "KCL": "KCLICK",
+    "BEEP": "BEEPER",
+    "VERS": "VERSION",
+    "RES": "RESET",
+    "LOC": "LOCAL",
+    "REM": "REMOTE",
+    "RWL": "RWLOCK",
+    "BAUD": "BAUD",
+    "POS": "POSETUP",
+    "CODE": "CODE",
+    "ALL": "ALL",
+    "DIS": "DISABLE",
+    "DIR": "DIRECTION",
+    "ILIN": "ILINE",
+    "TIM": "TIMER",
+    "TRIG": "TRIGGER",
+    "DIG": "DIGITS",
+    "APER": "APERTURE",
+    "REF": "REFERENCE",
+    "ACQ": "ACQUIRE",
+    "TEMP": "TEMPERATURE",
+    "TC": "TCOUPLE",
+    "RJUN": "RJUNCTION",
+    "RSEL": "RSELECT",
+    "SIM": "SIMULATED",
+    "TRAN": "TRANSDUCER",
+    "FAZ": "FAZERO",
+    "SAMP": "SAMPLE",
+    "SEQ": "SEQUENCE",
 }
 _BY_LONG = {v: k for k, v in _LONG.items()}
 _BY_LONG["STATE"] = "STAT"  # STATe and STATus share the short form
+_BY_LONG |= {"INTERLOCK": "INT", "CONTINUOUS": "CONT", "BEEP": "BEEP", "RWLS": "RWL"}  # other shared short forms
 
 # Optional nodes: canonical path without them -> the path the simulator implements.
 _ALIASES = {
@@ -125,14 +180,31 @@ _ALIASES = {
     "SENS:VOLT:LPAS:STAT": "SENS:VOLT:LPAS",
     "CALC2:IMM:DATA": "CALC2:DATA",
     "OUTP:STAT": "OUTP",
-    "UNIT:VOLT": "UNIT",
-    "UNIT:VOLT:DC": "UNIT",
     "STAT:QUE:NEXT": "STAT:QUE",
     "STAT:QUES": "STAT:QUES:EVEN",
     "SOUR:CURR:AMPL": "SOUR:CURR",
     "SOUR:CURR:LEV:AMPL": "SOUR:CURR",
     "SOUR:CURR:LEV:IMM": "SOUR:CURR",
     "SOUR:WAVE:PMAR:LEV": "SOUR:WAVE:PMAR",
+    "SOUR:CLE:IMM": "SOUR:CLE",
+    "SOUR:CURR:FILT:STAT": "SOUR:CURR:FILT",
+    "CALC1:KMAT:MA1F": "CALC1:KMAT:MMF",
+    "CALC1:KMAT:MA0F": "CALC1:KMAT:MBF",
+    "CALC1:DATA:LAT": "CALC1:DATA",
+    "SENS:DATA:LAT": "SENS:DATA",
+    "SYST:BEEP:IMM": "SYST:BEEP",
+    "SENS:TEMP:TC:TYPE": "SENS:TEMP:TC",
+    "TRIG:SEQ:SOUR": "TRIG:SOUR",
+    "TRIG:SEQ:COUN": "TRIG:COUN",
+    "TRIG:SEQ:DEL": "TRIG:DEL",
+    "TRIG:SEQ:DEL:AUTO": "TRIG:DEL:AUTO",
+    "TRIG:SEQ:TIM": "TRIG:TIM",
+    "TRIG:SEQ:DIR": "TRIG:DIR",
+    "TRIG:SEQ:ILIN": "TRIG:ILIN",
+    "TRIG:SEQ:OLIN": "TRIG:OLIN",
+    "TRIG:SEQ:OUTP": "TRIG:OUTP",
+    "DISP:TEXT": "DISP:TEXT:DATA",
+    "DISP:WIND2:TEXT": "DISP:WIND2:TEXT:DATA",
 }
 _HEADER = re.compile(r"\s*(:?[*A-Za-z][A-Za-z0-9_:*]*\??)\s*(.*)\Z", re.S)
 
@@ -270,5 +342,11 @@ def _canonical_path(nodes: list[str]) -> str:
         nodes = nodes[:2] + nodes[3:]
     if nodes[:2] == ["SENS", "VOLT"] and len(nodes) > 2 and nodes[2] == "CHAN1":
         nodes = nodes[:2] + nodes[3:]
+    if nodes[0] == "SENS1":  # SENSe[1], DISPlay[:WINDow[1]], CALCulate[1]: optional suffixes and nodes
+        nodes = ["SENS", *nodes[1:]]
+    if nodes[0] == "DISP" and len(nodes) > 1 and nodes[1] in ("WIND", "WIND1"):
+        nodes = ["DISP", *nodes[2:]]
+    if nodes[0] == "CALC" and len(nodes) > 1:
+        nodes = ["CALC1", *nodes[1:]]
     canon = ":".join(nodes)
     return _ALIASES.get(canon, canon)
