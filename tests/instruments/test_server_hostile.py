@@ -96,7 +96,7 @@ def server():
         yield s
 
 
-def _connect(server: SimServer, timeout: float = 2.0) -> socket.socket:
+def _connect(server: SimServer, timeout: float = 5.0) -> socket.socket:
     return socket.create_connection(("127.0.0.1", server.port), timeout=timeout)
 
 
@@ -110,7 +110,7 @@ def _fresh_client_is_answered(server: SimServer) -> None:
             assert chunk, "the server closed a fresh connection"
             reply += chunk
     assert reply.startswith(IDN), reply
-    assert time.monotonic() - t0 < 2.0
+    assert time.monotonic() - t0 < 5.0  # generous: the machine is shared; a dead server never answers at all
     assert server.serving
 
 
