@@ -196,7 +196,7 @@ class Setting:
     def _number(self, word: str) -> float:
         named = {"MIN": self.low, "MINIMUM": self.low, "MAX": self.high, "MAXIMUM": self.high}
         if word in ("DEF", "DEFAULT"):
-            return float(self.default)
+            return float(self.default[0] if self.kind == "list" else self.default)
         if word in named and named[word] is not None:
             return float(named[word])  # type: ignore[arg-type]
         if word in ("INF", "INFINITY"):

@@ -19,6 +19,7 @@ such a string is shown it goes through one of these, so it is displayed as the t
 from __future__ import annotations
 
 import html
+import os
 import re
 import unicodedata
 
@@ -28,6 +29,7 @@ __all__ = [
     "escape_html",
     "escape_markdown",
     "escape_terminal",
+    "is_path_like",
     "markdown_code_block",
     "quote",
     "shorten",
@@ -105,11 +107,29 @@ def markdown_code_block(value: object, info: str = "text") -> str:
     return f"{fence}{info}\n{text}\n{fence}"
 
 
+#: A file path is quoted whole up to this length (Linux PATH_MAX): it names the file the error is about.
+PATH_LIMIT = 4096
+
+
+def is_path_like(value: object) -> bool:
+    """``value`` is (or reads as) a file path: an ``os.PathLike``, or a string with a ``/`` (or the platform's
+    separator), no control character and at most :data:`PATH_LIMIT` characters."""
+    if isinstance(value, os.PathLike):
+        return True
+    return (
+        isinstance(value, str)
+        and 0 < len(value) <= PATH_LIMIT
+        and (os.sep in value or "/" in value)
+        and not _CONTROL.search(value)
+    )
+
+
 def quote(value: object, limit: int = QUOTE_LIMIT) -> str:
-    """``repr(value)`` as an error message quotes it: whole when it has at most ``limit`` characters, else its first
-    characters, ``…`` and the length (``'aaaa…' (131072 characters)``), so a huge input never makes a huge line."""
+    """``repr(value)`` as an error message quotes it: whole when it has at most ``limit`` characters (or is a file
+    path, see :func:`is_path_like`: the error must name the file), else its first characters, ``…`` and the length
+    (``'aaaa…' (131072 characters)``), so a huge input never makes a huge line."""
     text = repr(value)
-    if len(text) <= limit:
+    if len(text) <= limit or is_path_like(value):
         return text
     if isinstance(value, (str, bytes)):
         n = limit
@@ -137,7 +157,7 @@ def bound_error_line(text: str, limit: int = ERROR_LINE_LIMIT) -> str:
         return text
     text = _LITERAL.sub(_cut_literal, text)
     if len(text) > limit:  # an unquoted name or value (a key, an argument) longer than any word
-        text = _LONG_WORD.sub(lambda m: shorten(m.group(0)), text)
+        text = _LONG_WORD.sub(lambda m: m.group(0) if is_path_like(m.group(0)) else shorten(m.group(0)), text)
     if len(text) <= limit:
         return text
     keep = (limit - 40) // 2
@@ -149,7 +169,7 @@ _LONG_WORD = re.compile(f"[^\\s'\"]{{{QUOTE_LIMIT + 1},}}")
 
 def _cut_literal(m: re.Match[str]) -> str:
     lit = m.group(0)
-    if len(lit) <= QUOTE_LIMIT:
+    if len(lit) <= QUOTE_LIMIT or is_path_like(lit[1:-1]):
         return lit
     q = lit[0]
     return f"{lit[: QUOTE_LIMIT - 2]}…{q} ({len(lit) - 2} characters)"
