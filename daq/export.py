@@ -16,6 +16,9 @@ ranking order: R_s, s, their standard errors and t-intervals, χ², AIC, ΔAIC, 
 not) and **points** (per model and weight: area, measured, σ, fitted, residual).
 
 CSV: one file per table, the first at the output path, the others beside it (``out.csv``, ``out-readings.csv``).
+Numbers are unquoted (negative ones too: they stay numbers); every text field is quoted, and one that a spreadsheet
+would run as a formula (leading ``= + - @``, tab or CR) starts with ``'`` (:func:`csv_field`); the ``#`` lines are
+``# key:,"value"`` records, so no string from a file can split into cells or become a formula.
 Excel (``.xlsx``, one sheet per table plus ``about``) needs the optional ``excel`` extra (openpyxl); without it,
 :class:`ExcelUnavailable` says so in one line. Every file is written atomically and none is replaced without
 ``force`` (:mod:`contactrig.core.files`); every output is checked before anything is written.
@@ -23,8 +26,6 @@ Excel (``.xlsx``, one sheet per table plus ``about``) needs the optional ``excel
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -41,9 +42,12 @@ __all__ = [
     "FORMATS",
     "ExcelUnavailable",
     "Table",
+    "csv_field",
+    "csv_line",
     "export_fit",
     "export_session",
     "fit_tables",
+    "neutral_text",
     "output_paths",
     "session_tables",
     "write_tables",
@@ -245,33 +249,47 @@ def output_paths(output: str | Path, to: str, tables: Sequence[str]) -> list[Pat
     return [out] + [out.with_name(f"{out.stem}-{name}{out.suffix or '.csv'}") for name in tables[1:]]
 
 
-def _csv_cell(v: Any) -> str:
+#: A text cell that starts with one of these is run as a formula by a spreadsheet ("CSV injection"; tab and CR too,
+#: which some strip before looking).
+FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+
+
+def neutral_text(value: str) -> str:
+    """A text cell as a spreadsheet must show it: control characters as visible escapes, and a leading ``'`` when
+    it (or its first non-blank character) would start a formula."""
+    text = escape_terminal(value)
+    if value[:1] in FORMULA_START or text.lstrip()[:1] in FORMULA_START:
+        return "'" + text
+    return text
+
+
+def csv_field(v: Any) -> str:
+    """One CSV field: a finite number as its shortest exact text (unquoted, so it stays a number, negative ones
+    too), None as an empty field, anything else as quoted, neutralised text (:func:`neutral_text`)."""
     if v is None:
         return ""
-    if isinstance(v, float):
-        return repr(v)  # shortest text that reads back as the same float
-    return str(v)
+    if isinstance(v, (bool, np.bool_)):
+        return "1" if v else "0"
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)) and math.isfinite(v):
+        return repr(float(v))  # shortest text that reads back as the same float
+    return '"' + neutral_text(str(v)).replace('"', '""') + '"'
+
+
+def csv_line(values: Sequence[Any]) -> str:
+    """One CSV record (CRLF-ended, RFC 4180) of :func:`csv_field` fields."""
+    return ",".join(csv_field(v) for v in values) + "\r\n"
 
 
 def _csv_text(table: Table, about: Sequence[tuple[str, str]], first: bool) -> str:
-    buf = io.StringIO(newline="")
-    if first:  # provenance as comment lines (`contactrig import` skips them); one line each, whatever they hold
-        for key, value in about:
-            buf.write(f"# {key}: {escape_terminal(value)}\r\n")
-        for note in table.notes:
-            buf.write(f"# note: {escape_terminal(note)}\r\n")
-    w = csv.writer(buf, lineterminator="\r\n")
-    w.writerow(table.columns)
-    for row in table.rows:
-        w.writerow([_csv_cell(_text_cell(v)) for v in row])
-    return buf.getvalue()
-
-
-def _text_cell(v: Any) -> Any:
-    """A string cell that a spreadsheet would run as a formula (``=``, ``+``, ``-``, ``@``) gets a leading ``'``."""
-    if isinstance(v, str) and v[:1] in ("=", "+", "-", "@", "\t", "\r"):
-        return "'" + v
-    return v
+    lines = []
+    if first:  # provenance as `#` records (`contactrig import` skips them): a constant first field, quoted text
+        lines += [f"# {key}:," + csv_line([value]) for key, value in about]
+        lines += ["# note:," + csv_line([note]) for note in table.notes]
+    lines.append(csv_line(table.columns))
+    lines += [csv_line(row) for row in table.rows]
+    return "".join(lines)
 
 
 def _openpyxl() -> Any:
@@ -291,7 +309,7 @@ def _xlsx(tables: Sequence[Table], about: Sequence[tuple[str, str]], path: Path)
     wb = openpyxl.Workbook(write_only=True)
 
     def text(ws: Any, value: str) -> Any:  # always a text cell: a string from a file never becomes a formula
-        cell = WriteOnlyCell(ws, value=escape_terminal(value))
+        cell = WriteOnlyCell(ws, value=escape_terminal(value))  # stored as text: no leading ' needed
         cell.data_type = "s"
         return cell
 

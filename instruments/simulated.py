@@ -15,6 +15,7 @@ so EMF cancellation is real, not assumed. Instrument time (arming, delay, NPLC) 
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 import time
@@ -34,7 +35,16 @@ from pyvisa_sim.devices import Device, Devices
 from pyvisa_sim.highlevel import SimVisaLibrary
 
 from contactrig.core.validation import check_choice, check_range
-from instruments.commands import K2182A, K6221, NPLC_MAX_50HZ, ScpiError, Setting
+from instruments.commands import (
+    K2182A,
+    K2182A_ACTIONS,
+    K6221,
+    K6221_ACTIONS,
+    NPLC_MAX_50HZ,
+    Action,
+    ScpiError,
+    Setting,
+)
 from instruments.delta import delta_readings
 from instruments.scpi import Command, parse_message, split_params, unquote
 
@@ -59,6 +69,7 @@ DEFINITION = "k6221_sim.yaml"
 OVERFLOW = 9.9e37
 
 # SCPI error codes used by the simulator (SCPI-99 numbers, as the 6221 and 2182A report them).
+E_INVALID_CHARACTER = (-101, "Invalid character")
 E_UNDEFINED = (-113, "Undefined header")
 E_CONFLICT = (-221, "Settings conflict")
 E_OUT_OF_RANGE = (-222, "Data out of range")
@@ -67,6 +78,9 @@ E_STALE = (-230, "Data corrupt or stale")
 E_HW_MISSING = (-241, "Hardware missing")
 E_INTERRUPTED = (-410, "Query INTERRUPTED")
 E_QUEUE_OVERFLOW = (-350, "Queue overflow")
+E_INPUT_OVERRUN = (-363, "Input buffer overrun")
+#: what the served simulator queues when its own code fails on a message (a bug; logged, the service goes on)
+E_INTERNAL = (-300, "Device-specific error")
 #: Buffer elements in the instrument's fixed order, whatever the order in FORM:ELEM (RM 6-12).
 ELEMENT_ORDER = ("READ", "TST", "SOUR", "AVOL", "COMP", "RNUM")
 _ELEMENT_NAMES = {"READ": "READ", "READING": "READ", "TST": "TST", "TSTAMP": "TST", "SOUR": "SOUR", "SOURCE": "SOUR"}
@@ -77,6 +91,14 @@ _ELEMENT_SUFFIX = {"TST": "SECS", "SOUR": "ADC", "AVOL": "VDC", "COMP": "", "RNU
 #: Standard event status register bit for each class of error (IEEE 488.2): QYE, DDE, EXE, CME.
 _ESR_BITS = ((-499, -400, 1 << 2), (-399, -300, 1 << 3), (-299, -200, 1 << 4), (-199, -100, 1 << 5))
 _XOFF = "\x13"
+#: CALCulate2 statistics of buffer readings (both instruments; SDEV is the sample standard deviation).
+_STATISTICS: dict[str, Callable[[np.ndarray], Any]] = {
+    "MEAN": np.mean,
+    "MAX": np.max,
+    "MIN": np.min,
+    "SDEV": lambda x: np.std(x, ddof=1) if x.size > 1 else 0.0,
+    "PKPK": np.ptp,
+}
 
 
 # ---------------------------------------------------------------------------------------------------- physics
@@ -218,6 +240,15 @@ def _resolve(header: str, table: dict[str, Setting], known: Iterable[str], root:
     return rooted if rooted.rstrip("?") in table or rooted in known else header
 
 
+def _static_reply(reply: str | None) -> Callable[[Command], str | None]:
+    """A handler that answers ``reply`` (None: an event accepted with no effect on the simulated bench)."""
+
+    def handler(cmd: Command) -> str | None:
+        return reply
+
+    return handler
+
+
 class _ScpiDevice(Device):
     """A pyvisa-sim Device that receives canonical SCPI commands. Settings are those of one command table
     (:mod:`instruments.commands`): parsed, range-checked, stored and answered from their declarations; static
@@ -228,18 +259,35 @@ class _ScpiDevice(Device):
     _query_eom: bytes
     _response_eom: bytes
     root = ""
+    #: headers that are another header on this instrument (``UNIT:VOLT:DC`` is ``UNIT`` on the 6221)
+    aliases: ClassVar[dict[str, str]] = {}
 
-    def __init__(self, name: str, definition: dict[str, Any], table: dict[str, Setting]) -> None:
+    def __init__(
+        self, name: str, definition: dict[str, Any], table: dict[str, Setting], actions: dict[str, Action]
+    ) -> None:
         super().__init__(name, b"")
         for itype, eom in definition.get("eom", {}).items():
             self.add_eom(itype, *sim_parser._get_pair(eom))
         sim_parser.update_component(name, self, definition)
         self.table = table
+        self.actions = actions
         self.values: dict[str, Any] = {h: s.default for h, s in table.items()}
         self._by_key = {s.key: h for h, s in table.items()}
         self.errors: deque[tuple[int, str]] = deque()
         self.esr = 0
         self.handlers: dict[str, Callable[[Command], str | None]] = {}
+
+    def bind_actions(self) -> None:
+        """Complete ``handlers`` from the action table: a static reply answers, an event without a handler is accepted
+        with no effect. Every handler must be declared (in the action or the setting table) and every computed
+        query must have a handler: the table is the whole command surface."""
+        for header, action in self.actions.items():
+            if header in self.handlers:
+                continue
+            assert action.reply is not None or not action.is_query, f"{header}: a computed query needs a handler"
+            self.handlers[header] = _static_reply(action.reply)
+        undeclared = [h for h in self.handlers if h not in self.actions and h.rstrip("?") not in self.table]
+        assert not undeclared, f"handlers without a declaration: {undeclared}"
 
     def reset_settings(self) -> None:
         """``*RST``: every setting the manual resets goes back to its default."""
@@ -269,12 +317,38 @@ class _ScpiDevice(Device):
         code, msg = self.errors.popleft()
         return f'{code:d},"{msg}"'
 
+    def error_handlers(self) -> dict[str, Callable[[Command], str | None]]:
+        """The error queue's commands (SYSTem:ERRor, STATus:QUEue, SYSTem:CLEar) the instrument declares."""
+        every: dict[str, Callable[[Command], str | None]] = {
+            "SYST:ERR?": self.pop_error,
+            "STAT:QUE?": self.pop_error,
+            "SYST:ERR:ALL?": lambda c: ",".join(self._drain()) if self.errors else '0,"No error"',
+            "SYST:ERR:COUN?": lambda c: str(len(self.errors)),
+            "SYST:ERR:CODE?": lambda c: self.pop_error().split(",", 1)[0],
+            "SYST:ERR:CODE:ALL?": lambda c: ",".join(e.split(",", 1)[0] for e in self._drain()) or "0",
+            "SYST:CLE": lambda c: self.errors.clear(),
+            "STAT:QUE:CLE": lambda c: self.errors.clear(),
+        }
+        return {h: f for h, f in every.items() if h in self.actions}
+
+    def _drain(self) -> list[str]:
+        out = []
+        while self.errors:
+            out.append(self.pop_error())
+        return out
+
     def execute(self, cmd: Command) -> str | None:
-        """One command: a handler, a declared setting, a static dialogue, or −113."""
+        """One command: a handler, a declared setting, a static dialogue, or −113 (−101 for a non-ASCII byte)."""
+        if cmd.invalid_character:
+            self.push_error(E_INVALID_CHARACTER)
+            return None
         if not cmd.header:
             self.push_error(E_UNDEFINED)
             return None
-        header = _resolve(cmd.header, self.table, self.handlers, self.root)
+        base = cmd.header.rstrip("?")
+        header = _resolve(
+            self.aliases.get(base, base) + cmd.header[len(base) :], self.table, self.handlers, self.root
+        )
         if header != cmd.header:
             cmd = Command(header, cmd.params, cmd.raw)
         handler = self.handlers.get(header)
@@ -308,8 +382,15 @@ class _ScpiDevice(Device):
         return (len(self.errors), self.esr) == before
 
     def static(self, cmd: Command) -> str | None:
-        """Answer ``cmd`` from the YAML dialogues; queue −113 if it is unknown; None = no reply."""
-        response = self._match(cmd.text.encode("latin-1"))
+        """Answer ``cmd`` from the YAML dialogues; queue −113 if it is unknown; None = no reply.
+
+        Only ASCII reaches pyvisa-sim's matcher (it decodes as UTF-8 and raises on anything else); the dialogues are
+        ASCII, so a text that is not cannot match."""
+        text = cmd.text
+        if not text.isascii():
+            self.push_error(E_UNDEFINED)
+            return None
+        response = self._match(text.encode("ascii"))
         if response is None:
             self.push_error(E_UNDEFINED)
             return None
@@ -331,24 +412,105 @@ class Simulated2182A(_ScpiDevice):
     """The 2182A behind the 6221's RS-232 port (reached only through the relay); ``SENSe`` is optional."""
 
     root = "SENS:"
+    aliases: ClassVar[dict[str, str]] = {"UNIT:VOLT:DC": "UNIT:VOLT"}
 
     def __init__(self, name: str, definition: dict[str, Any], bench: SimulatedBench | None = None) -> None:
-        super().__init__(name, definition, K2182A)
+        super().__init__(name, definition, K2182A, K2182A_ACTIONS)
         self.bench = bench if bench is not None else SimulatedBench()
         self.source_current_a: Callable[[], float] = lambda: 0.0
         self._last = OVERFLOW
+        self._fresh = False
+        self._buffer: list[float] = []
+        self._calc2 = math.nan
+        self.handlers.update(self.error_handlers())
         self.handlers.update(
             {
                 "*RST": lambda c: self.reset_settings(),
-                "*CLS": lambda c: self.errors.clear(),
-                "SYST:ERR?": self.pop_error,
+                "SYST:PRES": lambda c: self.reset_settings(),
+                "*CLS": lambda c: self._clear_status(),
+                "*ESR?": self._read_esr,
+                "*STB?": lambda c: str(4 if self.errors else 0),
+                "*OPC": self._opc,
+                "STAT:PRES": lambda c: self._preset_enables(),
                 "SYST:LFR?": lambda c: f"{self.bench.line_frequency_hz:g}",
                 "SENS:VOLT:RANG": self._set_range,
                 "SENS:VOLT:NPLC": self._set_nplc,
+                "SENS:VOLT:APER": self._aperture,
+                "SENS:VOLT:APER?": self._aperture,
+                "SENS:VOLT:REF:ACQ": lambda c: self.set_prop("reference", self._last if self._last < OVERFLOW else 0.0),
                 "READ?": self._read,
                 "FETC?": lambda c: f"{self._last:+.8E}",
+                "SENS:DATA?": lambda c: f"{self._last:+.8E}",
+                "SENS:DATA:FRES?": self._fresh_reading,
+                "CALC1:DATA?": lambda c: f"{self._last:+.8E}",
+                "TRAC:CLE": lambda c: self._buffer.clear(),
+                "TRAC:DATA?": self._trace_data,
+                "TRAC:FREE?": self._trace_free,
+                "TRAC:POIN:ACT?": lambda c: str(len(self._buffer)),
+                "CALC2:IMM": self._calc2_immediate,
+                "CALC2:IMM?": self._calc2_query,
+                "CALC2:DATA?": lambda c: f"{self._calc2:+.8E}",
             }
         )
+        self.bind_actions()
+
+    def _clear_status(self) -> None:
+        self.errors.clear()
+        self.esr = 0
+
+    def _preset_enables(self) -> None:
+        for key in ("meas_enable", "oper_enable", "ques_enable"):
+            self.set_prop(key, 0)
+
+    def _read_esr(self, cmd: Command) -> str:
+        value, self.esr = self.esr, 0
+        return str(value)
+
+    def _opc(self, cmd: Command) -> None:
+        self.esr |= 1
+        return None
+
+    def _aperture(self, cmd: Command) -> str | None:
+        """``SENS:VOLT:APER``: the integration time in seconds, coupled to NPLC (aperture = NPLC / mains Hz)."""
+        lfr = self.bench.line_frequency_hz
+        if cmd.is_query:
+            self.set_prop("aperture", float(self.prop("nplc")) / lfr)
+            return self.setting(cmd)
+        if self.set_ok(cmd):
+            nplc = Command("SENS:VOLT:NPLC", f"{float(self.prop('aperture')) * lfr:.12g}", cmd.raw)
+            self._set_nplc(nplc)
+        return None
+
+    def _fresh_reading(self, cmd: Command) -> str | None:
+        if not self._fresh:
+            self.push_error(E_STALE)
+            return None
+        self._fresh = False
+        return f"{self._last:+.8E}"
+
+    def _trace_free(self, cmd: Command) -> str:
+        """Bytes free and in use; 16 bytes per reading (the instrument's own figure is unverified)."""
+        used = len(self._buffer) * 16
+        return f"{int(self.prop('trace_points')) * 16 - used},{used}"
+
+    def _trace_data(self, cmd: Command) -> str | None:
+        if not self._buffer:
+            self.push_error(E_STALE)
+            return None
+        return ",".join(f"{x:+.8E}" for x in self._buffer)
+
+    def _calc2_immediate(self, cmd: Command) -> None:
+        r = np.array([x for x in self._buffer if abs(x) < OVERFLOW])
+        if not r.size:
+            self.push_error(E_STALE)
+            return None
+        self._calc2 = float(_STATISTICS[str(self.prop("calc2_format"))](r))
+        return None
+
+    def _calc2_query(self, cmd: Command) -> str | None:
+        before = len(self.errors)
+        self._calc2_immediate(cmd)
+        return f"{self._calc2:+.8E}" if len(self.errors) == before else None
 
     def _set_range(self, cmd: Command) -> str | None:
         if cmd.is_query:
@@ -369,11 +531,28 @@ class Simulated2182A(_ScpiDevice):
         return None
 
     def _read(self, cmd: Command) -> str:
-        """One conversion at the 6221's DC output current (0 when its output is off)."""
+        """One conversion at the 6221's DC output current (0 when its output is off), less the rel value, through
+        the math (mX+b, or percent of b), stored in the buffer while its control is NEXT."""
         t = np.array([self.bench.instrument_time_s])
         current = np.array([self.source_current_a()])
-        self._last = float(self.convert(self.bench, t, current, float(self.prop("nplc")))[0])
-        return f"{self._last:+.8E}"
+        x = float(self.convert(self.bench, t, current, float(self.prop("nplc")))[0])
+        if x < OVERFLOW:
+            x -= float(self.prop("reference")) if self.prop("reference_on") else 0.0
+            x = self._math(x)
+        self._last, self._fresh = x, True
+        if self.prop("trace_control") == "NEXT" and len(self._buffer) < int(self.prop("trace_points")):
+            self._buffer.append(x)
+            if len(self._buffer) == int(self.prop("trace_points")):
+                self.set_prop("trace_control", "NEV")  # the buffer is full: storage stops
+        return f"{x:+.8E}"
+
+    def _math(self, x: float) -> float:
+        if not self.prop("calc_state"):
+            return x
+        m, b = float(self.prop("calc_mmf")), float(self.prop("calc_mbf"))
+        if self.prop("calc_format") == "PERC":  # percent of the reference b (unverified: b as the reference)
+            return (x - b) / b * 100.0 if b else OVERFLOW
+        return m * x + b
 
     def convert(self, bench: SimulatedBench, t_s: np.ndarray, currents: np.ndarray, nplc: float) -> np.ndarray:
         """The conversions of one Delta run (V; +9.9E37 over range): channel 2 sees no sample current, a digital
@@ -418,11 +597,12 @@ class SimulatedK6221(_ScpiDevice):
     """
 
     root = "SOUR:"
+    aliases: ClassVar[dict[str, str]] = {"UNIT:VOLT": "UNIT", "UNIT:VOLT:DC": "UNIT"}  # RM 10-14
 
     def __init__(
         self, name: str, definition: dict[str, Any], voltmeter_def: dict[str, Any], bench: SimulatedBench
     ) -> None:
-        super().__init__(name, definition, K6221)
+        super().__init__(name, definition, K6221, K6221_ACTIONS)
         self.bench = bench
         self.voltmeter = Simulated2182A("k2182a", voltmeter_def, bench)
         self.voltmeter.source_current_a = lambda: float(self.prop("source_current")) if self.prop("output") else 0.0
@@ -435,8 +615,11 @@ class SimulatedK6221(_ScpiDevice):
         self._ques_event = 0
         self._calc2 = math.nan
         self._relay_pending: deque[str] = deque()
+        self.handlers.update(self.error_handlers())
         self.handlers.update(self._status_handlers())
         self.handlers.update(self._delta_handlers())
+        self.handlers.update(self._source_handlers())
+        self.bind_actions()
 
     def _status_handlers(self) -> dict[str, Callable[[Command], str | None]]:
         return {
@@ -445,32 +628,23 @@ class SimulatedK6221(_ScpiDevice):
             "*ESR?": self._read_esr,
             "*STB?": lambda c: str(self._stb()),
             "*OPC": self._opc,
-            "*OPC?": lambda c: "1",  # nothing is pending in the simulation (on hardware: unverified for Delta)
-            "*WAI": lambda c: None,
-            "*TST?": lambda c: "0",
-            "SYST:ERR?": self.pop_error,
-            "STAT:QUE?": self.pop_error,
-            "STAT:QUE:CLE": lambda c: self.errors.clear(),
+            "SYST:PRES": self._rst,
             "STAT:PRES": self._preset,
             "STAT:OPER:EVEN?": self._read_oper,
             "STAT:MEAS:EVEN?": self._read_meas,
             "STAT:QUES:EVEN?": self._read_ques,
-            "STAT:OPER:COND?": lambda c: str(self._oper_condition()),
-            "STAT:MEAS:COND?": lambda c: "0",
-            "STAT:QUES:COND?": lambda c: "0",
+            "STAT:OPER:COND?": lambda c: self._register(self._oper_condition()),
+            "STAT:MEAS:COND?": lambda c: self._register(0),
+            "STAT:QUES:COND?": lambda c: self._register(0),
         }
 
     def _delta_handlers(self) -> dict[str, Callable[[Command], str | None]]:
         return {
-            "SOUR:DELT:NVPR?": lambda c: "0" if self.bench.faults.voltmeter_absent else "1",
+            "SOUR:DELT:NVPR?": self._nvpresent,
+            "SOUR:PDEL:NVPR?": self._nvpresent,
+            "SOUR:DCON:NVPR?": self._nvpresent,
             "SOUR:DELT:ARM": self._arm,
             "SOUR:DELT:ARM?": lambda c: "1" if self._is_armed() else "0",
-            "SOUR:DCON:ARM?": lambda c: "0",  # differential conductance: never armed here
-            "SOUR:PDEL:ARM?": lambda c: "0",  # pulse Delta: never armed here
-            "SOUR:WAVE:ARM?": lambda c: "0",
-            "SOUR:WAVE:ARM": lambda c: None,
-            "SOUR:WAVE:INIT": lambda c: None,
-            "SOUR:WAVE:ABOR": lambda c: None,
             "INIT:IMM": self._init,
             "SOUR:SWE:ABOR": self._abort,
             "ABOR": self._abort,  # whether ABORt also stops a Delta run is unverified: the simulation stops it
@@ -481,6 +655,9 @@ class SimulatedK6221(_ScpiDevice):
             "TRAC:DATA:TYPE?": lambda c: "DELT" if self._stored() else "NONE",
             "SENS:DATA?": self._latest,
             "SENS:DATA:FRES?": self._latest,
+            "CALC1:DATA?": self._latest_math,
+            "CALC1:DATA:FRES?": self._latest_math,
+            "TRAC:FREE?": self._trace_free,
             "CALC2:IMM": self._calc2_immediate,
             "CALC2:IMM?": self._calc2_query,
             "CALC2:DATA?": lambda c: f"{self._calc2:+.8E}",
@@ -491,6 +668,90 @@ class SimulatedK6221(_ScpiDevice):
             "FORM:ELEM": self._form_elem,
             "FORM:ELEM?": lambda c: ",".join(e for e in (*ELEMENT_ORDER, "UNIT") if e in self._elements),
         }
+
+    def _source_handlers(self) -> dict[str, Callable[[Command], str | None]]:
+        """Commands whose manual side effects touch other settings: the source, sweep coupling, lists, buffer."""
+        out: dict[str, Callable[[Command], str | None]] = {
+            "SOUR:CLE": lambda c: self.set_prop("output", False),
+            "TRAC:NOT": self._set_notify,
+        }
+        for h in ("SOUR:CURR:STAR", "SOUR:CURR:STOP", "SOUR:CURR:STEP", "SOUR:CURR:CENT", "SOUR:CURR:SPAN"):
+            out[h] = self._set_sweep
+        out["SOUR:SWE:POIN"] = self._set_sweep
+        for name, key in (("CURR", "list_current"), ("DEL", "list_delay"), ("COMP", "list_compliance")):
+            out[f"SOUR:LIST:{name}:APP"] = functools.partial(self._list_append, key)
+            out[f"SOUR:LIST:{name}:POIN?"] = functools.partial(self._list_points, key)
+        return out
+
+    def _nvpresent(self, cmd: Command) -> str:
+        return "0" if self.bench.faults.voltmeter_absent else "1"
+
+    def _set_sweep(self, cmd: Command) -> str | None:
+        """Staircase sweep settings are coupled (RM 4-22): START/STOP set CENT and SPAN, CENT/SPAN set START and
+        STOP, and STEP = SPAN / (POIN − 1) except that setting STEP sets POIN = SPAN / STEP + 1."""
+        if cmd.is_query:
+            return self.setting(cmd)
+        if not self.set_ok(cmd):
+            return None
+        key = self.table[cmd.header].key
+        start, stop = float(self.prop("sweep_start")), float(self.prop("sweep_stop"))
+        if key in ("sweep_center", "sweep_span"):
+            center, span = float(self.prop("sweep_center")), float(self.prop("sweep_span"))
+            start, stop = center - span / 2, center + span / 2
+            self.set_prop("sweep_start", start)
+            self.set_prop("sweep_stop", stop)
+        span = stop - start
+        self.set_prop("sweep_center", (start + stop) / 2)
+        self.set_prop("sweep_span", abs(span))
+        if key == "sweep_step":
+            step = float(self.prop("sweep_step"))
+            self.set_prop("sweep_points", round(abs(span) / step) + 1 if step > 0 else 1)
+        else:
+            points = int(self.prop("sweep_points"))
+            self.set_prop("sweep_step", abs(span) / (points - 1) if points > 1 else 0.0)
+        return None
+
+    def _list_points(self, key: str, cmd: Command) -> str:
+        return str(len(self.prop(key)))
+
+    def _list_append(self, key: str, cmd: Command) -> None:
+        s = self.table[self._by_key[key]]
+        try:
+            added = s.parse(cmd.params)
+        except ScpiError as err:
+            self.push_error((err.code, err.message))
+            return None
+        if len(self.prop(key)) + len(added) > s.max_items:
+            self.push_error(E_OUT_OF_RANGE)
+            return None
+        self.set_prop(key, (*self.prop(key), *added))
+        return None
+
+    def _set_notify(self, cmd: Command) -> str | None:
+        """``TRAC:NOT``: 1 … TRAC:POIN − 1; a larger value is ignored with −222 (RM 6-17)."""
+        if cmd.is_query:
+            return self.setting(cmd)
+        old = self.prop("trace_notify")
+        if self.set_ok(cmd) and int(self.prop("trace_notify")) > int(self.prop("trace_points")) - 1:
+            self.set_prop("trace_notify", old)
+            self.push_error(E_OUT_OF_RANGE)
+        return None
+
+    def _trace_free(self, cmd: Command) -> str:
+        """Bytes free and in use; 16 bytes per stored reading (the instrument's own figure is unverified)."""
+        used = self._stored() * 16
+        return f"{65536 * 16 - used},{used}"
+
+    def _register(self, value: int) -> str:
+        """A status register as ``FORM:SREG`` asks: decimal, or ``#H``/``#Q``/``#B`` hexadecimal, octal, binary."""
+        fmt = str(self.prop("format_sreg"))
+        if fmt == "HEX":
+            return f"#H{value:X}"
+        if fmt == "OCT":
+            return f"#Q{value:o}"
+        if fmt == "BIN":
+            return f"#B{value:b}"
+        return str(value)
 
     # ---------------------------------------------------------------- VISA side: buffers
     def write(self, data: bytes) -> None:
@@ -598,15 +859,15 @@ class SimulatedK6221(_ScpiDevice):
 
     def _read_oper(self, cmd: Command) -> str:
         value, self._oper_event = self._oper_event, 0
-        return str(value)
+        return self._register(value)
 
     def _read_meas(self, cmd: Command) -> str:
         value, self._meas_event = self._meas_event, 0
-        return str(value)
+        return self._register(value)
 
     def _read_ques(self, cmd: Command) -> str:
         value, self._ques_event = self._ques_event, 0
-        return str(value)
+        return self._register(value)
 
     # ---------------------------------------------------------------- settings with side effects
     def _set_high(self, cmd: Command) -> str | None:
@@ -691,6 +952,7 @@ class SimulatedK6221(_ScpiDevice):
             self.push_error(E_CONFLICT)
             return None
         self.set_prop("trace_points", self._count()[0])  # arming sizes the buffer to the Delta count (RM 6-12)
+        self.set_prop("trace_feed_control", "NEXT")  # and enables it (unverified)
         self._armed_at = self.bench.clock()
         return None
 
@@ -777,8 +1039,17 @@ class SimulatedK6221(_ScpiDevice):
             else:
                 out = _moving_mean(out, n)
         if self.prop("trace_feed") == "CALC1" and self.prop("calc1_state"):
-            out = float(self.prop("calc1_mmf")) * out + float(self.prop("calc1_mbf"))
+            out = self._math(out)
         return out
+
+    def _math(self, x: np.ndarray) -> np.ndarray:
+        """CALC1 (RM table 6-3): mX+b, or m/X+b (``CALC1:FORM REC``), or nothing (``NONE``)."""
+        m, b = float(self.prop("calc1_mmf")), float(self.prop("calc1_mbf"))
+        fmt = self.prop("calc1_format")
+        if fmt == "REC":
+            with np.errstate(divide="ignore"):
+                return np.where(x != 0, m / np.where(x != 0, x, 1.0) + b, OVERFLOW)
+        return m * x + b if fmt == "MXB" else x
 
     # ---------------------------------------------------------------- buffer
     def _columns(self, start: int, stop: int) -> list[tuple[np.ndarray, str]]:
@@ -802,12 +1073,14 @@ class SimulatedK6221(_ScpiDevice):
 
     def _format(self, start: int, stop: int) -> str:
         """Readings ``start … stop − 1`` as the 6221 sends them: ASCII with 9 significant digits, or an IEEE 488.2
-        definite-length block of 4- or 8-byte floats (``FORM:DATA SRE|DRE``; byte order big-endian, unverified)."""
+        definite-length block of 4- or 8-byte floats (``FORM:DATA SRE|DRE``; ``FORM:BORD NORM`` big-endian, ``SWAP``
+        little-endian)."""
         cols = self._columns(start, stop)
         flat = np.column_stack([c for c, _ in cols]).ravel()
         fmt = str(self.prop("format_data"))
         if fmt != "ASC":
-            raw_bytes = flat.astype(">f4" if fmt == "SRE" else ">f8").tobytes()
+            order = "<" if self.prop("format_border") == "SWAP" else ">"  # SWAPped: little-endian
+            raw_bytes = flat.astype(f"{order}f4" if fmt == "SRE" else f"{order}f8").tobytes()
             n = str(len(raw_bytes))
             return f"#{len(n)}{n}" + raw_bytes.decode("latin-1")
         texts = [f"{x:+.8E}" for x in flat.tolist()]
@@ -847,6 +1120,13 @@ class SimulatedK6221(_ScpiDevice):
             return None
         return f"{sw.readings[n - 1]:+.8E}"
 
+    def _latest_math(self, cmd: Command) -> str | None:
+        """``CALC1:DATA?``: the latest reading after the CALC1 math (when it is on)."""
+        reply = self._latest(cmd)
+        if reply is None or not self.prop("calc1_state") or self.prop("trace_feed") == "CALC1":
+            return reply  # math off, or already applied to what the buffer holds
+        return f"{float(self._math(np.array([float(reply)]))[0]):+.8E}"
+
     def _calc2_immediate(self, cmd: Command) -> None:
         """``CALC2:IMM``: the statistic ``CALC2:FORM`` of the buffer's valid readings."""
         n = self._stored()
@@ -855,9 +1135,7 @@ class SimulatedK6221(_ScpiDevice):
         if not r.size:
             self.push_error(E_STALE)
             return None
-        stats: dict[str, Callable[[np.ndarray], Any]] = {"MEAN": np.mean, "MAX": np.max, "MIN": np.min}
-        stats |= {"SDEV": lambda x: np.std(x, ddof=1) if x.size > 1 else 0.0, "PKPK": np.ptp}
-        self._calc2 = float(stats[str(self.prop("calc2_format"))](r))
+        self._calc2 = float(_STATISTICS[str(self.prop("calc2_format"))](r))
         return None
 
     def _calc2_query(self, cmd: Command) -> str | None:

@@ -39,7 +39,9 @@ class _OneLineErrors(argparse.ArgumentParser):
     """argparse, but a usage error is one line (``contactrig acquire: error: …``) and exit 2, like every other error."""
 
     def error(self, message: str) -> NoReturn:
-        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+        from contactrig.core.text import bound_error_line, escape_terminal
+
+        self.exit(2, f"{self.prog}: error: {bound_error_line(escape_terminal(message))} (see {self.prog} --help)\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -80,9 +82,10 @@ class _StopOnInterrupt:
 
 
 def _one_line(exc: BaseException) -> str:
-    from contactrig.core.text import escape_terminal
+    """The error as one line of bounded length (a huge offending value is quoted by its start and its length)."""
+    from contactrig.core.text import bound_error_line, escape_terminal
 
-    return escape_terminal(str(exc))
+    return bound_error_line(escape_terminal(str(exc)))
 
 
 def main(argv: Sequence[str] | None = None) -> int:

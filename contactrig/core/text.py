@@ -11,15 +11,34 @@ such a string is shown it goes through one of these, so it is displayed as the t
   renderers pass raw HTML through) and line breaks become spaces, so the text cannot open a heading, a table
   cell, a link, an image or a code span; :func:`markdown_code_block` for multi-line text (a scene file).
 - :func:`escape_html` — ``& < > " '`` as entities, control characters dropped to visible escapes.
+- :func:`quote` — a value as an error message shows it: its ``repr``, at most :data:`QUOTE_LIMIT` characters of it
+  (a 131 072-character table cell is quoted by its first characters and its length); :func:`bound_error_line` is
+  the same rule applied to a finished message (the top-level error printer's safety net).
 """
 
 from __future__ import annotations
 
 import html
+import os
 import re
 import unicodedata
 
-__all__ = ["escape_html", "escape_markdown", "escape_terminal", "markdown_code_block"]
+__all__ = [
+    "QUOTE_LIMIT",
+    "bound_error_line",
+    "escape_html",
+    "escape_markdown",
+    "escape_terminal",
+    "is_path_like",
+    "markdown_code_block",
+    "quote",
+    "shorten",
+]
+
+#: At most this many characters of an offending value are quoted in an error line.
+QUOTE_LIMIT = 80
+#: An error line longer than this has its long quoted literals cut to QUOTE_LIMIT (and is then cut to ERROR_LINE_LIMIT).
+ERROR_LINE_LIMIT = 400
 
 # C0 and C1 controls (without \n, handled apart), DEL, and the Unicode format characters that reorder or hide text
 # (bidi overrides and isolates, zero-width joiners): "Trojan source" tricks in a terminal or a rendered report.
@@ -86,3 +105,71 @@ def markdown_code_block(value: object, info: str = "text") -> str:
     longest = max((len(m) for m in re.findall(r"`+|~+", text)), default=0)
     fence = "`" * max(3, longest + 1)
     return f"{fence}{info}\n{text}\n{fence}"
+
+
+#: A file path is quoted whole up to this length (Linux PATH_MAX): it names the file the error is about.
+PATH_LIMIT = 4096
+
+
+def is_path_like(value: object) -> bool:
+    """``value`` is (or reads as) a file path: an ``os.PathLike``, or a string with a ``/`` (or the platform's
+    separator), no control character and at most :data:`PATH_LIMIT` characters."""
+    if isinstance(value, os.PathLike):
+        return True
+    return (
+        isinstance(value, str)
+        and 0 < len(value) <= PATH_LIMIT
+        and (os.sep in value or "/" in value)
+        and not _CONTROL.search(value)
+    )
+
+
+def quote(value: object, limit: int = QUOTE_LIMIT) -> str:
+    """``repr(value)`` as an error message quotes it: whole when it has at most ``limit`` characters (or is a file
+    path, see :func:`is_path_like`: the error must name the file), else its first characters, ``…`` and the length
+    (``'aaaa…' (131072 characters)``), so a huge input never makes a huge line."""
+    text = repr(value)
+    if len(text) <= limit or is_path_like(value):
+        return text
+    if isinstance(value, (str, bytes)):
+        n = limit
+        while n > 1 and (size := len(repr(value[:n]))) > limit - 2:  # escapes make the repr longer than the slice
+            n = min(n - 1, n * (limit - 4) // size)
+        head = repr(value[:n])
+        what = "characters" if isinstance(value, str) else "bytes"
+        return f"{head[:-1]}…{head[-1]} ({len(value)} {what})"
+    return shorten(text, limit)
+
+
+def shorten(text: str, limit: int = QUOTE_LIMIT) -> str:
+    """``text`` itself when it has at most ``limit`` characters, else its start, ``…`` and its length."""
+    return text if len(text) <= limit else f"{text[: limit - 1]}… ({len(text)} characters)"
+
+
+# A Python string literal as repr() writes it (the offending values of our messages are quoted this way).
+_LITERAL = re.compile(r"'(?:[^'\\\n]|\\.)*'|\"(?:[^\"\\\n]|\\.)*\"")
+
+
+def bound_error_line(text: str, limit: int = ERROR_LINE_LIMIT) -> str:
+    """An error line of at most about ``limit`` characters: every quoted literal longer than :data:`QUOTE_LIMIT`
+    is cut as :func:`quote` cuts it, and what is still too long loses its middle (with the count left out)."""
+    if len(text) <= limit:
+        return text
+    text = _LITERAL.sub(_cut_literal, text)
+    if len(text) > limit:  # an unquoted name or value (a key, an argument) longer than any word
+        text = _LONG_WORD.sub(lambda m: m.group(0) if is_path_like(m.group(0)) else shorten(m.group(0)), text)
+    if len(text) <= limit:
+        return text
+    keep = (limit - 40) // 2
+    return f"{text[:keep]} … ({len(text) - 2 * keep} characters left out) … {text[-keep:]}"
+
+
+_LONG_WORD = re.compile(f"[^\\s'\"]{{{QUOTE_LIMIT + 1},}}")
+
+
+def _cut_literal(m: re.Match[str]) -> str:
+    lit = m.group(0)
+    if len(lit) <= QUOTE_LIMIT or is_path_like(lit[1:-1]):
+        return lit
+    q = lit[0]
+    return f"{lit[: QUOTE_LIMIT - 2]}…{q} ({len(lit) - 2} characters)"

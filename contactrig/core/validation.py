@@ -11,6 +11,8 @@ import math
 from collections.abc import Iterable, Mapping
 from typing import Any
 
+from contactrig.core.text import quote, shorten
+
 __all__ = [
     "SCENE_TABLES",
     "SettingError",
@@ -56,7 +58,7 @@ class SettingError(ValueError):
         self.field = field
         self.value = value
         self.allowed = allowed
-        super().__init__(f"{scene_key(field)} = {value!r} is not allowed: {allowed}")
+        super().__init__(f"{shorten(scene_key(field))} = {quote(value)} is not allowed: {allowed}")
 
 
 def _as_float(field: str, value: Any) -> float:

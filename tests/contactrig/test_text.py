@@ -6,7 +6,7 @@ import html
 import re
 
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from contactrig.core.text import escape_html, escape_markdown, escape_terminal, markdown_code_block
@@ -86,3 +86,37 @@ def test_code_block_cannot_be_closed_by_its_content():
     fence = block.splitlines()[0].removesuffix("toml")
     assert len(fence) == 5 and block.endswith("\n" + fence)
     assert text.rstrip("\n") in block
+
+
+# ---------------------------------------------------------------------------------------------- quote (errors)
+@settings(max_examples=300, deadline=None)
+@given(st.one_of(st.text(max_size=400), st.binary(max_size=400)))
+def test_quote_is_short_and_starts_like_the_repr(value):
+    from contactrig.core.text import QUOTE_LIMIT, is_path_like, quote
+
+    q = quote(value)
+    full = repr(value)
+    if len(full) <= QUOTE_LIMIT or is_path_like(value):  # a file path is quoted whole: it names the file
+        assert q == full
+    else:
+        head, _, tail = q.rpartition("…")
+        assert len(head) <= QUOTE_LIMIT and full.startswith(head[:-1] if head.endswith(("'", '"')) else head)
+        assert tail.endswith(f"({len(value)} {'characters' if isinstance(value, str) else 'bytes'})")
+
+
+def test_bound_error_line_cuts_long_literals_and_long_words_only_in_long_lines():
+    from contactrig.core.text import ERROR_LINE_LIMIT, bound_error_line
+
+    short = "x = 'a b' is not allowed: " + "w" * 100
+    assert bound_error_line(short) == short
+    line = f"t.csv: row 2, column 'M1' = {'z' * 5000!r} is not allowed; key {'k' * 5000} unknown"
+    out = bound_error_line(line)
+    assert len(out) <= ERROR_LINE_LIMIT and "(5000 characters)" in out and out.startswith("t.csv: row 2")
+
+
+def test_a_file_path_is_quoted_whole_and_a_huge_one_is_not():
+    from contactrig.core.text import PATH_LIMIT, quote
+
+    path = "/tmp/pytest-of-root/pytest-54/test_load_database_on_damaged_14/sealed-pressure-altered.h5"
+    assert quote(path) == repr(path)
+    assert len(quote("/" * (PATH_LIMIT + 1))) < 120

@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import re
 import sys
 
 import numpy as np
@@ -40,7 +41,7 @@ def test_csv_summary_round_trips_through_contactrig_import(session_path, tmp_pat
     assert main(["export", str(session_path), "--to", "csv", "-o", str(out)]) == 0
     text = out.read_text(encoding="utf-8")
     header = next(ln for ln in text.splitlines() if not ln.startswith("#"))
-    assert header == "weight_kg,M1_mohm,M2_mohm"  # Tab. 1 layout, unit in the headers
+    assert header == '"weight_kg","M1_mohm","M2_mohm"'  # Tab. 1 layout, unit in the headers
     back = tmp_path / "back.h5"
     assert main(["import", str(out), "-o", str(back)]) == 0
     original, imported = load_quietly(session_path), load_quietly(back)
@@ -71,7 +72,7 @@ def test_existing_outputs_are_refused_before_anything_is_written(session_path, t
     assert "s-readings.csv exists; use --force to overwrite it" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "s.csv").exists() and (tmp_path / "s-readings.csv").read_text() == "keep me"
     assert main(["export", str(session_path), "-o", str(tmp_path / "s.csv"), "--force"]) == 0
-    assert (tmp_path / "s-readings.csv").read_text().startswith("block,")
+    assert (tmp_path / "s-readings.csv").read_text().startswith('"block",')
     assert not list(tmp_path.glob("*.tmp")) and not list(tmp_path.glob(".*.tmp"))
 
 
@@ -176,3 +177,93 @@ def test_export_fit_of_a_session_fits_now(tmp_path, capsys):
     rows = list(csv.DictReader(line for line in (tmp_path / "fit.csv").open(encoding="utf-8") if line[0] != "#"))
     hertz = next(r for r in rows if r["model"] == "hertz")
     assert float(hertz["R_series_ohm"]) == pytest.approx(fit["models"]["hertz"]["estimate"]["R_series_ohm"], rel=1e-9)
+
+
+# ---- hostile strings in every CSV we write (CSV injection) ---------------------------------------------------------
+HOSTILE = [
+    "a,=1+2,@SUM(1+1)",
+    "=HYPERLINK(\"http://x\",\"y\")",
+    "+1+cmd|' /C calc'!A0",
+    "-2+3",
+    "@SUM(A1:A9)",
+    "\t=1+1",
+    "\r=1+1",
+    "  =1+1",
+    'x"y,z\nnext line',
+]
+_TRIGGERS = ("=", "+", "-", "@", "\t", "\r")
+
+
+def _cells(path):
+    """Every cell as a spreadsheet splits the file (RFC 4180 quoting, comma separator), with its raw field text."""
+    text = path.read_text(encoding="utf-8")
+    return [cell for row in csv.reader(text.splitlines()) for cell in row], text
+
+
+def _is_number(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return False
+    return True
+
+
+_RAW_FIELD = re.compile(r'"(?:[^"]|"")*"|[^,]*')
+
+
+def _raw_fields(line: str) -> list[str]:
+    out, pos = [], 0
+    while True:
+        m = _RAW_FIELD.match(line, pos)
+        out.append(m.group(0))
+        pos = m.end()
+        if pos >= len(line):
+            return out
+        assert line[pos] == ",", line
+        pos += 1
+
+
+def _assert_inert(path):
+    cells, text = _cells(path)
+    for cell in cells:
+        if not _is_number(cell):  # text never starts a formula, even after leading blanks
+            assert not cell.lstrip(" ").startswith(_TRIGGERS), (path.name, cell)
+    for line in text.splitlines():  # every text field is quoted; numbers, empty fields and the "# key:" are not
+        for raw in _raw_fields(line):
+            assert raw == "" or _is_number(raw) or raw.startswith(('"', "# ")), (path.name, line)
+
+
+@pytest.mark.parametrize("hostile", HOSTILE)
+def test_csv_export_of_a_session_keeps_hostile_strings_in_one_inert_cell(hostile, tmp_path):
+    toml = json.dumps(hostile)  # a TOML basic string is a JSON string
+    path = tmp_path / "h.h5"
+    write_session(SessionPlan.from_scene(small_scene(sample=f"sample = {toml}")), path)
+    paths = export_session(path, "csv", tmp_path / "h.csv")
+    for p in paths:
+        _assert_inert(p)
+    cells, _ = _cells(paths[0])
+    i = cells.index("# sample:")
+    shown = cells[i + 1]
+    escaped = hostile.replace("\t", "\\x09").replace("\r", "\\x0d").replace("\n", "\\n")  # one line
+    formula = hostile.lstrip(" ").startswith(_TRIGGERS)
+    assert shown == ("'" if formula else "") + escaped  # one cell, the whole text, never split
+    # the summary still imports to the same numbers
+    back = tmp_path / "back.h5"
+    assert main(["import", str(paths[0]), "-o", str(back)]) == 0
+    a, b = _means(load_quietly(path)), _means(load_quietly(back))
+    assert a.keys() == b.keys() and all(math.isclose(a[k], b[k], rel_tol=1e-15, abs_tol=0) for k in a)
+
+
+def test_csv_export_of_a_fit_quotes_text_and_keeps_negative_numbers_numbers(tmp_path):
+    fit = json.loads(json.dumps(FIT))
+    fit["models"]["hertz"]["unphysical"] = HOSTILE
+    fit["models"]["hertz"]["conversion"] = "=1+1"
+    fit["statement"] = "@SUM(1+1),-3"
+    paths = export_fit(fit, "csv", tmp_path / "f.csv", source="=evil.json")
+    for p in paths:
+        _assert_inert(p)
+    line = next(ln for ln in paths[0].read_text(encoding="utf-8").splitlines() if ln.startswith("2,"))
+    assert ",-0.004," in line  # a negative number is written as a number, unquoted and without a '
+    assert ',"\'=1+1",' in line  # a text cell: quoted, neutralised
+    rows = list(csv.reader(ln for ln in paths[0].open(encoding="utf-8") if ln[0] != "#"))
+    assert float(rows[2][2]) == -4e-3
