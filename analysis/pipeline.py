@@ -521,24 +521,9 @@ def resistance_statement(a: Analysis) -> str:
 
 
 def _resistance_sentence(a: Analysis, config: Any, curve: MeasuredCurve, model: str) -> str:
-    from analysis.resistance_model import fit_measured, rig_resistance_terms, tab1_statement
+    from analysis.resistance_model import fit_measured, physical_sentence, rig_resistance_terms
     from sims.models import model_label
 
-    if a.measured_info.get("kind") == "table" and str(a.measured_info.get("path", "")).endswith("tab1.csv"):
-        return tab1_statement(config, model, curve)
+    is_tab1 = a.measured_info.get("kind") == "table" and str(a.measured_info.get("path", "")).endswith("tab1.csv")
     terms = rig_resistance_terms(config, model, [float(w) for w in curve.weight_kg])
-    fit = fit_measured(curve, terms)
-    clean = fit.shares["clean_metal"]
-    lo, hi = 100 * float(np.min(clean)), 100 * float(np.max(clean))
-    verdict = (
-        "so this session measures a film (or the circuit), not metal-to-metal constriction."
-        if hi < 10
-        else "so the clean-metal constriction is a visible part of what this session measures."
-    )
-    return (
-        f"With the {model_label(model)} contact area, this session is R = R_s + σ_f/A + clean metal with σ_f = "
-        f"{float(fit.film_ohm_m2):.2e} ± {float(fit.film_se):.1e} Ω·m² (a surface film; eq. 23's ζh) and R_s = "
-        f"{1e3 * float(fit.series_ohm):.2f} ± {1e3 * float(fit.series_se):.2f} mΩ; the clean-metal constriction "
-        f"(Barber, ρ1+ρ2 = {terms.resistivity_sum_ohm_m:.3g} Ω·m, plus the band's macro-constriction "
-        f"{1e3 * float(terms.macro_ohm.mean()):.3f} mΩ) is {lo:.1f}–{hi:.1f} % of the measured resistance, {verdict}"
-    )
+    return physical_sentence(fit_measured(curve, terms), model_label(model), "Tab. 1" if is_tab1 else "this session")

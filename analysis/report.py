@@ -417,7 +417,8 @@ def _fit_section(a: Any) -> list[Any]:
     k, unit = resistance_unit(first.points.measured_ohm)
     headers = (
         "model", f"R_s ± SE [{unit}]", f"R_s {lvl}% t-CI [{unit}]", f"R_s {lvl}% bootstrap [{unit}]", "s ± SE [Ω·m]",
-        f"s {lvl}% bootstrap", "χ²", "χ²/dof", "p", "AIC", "ΔAIC", "Akaike w", "first in bootstrap", f"RMSE [{unit}]",
+        f"s {lvl}% bootstrap", "χ²", "χ²/dof", "p", "AIC", f"Δ{cmp.criterion}", f"{cmp.criterion} weight",
+        "first in bootstrap", f"RMSE [{unit}]",
     )  # fmt: skip
     boot = first.intervals.bootstrap
     blocks: list[Any] = [
@@ -428,7 +429,9 @@ def _fit_section(a: Any) -> list[Any]:
             f"{_WEIGHTING_TEXT.get(first.weighting, first.weighting)}; {boot.n_boot} bootstrap resamples of the "
             f"repeats ({_BOOTSTRAP_TEXT.get(boot.resampling, boot.resampling)}), {boot.method} intervals; t-intervals "
             f"with {first.intervals.t.dof[0]:.3g} degrees of freedom; p: goodness of fit against "
-            f"{first.goodness.reference}. k = 2 for every model, so ΔAIC = ΔBIC = Δχ²."
+            f"{first.goodness.reference}. k = 2 for every model, so ΔAIC = ΔBIC = Δχ²"
+            + (f" (ΔQAIC = Δχ²/ĉ, ĉ = {cmp.c_hat:.3g})" if cmp.criterion == "QAIC" else "")
+            + f". {cmp.n_repeats} independent series or repeats; errors: {first.estimate.error_rule}."
         ),
         Para(Strong(_about_models(cmp.statement, cmp.ranking))),
     ]
@@ -438,6 +441,7 @@ def _fit_section(a: Any) -> list[Any]:
     notes += [
         [_label(n), ": UNPHYSICAL: ", _about_models(why, [n])] for n in cmp.ranking for why in cmp.fits[n].unphysical
     ]
+    notes += list(cmp.series_notes)
     if not boot.available:
         notes.append(f"bootstrap intervals {boot.note}")
     if notes:

@@ -256,12 +256,13 @@ def _print_fit_table(a: Any) -> None:
     best = cmp.best
     boot = best.intervals.bootstrap
     k, unit = resistance_unit(best.points.measured_ohm)
-    print(escape_terminal(f"{a.title}: {cmp.n_weights} weights × {cmp.n_repeats} repeats; simulation: "
+    print(escape_terminal(f"{a.title}: {cmp.n_weights} weights × {cmp.n_repeats} independent repeats; simulation: "
                           f"{a.sim_info.get('source')}"))  # fmt: skip
     print(f"R = R_s + s·x(A), conversion {a.conversion}, weighting {best.weighting}, "
           f"{boot.n_boot} bootstrap resamples ({boot.resampling})")  # fmt: skip
     r_head, rmse_head = f"R_s [{unit}]", f"RMSE [{unit}]"
-    print(f"{'model':<20} {r_head:>18} {'s [Ω·m]':>22} {'χ²/dof':>8} {'AIC':>8} {'ΔAIC':>7} {rmse_head:>10}")
+    d_head = "Δ" + cmp.criterion
+    print(f"{'model':<20} {r_head:>18} {'s [Ω·m]':>22} {'χ²/dof':>8} {'AIC':>8} {d_head:>7} {rmse_head:>10}")
     for name in cmp.ranking:
         f = cmp.fits[name]
         e, g = f.estimate, f.goodness
@@ -276,6 +277,9 @@ def _print_fit_table(a: Any) -> None:
     print(f"{label}: R_s {round(best.intervals.level * 100)}% t-interval [{t_ci[0] * k:.3g}, "
           f"{t_ci[1] * k:.3g}] {unit}, {boot.method} bootstrap {boot_text}; "
           f"goodness of fit against {best.goodness.reference}")  # fmt: skip
+    print(escape_terminal(f"errors: {best.estimate.error_rule}"))
+    for note in cmp.series_notes:
+        print(escape_terminal(f"series: {note}"))
 
 
 def _print_caveats(a: Any) -> None:
