@@ -101,11 +101,14 @@ DELTA_AIC_INDISTINGUISHABLE = 2.0
 
 
 def regressor(area_m2: np.ndarray, height_m: float, conversion: str = "bulk") -> np.ndarray:
-    """x(A) [1/m] such that R = R_s + s·x with s in Ω·m: h/A (seed eq. 23) or √π/(2√A) (Holm, one spot)."""
+    """x(A) such that R = R_s + s·x: h/A [1/m] (seed eq. 23, s in Ω·m), √π/(2√A) [1/m] (Holm, one spot, s in Ω·m)
+    or 1/A [1/m²] (``"physical"``: the film term σ_f/A, s = σ_f in Ω·m², the clean-metal terms a known offset)."""
     check_choice("conversion", conversion, CONVERSIONS)
     a = np.asarray(area_m2, dtype=float)
     if not np.all(np.isfinite(a)) or np.any(a <= 0):
         raise SettingError("contact_area_m2", a.tolist(), "expected finite areas > 0 m² (zero area: no contact)")
+    if conversion == "physical":
+        return 1.0 / a
     if conversion == "bulk":
         h = check_range("height_m", height_m, 0.0, None, lo_open=True, unit="m")
         return h / a
@@ -118,6 +121,8 @@ def regressor_label(conversion: str) -> str:
     check_choice("conversion", conversion, CONVERSIONS)
     if conversion == "bulk":
         return "h/A (eq. 23)"
+    if conversion == "physical":
+        return "1/A (film σ_f/A; + Barber clean-metal and band constriction, computed)"
     return "√π/(2√A) (Holm single spot — an upper bound on the clean-metal constriction)"
 
 
@@ -473,7 +478,9 @@ class ModelFit(_Result):
     (:class:`Estimate`), ``intervals`` (:class:`Intervals`: t and bootstrap), ``goodness`` (:class:`GoodnessOfFit`),
     ``diagnostics`` (:class:`Diagnostics`), ``points`` (:class:`FitPoints`, per weight). ``boot_params`` (B, 2) the
     bootstrap estimates (None without bootstrap; not exported by :meth:`as_dict`). ``unphysical``: why the fit is
-    unphysical, in words (empty: physical; module docstring).
+    unphysical, in words (empty: physical; module docstring). ``shares`` each term's share of the measured mean per
+    weight (:func:`_shares`); ``load_independent`` why the slope says the resistance does not depend on the load
+    ("" when it does; such a fit is not ranked).
     """
 
     model: str
@@ -486,6 +493,8 @@ class ModelFit(_Result):
     points: FitPoints
     boot_params: np.ndarray | None = field(default=None, repr=False, metadata={"export": False})
     unphysical: tuple[str, ...] = ()
+    shares: dict[str, np.ndarray] = field(default_factory=dict)
+    load_independent: str = ""
 
     @property
     def physical(self) -> bool:
@@ -676,7 +685,9 @@ def _fit_arrays(
     boot_interval: str = "studentized",
     offset_ohm: np.ndarray | None = None,
     scale_units: str = "ohm*m",
+    offset_terms: Mapping[str, np.ndarray] | None = None,
 ) -> ModelFit:
+    offset = np.zeros_like(sigma) if offset_ohm is None else np.asarray(offset_ohm, dtype=float)
     if offset_ohm is not None:  # known terms (the clean-metal constriction) subtracted from every repeat
         curve, resamples = _shifted(curve, resamples, offset_ohm)
     y = curve.mean_ohm
@@ -723,9 +734,9 @@ def _fit_arrays(
         weight_kg=curve.weight_kg.copy(),
         area_m2=area,
         regressor_per_m=x,
-        measured_ohm=y,
+        measured_ohm=y + offset,
         sigma_ohm=sigma,
-        fitted_ohm=fitted,
+        fitted_ohm=fitted + offset,
         residuals_ohm=resid,
         normalised_residuals=resid / sigma,
     )
@@ -740,6 +751,34 @@ def _fit_arrays(
         points=points,
         boot_params=boot,
         unphysical=_unphysical(est, intervals, curve),
+        shares=_shares(est, x, y + offset, conversion, offset_terms),
+        load_independent=_load_independent(est, intervals),
+    )
+
+
+def _shares(
+    est: Estimate, x: np.ndarray, measured: np.ndarray, conversion: str, terms: Mapping[str, np.ndarray] | None
+) -> dict[str, np.ndarray]:
+    """Each term's share of the measured mean per weight [-]: "series" R_s, the area term s·x ("film" for the
+    physical model, else "area_term") and every known term (e.g. "barber", "macro")."""
+    out = {
+        "series": np.full(x.shape, est.R_series_ohm) / measured,
+        ("film" if conversion == "physical" else "area_term"): est.scale * x / measured,
+    }
+    for name, values in (terms or {}).items():
+        out[name] = np.asarray(values, dtype=float) / measured
+    return out
+
+
+def _load_independent(est: Estimate, intervals: Intervals) -> str:
+    """Why the fit says the resistance does not depend on the load ("" when it does): the slope s is consistent with
+    zero or negative (the t-interval's lower limit ≤ 0). Such a fit is not ranked."""
+    lo, hi = intervals.t.scale
+    if lo > 0:
+        return ""
+    return (
+        f"s = {est.scale:.3g} ± {est.scale_se:.2g} (t-interval [{lo:.3g}, {hi:.3g}]) is consistent with zero or "
+        "negative: the resistance does not depend on the load: this is not a contact-area measurement"
     )
 
 
@@ -947,16 +986,23 @@ def compare_models(
     bootstrap: str = "auto",
     boot_interval: str = "studentized",
     seed: int | None = 0,
-    offsets_ohm: Mapping[str, np.ndarray] | None = None,
-    scale_units: str = "ohm*m",
+    offset_terms: Mapping[str, Mapping[str, np.ndarray]] | None = None,
+    scale_units: str | None = None,
 ) -> ModelComparison:
     """Fit every model in ``areas_m2`` (name → contact area at ``curve.weight_kg``) and rank them.
 
     The same bootstrap resamples are used for every model, so "how often is the best model first" compares
     like with like. Series that are copies of others are counted once (:func:`independent_series`).
-    ``offsets_ohm[name]`` a known term per weight [Ω] subtracted before the fit (the clean-metal constriction of
-    the physical model); ``scale_units`` the unit of s. Other arguments as :func:`fit_model`.
+    ``offset_terms[name]`` known terms per weight [Ω] by name (the physical model's "barber" and "macro"
+    constriction), their sum subtracted before the fit and each term's share of the measured mean reported;
+    ``scale_units`` the unit of s (default Ω·m, Ω·m² for ``conversion="physical"``). Other arguments as
+    :func:`fit_model`.
     """
+    if scale_units is None:
+        scale_units = "ohm*m2" if conversion == "physical" else "ohm*m"
+    offsets_ohm = None
+    if offset_terms is not None:
+        offsets_ohm = {n: np.sum([np.asarray(v, float) for v in t.values()], axis=0) for n, t in offset_terms.items()}
     if not areas_m2:
         raise SettingError("models", [], "expected at least one model")
     curve, series_notes = independent_series(curve)
@@ -973,12 +1019,13 @@ def compare_models(
             name, curve, area, x, sigma, res, conversion=conversion, weighting=weighting, bootstrap=mode,
             ci_level=ci_level, boot_interval=boot_interval,
             offset_ohm=None if offsets_ohm is None else offsets_ohm[name], scale_units=scale_units,
+            offset_terms=None if offset_terms is None else offset_terms[name],
         )  # fmt: skip
     names = list(fits)
     c_hat, criterion = _overdispersion(fits)
     ic = {n: _criterion(fits[n].goodness, c_hat) for n in names}
     # physical fits first, by (Q)AIC; an unphysical fit is never ranked above a physical one
-    ranking = tuple(sorted(names, key=lambda n: (not fits[n].physical, ic[n])))
+    ranking = tuple(sorted(names, key=lambda n: (not fits[n].physical, bool(fits[n].load_independent), ic[n])))
     best = ranking[0]
     delta = {n: ic[n] - ic[best] for n in names}
     lowest = min(ic.values())  # an unphysical fit may have a lower AIC than the best
@@ -986,7 +1033,7 @@ def compare_models(
     total = sum(raw.values())
     weights = {n: raw[n] / total for n in names}
 
-    candidates = [n for n in names if fits[n].physical] or names
+    candidates = [n for n in names if fits[n].physical and not fits[n].load_independent] or names
     first, decisive = _bootstrap_ranking(
         fits, candidates, best, boot, sigma, offsets_ohm, c_hat if criterion == "QAIC" else math.nan, seed
     )
@@ -1039,7 +1086,7 @@ def _bootstrap_ranking(
         pb = fits[best].points
         rng = np.random.default_rng(None if seed is None else seed + 1)
         signs = rng.choice([-1.0, 1.0], (boot.shape[0], sigma.size))
-        y_star = pb.fitted_ohm + off[best] + pb.residuals_ohm * signs  # (B, m), raw R
+        y_star = pb.fitted_ohm + pb.residuals_ohm * signs  # (B, m), raw R (fitted_ohm includes the offset)
         table = np.vstack([_refit_chi2(fits[n].points.regressor_per_m, y_star - off[n], sigma) for n in names])
         table = table / (np.min(table, axis=0) / max(sigma.size - 2, 1))
     else:
@@ -1098,8 +1145,11 @@ def _statement(
     """The verdict in words, models by their display labels (:func:`sims.models.model_label`)."""
     best = ranking[0]
     fb = fits[best].goodness
-    physical = [n for n in ranking if fits[n].physical]
-    parts = []
+    flat = [n for n in ranking if fits[n].physical and fits[n].load_independent]
+    physical = [n for n in ranking if fits[n].physical and not fits[n].load_independent]
+    if flat and not physical:
+        return False, _flat_phrase(fits, flat)
+    parts = [_flat_phrase(fits, flat)] if flat else []
     if criterion == "QAIC":
         parts.append(
             f"The data are over-dispersed (ĉ = χ²/ν = {c_hat:.3g} for the best fit, > {OVERDISPERSION:g}): models "
@@ -1173,6 +1223,19 @@ def _ranking_phrases(
             f"{first.get(best, 0.0):.0%} of them, and by {dchi} ≥ {DELTA_AIC_INDISTINGUISHABLE:g} in {decisive:.0%}."
         )
     return parts, close, not close and (decisive >= 0.95 if n_boot else True)
+
+
+def _flat_phrase(fits: dict[str, ModelFit], flat: list[str]) -> str:
+    """The fits whose slope is consistent with zero or negative: not ranked, and why (the data's load dependence)."""
+    est = {n: fits[n].estimate for n in flat}
+    listed = ", ".join(f"{model_label(n)} (s = {est[n].scale:.3g} ± {est[n].scale_se:.2g})" for n in flat)
+    if len(flat) == len([f for f in fits.values() if f.physical]):
+        return (
+            f"The resistance does not depend on the load: this is not a contact-area measurement. Every model's "
+            f"slope is consistent with zero or negative ({listed}); the models are not ranked. Verdict: no model "
+            "can be tested with these data."
+        )
+    return f"Not ranked (slope consistent with zero or negative, the resistance does not follow the area): {listed}."
 
 
 def _unphysical_phrases(fits: dict[str, ModelFit], ranking: tuple[str, ...], physical: list[str]) -> list[str]:

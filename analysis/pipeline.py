@@ -157,10 +157,11 @@ def analyse(
     fit_curve, keep, left_out = _fittable(curve, weighting)
     comparison = None
     if fit_curve is not None:
+        terms = physical_terms(scene, list(areas), fit_curve.weight_kg, database) if conversion == "physical" else None
         comparison = compare_models(
             fit_curve, {n: a[keep] for n, a in areas.items()}, height_m=circuit.contact_height_m,
             conversion=conversion, weighting=weighting, ci_level=ci_level, n_boot=n_boot, seed=seed,
-            boot_interval=boot_interval,
+            boot_interval=boot_interval, offset_terms=terms,
         )  # fmt: skip
     measured_norm, norm_keep, norm_notes = _normalised(curve, keep)
     sim_norm = {
@@ -188,6 +189,30 @@ def analyse(
         left_out=tuple(left_out + norm_notes),
         fingerprint=fingerprint,
     )
+
+
+def physical_terms(
+    scene: Any, models: list[str], weights_kg: np.ndarray, database: Any = None
+) -> dict[str, dict[str, np.ndarray]]:
+    """The computed terms of the physical model (``--conversion physical``) per model and weight [Ω]: Barber's
+    clean-metal constriction and the band's macro-constriction (:func:`analysis.resistance_model.
+    rig_resistance_terms`). A press scene, a scene without both resistivities, or a model that is not registered is a
+    SettingError naming what is missing."""
+    from analysis.resistance_model import rig_resistance_terms
+    from contactrig.core.validation import SettingError
+    from sims.config import SimConfig
+    from sims.models import model_names
+
+    config = SimConfig.from_scene(scene)
+    if config.press is not None:
+        raise SettingError("conversion", "physical", "the physical model describes the piston/liner rig, not a press")
+    out = {}
+    for name in models:
+        if name not in model_names():
+            raise SettingError("conversion", "physical", f"model {name!r} is not registered: its stiffness is needed")
+        law = database[name] if database is not None and name in database else None
+        out[name] = rig_resistance_terms(config, name, [float(w) for w in weights_kg], law=law).known_terms()
+    return out
 
 
 def _sim_ratio(weight_kg: np.ndarray, area_m2: np.ndarray, height_m: float, conversion: str) -> NormalisedCurve:

@@ -435,6 +435,8 @@ def _fit_section(a: Any) -> list[Any]:
         ),
         Para(Strong(_about_models(cmp.statement, cmp.ranking))),
     ]
+    if a.conversion == "physical":
+        blocks += _shares_blocks(cmp.best)
     notes: list[Any] = [
         [_label(n), ": ", _about_models(note, [n])] for n in cmp.ranking for note in cmp.fits[n].diagnostics.warnings
     ]
@@ -455,6 +457,18 @@ def _fit_section(a: Any) -> list[Any]:
     if statement:
         blocks += [Heading(4, "Resistance model: film, series and clean-metal constriction"), Para(statement)]
     return blocks
+
+
+def _shares_blocks(fit: Any) -> list[Any]:
+    """The physical model's terms as shares of the measured mean per weight, for the best model."""
+    names = list(fit.shares)
+    rows = tuple(
+        (f"{w:g}", *(f"{100 * float(fit.shares[n][i]):.2f}" for n in names)) for i, w in enumerate(fit.points.weight_kg)
+    )
+    return [
+        Para(["Share of the measured mean R per weight [%], ", _label(fit.model), " (R_s, σ_f/A, Barber, band):"]),
+        Table(("weight [kg]", *names), rows),
+    ]
 
 
 def _diagnostics_line(name: str, d: Any) -> Any:

@@ -51,6 +51,7 @@ __all__ = [
     "parallel_holm_ohm",
     "physical_sentence",
     "rig_resistance_terms",
+    "stiffness_weighted_width_m",
     "tab1_statement",
 ]
 
@@ -114,8 +115,10 @@ class RigResistanceTerms:
     """The computed (not fitted) parts of R(W) for one contact model, per weight.
 
     ``weight_kg`` [kg]; ``area_m2`` real area A(W) [m²]; ``stiffness_n_per_m`` K(W) = Σ −p′(h) ΔA [N/m];
-    ``band_width_m`` nominal band width [m]; ``barber_ohm`` R_c [Ω]; ``macro_ohm`` R_macro [Ω]; ``holm_bound_ohm``
-    Holm's single-spot upper bound [Ω]; ``resistivity_sum_ohm_m`` ρ1 + ρ2; ``composite_modulus_pa`` E*.
+    ``band_width_m`` the stiffness-weighted band width [m] (:func:`stiffness_weighted_width_m`; R_macro uses it);
+    ``pressure_width_m`` the p > 0 band width of the rigid rig [m]; ``barber_ohm`` R_c [Ω]; ``macro_ohm`` R_macro
+    [Ω]; ``holm_bound_ohm`` Holm's single-spot upper bound [Ω]; ``resistivity_sum_ohm_m`` ρ1 + ρ2;
+    ``composite_modulus_pa`` E*.
     """
 
     model: str
@@ -128,11 +131,16 @@ class RigResistanceTerms:
     holm_bound_ohm: np.ndarray
     resistivity_sum_ohm_m: float
     composite_modulus_pa: float
+    pressure_width_m: np.ndarray | None = None
 
     @property
     def clean_ohm(self) -> np.ndarray:
         """Clean-metal part R_c + R_macro [Ω]."""
         return self.barber_ohm + self.macro_ohm
+
+    def known_terms(self) -> dict[str, np.ndarray]:
+        """The computed terms of the physical model by name, per weight [Ω]: "barber" and "macro"."""
+        return {"barber": self.barber_ohm, "macro": self.macro_ohm}
 
 
 def _skirt_stiffness(batch: Any) -> np.ndarray:
@@ -140,6 +148,20 @@ def _skirt_stiffness(batch: Any) -> np.ndarray:
     h = batch.loads.gap(np.asarray(batch.min_separation_m, dtype=float))
     dp = np.asarray(batch.loads.law.dpressure_dh(h.reshape(-1)), dtype=float).reshape(h.shape)
     return np.asarray(np.einsum("...ty,ty->...", -dp, batch.mesh.area_m2))
+
+
+def stiffness_weighted_width_m(batch: Any) -> np.ndarray:
+    """The band width the current sees [m], per weight: 2√3·σ with σ² the stiffness-weighted mean square of the
+    arc length R_p·θ over the skirt (weights −p′(h)·ΔA, both mirror halves: mean zero). The current flows where the
+    interface is stiff (Barber: conductance ∝ stiffness); the p > 0 edge of the band is the contact law's tail
+    (model-dependent, much wider) and made R_macro 30–40 % low (issue 21 §2). A uniform band of width b gives b."""
+    h = batch.loads.gap(np.asarray(batch.min_separation_m, dtype=float))
+    dp = np.asarray(batch.loads.law.dpressure_dh(h.reshape(-1)), dtype=float).reshape(h.shape)
+    k_theta = np.sum(-dp * batch.mesh.area_m2, axis=-1)  # (..., n_theta)
+    s = batch.mesh.radius_m * batch.mesh.theta_rad
+    total = np.sum(k_theta, axis=-1)
+    var = np.sum(k_theta * s**2, axis=-1) / np.where(total > 0, total, 1.0)
+    return np.asarray(2.0 * math.sqrt(3.0) * np.sqrt(var))
 
 
 def rig_resistance_terms(
@@ -164,7 +186,7 @@ def rig_resistance_terms(
     e_star = float(config.materials.E_star)
     stiffness = _skirt_stiffness(batch)
     area = np.asarray(batch.contact_area_m2, dtype=float)
-    width = np.asarray(batch.contact_width_m, dtype=float)
+    width = stiffness_weighted_width_m(batch)
     return RigResistanceTerms(
         model=model,
         weight_kg=np.asarray(weights, dtype=float),
@@ -176,6 +198,7 @@ def rig_resistance_terms(
         holm_bound_ohm=holm_upper_bound_ohm(area, rho),
         resistivity_sum_ohm_m=rho,
         composite_modulus_pa=e_star,
+        pressure_width_m=np.asarray(batch.contact_width_m, dtype=float),
     )
 
 
@@ -291,19 +314,11 @@ def fit_measured(curve: Any, terms: RigResistanceTerms, *, n_boot: int = 0, seed
     if curve.weight_kg.shape != terms.weight_kg.shape or not np.allclose(curve.weight_kg, terms.weight_kg):
         raise SettingError("weight_kg", curve.weight_kg.tolist(), "expected the weights the terms were computed at")
     cmp = compare_models(
-        curve, {terms.model: terms.area_m2}, height_m=1.0, conversion="bulk", n_boot=n_boot, seed=seed,
-        offsets_ohm={terms.model: terms.clean_ohm}, scale_units="ohm*m2",
+        curve, {terms.model: terms.area_m2}, height_m=1.0, conversion="physical", n_boot=n_boot, seed=seed,
+        offset_terms={terms.model: terms.known_terms()},
     )  # fmt: skip
     fit = cmp.fits[terms.model]
-    measured = fit.points.measured_ohm + terms.clean_ohm  # the fit's y is the mean minus the clean terms
-    est = fit.estimate
-    shares = {
-        "series": est.R_series_ohm / measured,
-        "film": est.scale / terms.area_m2 / measured,
-        "barber": terms.barber_ohm / measured,
-        "macro": terms.macro_ohm / measured,
-    }
-    return PhysicalFit(fit, terms, measured, shares, cmp.n_repeats, cmp.series_notes)
+    return PhysicalFit(fit, terms, fit.points.measured_ohm, dict(fit.shares), cmp.n_repeats, cmp.series_notes)
 
 
 def physical_sentence(pf: PhysicalFit, label: str, what: str = "Tab. 1") -> str:
