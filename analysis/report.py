@@ -339,6 +339,20 @@ def _measured_section(a: Any) -> list[Any]:
             f"Repeats treated as {paired}. R₀ = {nm.reference_ohm * k:.4g} ± {nm.reference_se_ohm * k:.2g} {unit}; "
             "R₀/R₀ = 1 exactly."
         ),
+        *_independence_note(a),
+    ]
+
+
+def _independence_note(a: Any) -> list[Any]:
+    """When some series are copies of others: the table counts every column, the fit only the independent ones."""
+    cmp = a.comparison
+    if cmp is None or not cmp.series_notes:
+        return []
+    return [
+        Para(
+            f"The columns above include copies of other series; the fit counts {cmp.n_repeats} independent series "
+            f"(SD and SEM in this table are over every column): {'; '.join(cmp.series_notes)}."
+        )
     ]
 
 
