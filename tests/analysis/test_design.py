@@ -32,3 +32,50 @@ def test_plan_scene_is_a_valid_scene_with_the_plan() -> None:
     scene = parse_scene(plan_scene_text(default_scene_text(), plan))
     session = scene.table("session")
     assert session["repeats"] == 12 and session["weights_kg"] == [2.0, 10.0, 26.0]
+
+
+def test_no_plan_reaching_the_target_is_said_first_and_marks_the_plan() -> None:
+    plan = Plan(tuple(np.geomspace(1.0, 100.0, 8)), 6, 1.0)
+    result = design(_curves(1.0), [plan], n_sessions=50, film_ohm_m2=2e-9)
+    assert not result.discriminating
+    assert result.statement().startswith("NO PLAN REACHES THE TARGET")
+    text = plan_scene_text(default_scene_text(), plan, discriminating=False)
+    assert text.startswith("# NOT A DISCRIMINATING PLAN")
+    assert parse_scene(text).table("session")["repeats"] == 6
+    far = design(_curves(0.3), [plan], n_sessions=50, film_ohm_m2=2e-9)
+    assert far.discriminating and not far.statement().startswith("NO PLAN")
+
+
+def test_a_scene_without_resistivities_is_a_setting_error() -> None:
+    import re
+
+    import pytest
+
+    from analysis.design import model_curves
+    from contactrig.core.validation import SettingError
+
+    text = re.sub(r"^resistivity_ohm_m\s*=.*$", "", default_scene_text(), flags=re.M)
+    with pytest.raises(SettingError, match="resistivit"):
+        model_curves(parse_scene(text), [5.0, 10.0, 20.0])
+
+
+def test_noise_model_is_recovered_from_a_simulated_table() -> None:
+    """Many series with known offset, re-seating and lack of fit about a log-log line: the two-way estimates hold."""
+    from analysis.design import NoiseModel, estimate_noise
+    from analysis.measured import MeasuredCurve
+
+    w = np.geomspace(5.0, 26.0, 40)
+    truth = NoiseModel(series_sd=0.08, reseat_sd=0.12, lack_sd=0.10)
+    f = truth.factors(np.random.default_rng(3), (1, w.size, 60))[0]
+    curve = MeasuredCurve(w, 1e-2 * ((w / 5.0) ** -0.9)[:, None] * f, paired=True)
+    est = estimate_noise(curve)
+    assert abs(est.reseat_sd - 0.12) < 0.01 and abs(est.series_sd - 0.08) < 0.025 and abs(est.lack_sd - 0.10) < 0.03
+
+
+def test_lack_of_fit_lowers_the_discrimination_as_qaic_does_in_fit() -> None:
+    from analysis.design import NoiseModel
+
+    plan = Plan(tuple(np.geomspace(1.0, 100.0, 8)), 12, 1.0)
+    iid = design(_curves(0.8), [plan], n_sessions=300, film_ohm_m2=2e-9, noise=NoiseModel.iid(0.15))
+    lack = design(_curves(0.8), [plan], n_sessions=300, film_ohm_m2=2e-9, noise=NoiseModel(0.1, 0.13, 0.15))
+    assert lack.pair_score[("a", "b")][0] < iid.pair_score[("a", "b")][0] - 0.2
