@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from analysis.circuit import CircuitSettings
-from analysis.fit import ModelComparison, area_at_weights, compare_models, regressor
+from analysis.fit import ModelComparison, area_at_weights, compare_models, independent_series, regressor
 from analysis.measured import MeasuredCurve, load_tab1
 from analysis.normalisation import NormalisedCurve, normalise_measured, normalise_simulated
 from contactrig.core.fingerprint import differences, has_tables
@@ -163,7 +163,8 @@ def analyse(
             conversion=conversion, weighting=weighting, ci_level=ci_level, n_boot=n_boot, seed=seed,
             boot_interval=boot_interval, offset_terms=terms,
         )  # fmt: skip
-    measured_norm, norm_keep, norm_notes = _normalised(curve, keep)
+    # R/R₀ and its error from the independent series, as the fit (copies of other series counted once)
+    measured_norm, norm_keep, norm_notes = _normalised(independent_series(curve)[0], keep)
     sim_norm = {
         n: normalise_simulated(
             curve.weight_kg[norm_keep], regressor(a[norm_keep], circuit.contact_height_m, conversion)
