@@ -6,6 +6,7 @@ Registered by ``contactrig.cli.main``. Nothing heavy is imported until the comma
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Any
 
 __all__ = ["register"]
@@ -15,7 +16,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``design`` to ``subparsers``."""
     p = subparsers.add_parser(
         "design",
-        help="find the cheapest bench plan whose fit ranks the true contact model first (ΔAIC >= 10)",
+        help="find the cheapest bench plan whose fit ranks the true contact model first (Δ(Q)AIC >= 10)",
         description=(
             "Simulates many bench sessions per candidate plan (loads, repeats) for every contact model of the "
             "scene, fits each with every model, and reports the probability of ranking the true model first by "
@@ -70,6 +71,8 @@ def _design(args: argparse.Namespace) -> int:
     repeat_sd = check_range("--repeat-sd", args.repeat_sd, 0.0, 1.0)
     out = output_folder(args.output)
     paths = refuse_existing([out / "design.md", out / "discrimination.png", out / "plan.toml"], force=args.force)
+    if args.noise_from not in ("tab1", "iid") and not Path(args.noise_from).is_file():  # before the slow build
+        raise FileNotFoundError(f"--noise-from {args.noise_from}: no such session file (or 'tab1', 'iid')")
     scene = load_scene(args.scene)
     config = SimConfig.from_scene(scene)  # the scene parsed once: rig or press, validated
     block = SessionPlan.from_scene(scene).block_settings
