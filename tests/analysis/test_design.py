@@ -121,3 +121,11 @@ def test_design_prediction_holds_when_its_sessions_are_replayed_through_fit() ->
         half = 1.96 * np.sqrt(max(predicted * (1 - predicted), 1e-4) / n)
         assert abs(same_rule / n - predicted) <= half, (truth, same_rule / n, predicted)
         assert told / n <= predicted + half  # the unphysical rule only removes sessions
+
+
+def test_design_refuses_a_missing_noise_session_in_one_line(tmp_path, capsys) -> None:
+    from contactrig.cli.main import main
+
+    assert main(["design", "--noise-from", str(tmp_path / "none.h5"), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--noise-from" in err[0] and "Traceback" not in err[0]
