@@ -535,3 +535,39 @@ for _spec in (
 ):
     register(_spec)
 del _spec
+
+
+# ---- the physical resistance model's terms (issue 21 §2; owned by analysis.resistance_model's fit) -------------
+def _draw_physical_terms(a: Any) -> Any:
+    """The best model's physical fit as stacked terms against weight [kg]: R_s, σ_f/A, Barber, band constriction
+    (unit from the data), with the measured mean; None unless ``--conversion physical``."""
+    if a.comparison is None or a.conversion != "physical":
+        return None
+    f = a.comparison.best
+    pts, est = f.points, f.estimate
+    k_unit, unit = resistance_unit(pts.measured_ohm)
+    terms = {"R_s": np.full(pts.weight_kg.shape, est.R_series_ohm), "film σ_f/A": est.scale * pts.regressor_per_m}
+    terms.update({name: share * pts.measured_ohm for name, share in f.shares.items() if name not in ("series", "film")})
+    fig, axes = _figure(size=(6.0, 4.0))
+    ax = axes[0, 0]
+    ax.stackplot(pts.weight_kg, *[v * k_unit for v in terms.values()], labels=list(terms), alpha=0.8)
+    ax.plot(pts.weight_kg, pts.measured_ohm * k_unit, "s", color=MEASURED_COLOUR, label="measured mean")
+    ax.set(
+        xlabel="weight W [kg]", ylabel=f"resistance R [{unit}]",
+        title=f"{_legend_text(a.title)}: R = R_s + σ_f/A + Barber + band ({model_label(f.model)})",
+    )  # fmt: skip
+    ax.legend(fontsize=7)
+    return fig
+
+
+register(
+    FigureSpec(
+        "physical_terms",
+        "Physical resistance model, term by term",
+        _draw_physical_terms,
+        section="fit",
+        caption="The best model's fit of R = R_s + σ_f/A + R_Barber + R_macro stacked per weight (R_Barber and "
+        "R_macro computed from the scene's resistivities, σ_f and R_s fitted); squares: the measured mean.",
+        missing="drawn with --conversion physical only",
+    )
+)
