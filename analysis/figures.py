@@ -203,7 +203,7 @@ def _coincide_note(groups: Sequence[tuple[tuple[str, ...], float]]) -> str:
     entry)."""
     lines = []
     for members, worst in groups:
-        names = ", ".join(model_label(m) for m in members)
+        names = ", ".join(model_label(m).replace(" ", "\u00a0") for m in members)  # a name is never broken
         lines.append(wrap_title(f"coincide within {_percent(worst)}: {names}", 2.3, 8.0))
     return "\n".join(lines)
 
@@ -557,7 +557,7 @@ def figure_discrimination(result: Any) -> Any:
     pairs = list(result.pair_score)
     grid = np.array([result.pair_score[p] for p in pairs]).T
     width = 3.4 + 0.62 * len(pairs)
-    fig, axes = _figure(size=(max(width, 6.0), 2.9 + 0.15 * len(result.plans)))
+    fig, axes = _figure(size=(max(width, 6.0), max(4.6, 2.9 + 0.15 * len(result.plans))))
     ax = axes[0, 0]
     ax.grid(False)
     im = ax.imshow(grid, aspect="auto", vmin=0.0, vmax=1.0, cmap="viridis", interpolation="nearest")
@@ -570,9 +570,9 @@ def figure_discrimination(result: Any) -> Any:
     if stars:
         ax.plot([j for j, _ in stars], [i for _, i in stars], "*", color="white", mec="black", ms=9, ls="none",
                 label=f"cheapest plan with P ≥ {result.target:.2g}")  # fmt: skip
-        ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.02), bbox_transform=fig.transFigure, fontsize=7.5)
+        fig.legend(loc="outside lower left", fontsize=7.5)
     ax.set_xlabel("model pair")
-    ax.set_ylabel("plan: loads × repeats, weight range, duration")
+    ax.set_ylabel("plan (cheapest first)")
     ax.set_title(wrap_title(f"{result.geometry}: which plan tells the contact models apart", width - 3.0))
     bar = fig.colorbar(im, ax=ax, fraction=0.05, pad=0.02)
     bar.set_label(f"P(ΔAIC ≥ {DELTA_AIC:g} both ways) {DIMENSIONLESS}")

@@ -72,7 +72,7 @@ def test_table_and_figure():
     assert len(table.splitlines()) == 2 + len(P)
     assert re.search(r"0\.500\*", table)  # GT at 10 MPa, beyond its curve
     fig = cm.figure_compare_models(cmp)
-    assert len(fig.axes) == 3
+    assert len(fig.axes) == 4  # area, gap, stiffness against BEM; area against a reference model
     from analysis.figures import get_figure
 
     spec = get_figure("model_ranking")
