@@ -172,12 +172,16 @@ def favoured(cmp: Comparison) -> str:
     return text
 
 
+def _realisations(n: int) -> str:
+    return "one surface realisation" if n == 1 else f"{n} surface realisations"
+
+
 def report_lines(cmp: Comparison) -> list[str]:
     """What the report and the demo print: the favoured model, then one verdict per model."""
     head = (
         f"Contact models vs boundary elements (periodic FFT-BEM of the composite surface, "
         f"{'hardness-capped' if cmp.settings.plastic else 'elastic'}, {cmp.settings.area} area, "
-        f"{cmp.settings.realisations} realisation(s)):"
+        f"{_realisations(cmp.settings.realisations)}):"
     )
     return [head, favoured(cmp), *verdicts(cmp)]
 
@@ -272,9 +276,9 @@ def _suptitle(cmp: Comparison) -> str:
     n = cmp.settings.realisations
     scene = str(cmp.provenance.get("scene_name", "") or "").replace("$", r"\$")
     where = f"{scene}: " if scene else ""
-    if n == 1:
-        return f"{where}contact models against BEM, one surface realisation"
-    return f"{where}contact models against BEM, mean of {n} surface realisations (bands: min–max)"
+    mean = "" if n == 1 else "mean of "
+    band = "" if n == 1 else " (bands: min–max)"
+    return f"{where}contact models against BEM, {mean}{_realisations(n)}{band}"
 
 
 def figure_compare_models(cmp: Comparison) -> Any:

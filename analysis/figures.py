@@ -509,7 +509,38 @@ def figure_error_vs_time(
         _study_panel(ax, name, [r for r in table if r["study"] == name], ylabel)
     if title:
         fig.suptitle(_legend_text(title))
+    _keep_labels_with_room(fig)
     return fig
+
+
+def _display_key(text: str) -> str:
+    """A study's method or setting as a reader sees it: registered model keys by their labels, other underscores
+    (code names such as ``n_theta``) as spaces, ``$`` not starting mathtext."""
+    out = str(text)
+    for key in sorted(model_names(), key=len, reverse=True):
+        out = out.replace(key, model_label(key))
+    return _legend_text(out.replace("_", " "))
+
+
+def _keep_labels_with_room(fig: Any) -> None:
+    """Hide every point label (annotation) that would overlap another text or leave the canvas once the figure is
+    laid out: greedily, in drawing order, against the titles, tick labels, legends and the labels kept so far."""
+    from matplotlib.text import Annotation
+
+    fig.draw_without_rendering()
+    renderer = fig._get_renderer()
+    notes = [t for ax in fig.axes for t in ax.texts if isinstance(t, Annotation)]
+    others = [t for t in fig.findobj(lambda a: hasattr(a, "get_text") and not isinstance(a, Annotation))
+              if t.get_visible() and t.get_text().strip()]  # fmt: skip
+    taken = [t.get_window_extent(renderer) for t in others]
+    canvas = fig.bbox
+    for note in notes:
+        box = note.get_window_extent(renderer)
+        inside = canvas.x0 <= box.x0 and box.x1 <= canvas.x1 and canvas.y0 <= box.y0 and box.y1 <= canvas.y1
+        if not inside or any(box.overlaps(b) for b in taken):
+            note.set_visible(False)
+        else:
+            taken.append(box)
 
 
 def _study_panel(ax: Any, name: str, sub: list[dict[str, Any]], ylabel: str) -> None:
@@ -521,18 +552,19 @@ def _study_panel(ax: Any, name: str, sub: list[dict[str, Any]], ylabel: str) -> 
         if not pts:
             continue
         colour = model_style(method)["color"] if method in known else f"C{j % 10}"
-        label = model_label(method) if method in known else _legend_text(str(method))
+        label = model_label(method) if method in known else _display_key(method)
         ax.plot([r["seconds"] for r in pts], [r["error"] for r in pts], "o-", color=colour, label=label)
         for r in pts:
-            ax.annotate(_legend_text(str(r["setting"])), (r["seconds"], r["error"]), xytext=(3, 3),
-                        textcoords="offset points", fontsize=7)  # fmt: skip
+            note = ax.annotate(_display_key(r["setting"]), (r["seconds"], r["error"]), xytext=(3, 3),
+                               textcoords="offset points", fontsize=7)  # fmt: skip
+            note.set_in_layout(False)  # labels that find no room are hidden after layout: they must not move it
     skipped = len(sub) - len(drawable)
     suffix = f" ({skipped} {'row' if skipped == 1 else 'rows'} with error or time ≤ 0 not shown)" if skipped else ""
     ax.set(xscale="log", yscale="log", xlabel="run time [s]")
     ax.set_ylabel(ylabel)
-    ax.set_title(wrap_title(_legend_text(str(name).replace("_", " ")) + suffix, 4.2))
+    ax.set_title(wrap_title(_display_key(name) + suffix, 4.2))
     if drawable:
-        ax.legend()
+        ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.18), fontsize=7.5)
 
 
 def _positive(x: Any) -> bool:
@@ -699,21 +731,35 @@ def _draw_fit(a: Any) -> Any:
     )  # fmt: skip
 
 
+_COINCIDE_CAPTION = (
+    f"Models whose curves differ nowhere by more than {100 * COINCIDE_REL:g} % are named together in the legend with "
+    "their largest relative difference."
+)
+
 for _spec in (
     FigureSpec(
         "fig09_measured",
         "Measured resistance against weight",
         _draw_measured,
         section="measured",
-        caption=f"Seed Fig. 9: every repeat (M1…Mn, labelled) and their mean; {ERROR_BARS}.",
+        caption=f"Seed Fig. 9: every repeat (M1…Mn, labelled; one colour and marker each) and their mean (black); "
+        f"{ERROR_BARS}.",
     ),
-    FigureSpec("fig11_area", "Simulated contact area", _draw_area, section="area"),
+    FigureSpec(
+        "fig11_area",
+        "Simulated contact area",
+        _draw_area,
+        section="area",
+        caption=f"Seed Fig. 11: each model's real contact area; bottom: its relative difference to the reference model "
+        f"named above the panel, on a symmetric-log scale. {_COINCIDE_CAPTION}",
+    ),
     FigureSpec(
         "fig02_database",
         "Contact database",
         _draw_database,
         section="area",
-        caption="Seed Fig. 2: nominal contact pressure p(h) and real-area fraction A/A₀(h) of every model.",
+        caption="Seed Fig. 2: nominal contact pressure p(h) and real-area fraction A/A₀(h) of every model; bottom: "
+        f"relative differences to the reference model. {_COINCIDE_CAPTION}",
         missing="the contact database is built only when the rig is simulated now; omit --sim",
     ),
     FigureSpec(
@@ -723,7 +769,8 @@ for _spec in (
         section="normalised",
         caption="Coloured: each model's R_T/R_T₀ by the conversion (ζ and h cancel); black dotted: the best fit's "
         "R/R₀ including the series resistance R_s, which is what a measurement normalises; "
-        f"{ERROR_BARS}, propagated to R/R₀ with the series' covariance (R₀/R₀ = 1 exactly, no bar).",
+        f"{ERROR_BARS}, propagated to R/R₀ with the series' covariance (R₀/R₀ = 1 exactly, no bar); bottom: each "
+        f"model's relative difference to the reference model. {_COINCIDE_CAPTION}",
     ),
     FigureSpec(
         "fit_residuals",

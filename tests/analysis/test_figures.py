@@ -253,7 +253,7 @@ def test_coinciding_models_are_grouped_with_their_largest_relative_difference():
     assert F.max_relative_difference([0.0, 1.0], [0.0, np.nan]) == np.inf  # no comparable point: never coincide
 
     fig = F.figure_simulated_area({k: (W, a) for k, a in areas.items()})
-    top, bottom = fig.axes
+    bottom = fig.axes[1]
     notes = [t for t in _legend_texts(fig) if "coincide" in t]
     assert notes == ["coincide within 0.3 %: Hertz, Lagemann, Jackson–Green"]
     # the differences panel: 100·(A/A_Hertz − 1) per model, the reference the first of the group
@@ -374,8 +374,9 @@ def test_the_discrimination_map_names_models_and_labels_its_colour_bar():
 
     plans = [Plan((2.0, 5.0, 26.0), r, 60.0 * r) for r in (3, 6, 12)]
     pairs = {("greenwood_tripp", "hertz"): np.array([0.2, 0.6, 0.95]), ("hertz", "lagemann"): np.zeros(3)}
-    result = DesignResult(plans, ["greenwood_tripp", "hertz", "lagemann"], {}, pairs,
-                          {("greenwood_tripp", "hertz"): 2, ("hertz", "lagemann"): None}, 100, 0.9, "rig", 2e-9, 0.0)  # fmt: skip
+    cheapest = {("greenwood_tripp", "hertz"): 2, ("hertz", "lagemann"): None}
+    result = DesignResult(plans, ["greenwood_tripp", "hertz", "lagemann"], {}, pairs, cheapest, 100, 0.9, "rig", 2e-9,
+                          0.0)  # fmt: skip
     fig = F.figure_discrimination(result)
     check_figure(fig, what="discrimination")
     ax, bar = fig.axes
@@ -434,3 +435,31 @@ def test_every_command_that_draws_passes_the_checks(tmp_path, checked_savefig, c
     drawn = " ".join(checked_savefig)
     for name in ("fig09_measured", "fit_residuals", "fig2.png", "cmp.png", "discrimination.png", "live.png"):
         assert name in drawn
+
+
+def test_the_live_view_draws_mean_and_one_sem_and_passes_the_checks():
+    from analysis.figure_check import check_figure
+    from analysis.watch import BlockRow, LiveState, _new_figure, draw_state
+
+    means = {5.0: [1.0e-3, 1.2e-3, 1.1e-3], 10.0: [0.6e-3, 0.7e-3, 0.9e-3]}
+    rows = tuple(
+        BlockRow(3 * i + k, w, k + 1, v, 100, 1 if k == 2 else 0, False, 1000.0 + 10 * (3 * i + k))
+        for i, (w, vs) in enumerate(means.items())
+        for k, v in enumerate(vs)
+    )
+    t = np.arange(8.0)
+    state = LiveState("s.h5", "running", rows, blocks_planned=9, current_time_s=t, current_ohm=1e-3 + 1e-6 * t,
+                      current_valid=t != 3)  # fmt: skip
+    fig = _new_figure()
+    draw_state(fig, state, now=1070.0)
+    check_figure(fig, what="live view")
+    left = fig.axes[0]
+    (mean,) = left.containers
+    assert mean.get_label() == "mean ± 1 SEM"
+    (bars,) = mean.lines[2]
+    half = [abs(seg[1, 1] - seg[0, 1]) / 2 for seg in bars.get_segments()]
+    # independent: sample SD over the three repeats / √3, in the axis' unit
+    k = {"[µΩ]": 1e6, "[mΩ]": 1e3, "[Ω]": 1.0}[left.get_ylabel().split()[-1]]
+    expected = [k * np.std(vs, ddof=1) / np.sqrt(3) for vs in means.values()]
+    np.testing.assert_allclose(half, expected, rtol=1e-9)
+    assert [t.get_text() for t in left.get_legend().get_texts()] == ["M1", "M2", "M3", "mean ± 1 SEM"]
