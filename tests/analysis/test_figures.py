@@ -5,6 +5,8 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from analysis import figures as F
 from analysis.fit import compare_models
@@ -463,3 +465,27 @@ def test_the_live_view_draws_mean_and_one_sem_and_passes_the_checks():
     expected = [k * np.std(vs, ddof=1) / np.sqrt(3) for vs in means.values()]
     np.testing.assert_allclose(half, expected, rtol=1e-9)
     assert [t.get_text() for t in left.get_legend().get_texts()] == ["M1", "M2", "M3", "mean ± 1 SEM"]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=1, max_size=6),
+    st.lists(st.floats(1e-300, 1e6), min_size=5, max_size=5),
+)
+def test_relative_difference_and_groups_on_extreme_values(values, scales):
+    a = np.array(values)
+    d = F.max_relative_difference(a, a[::-1])
+    assert d == F.max_relative_difference(a[::-1], a)  # symmetric
+    assert d == np.inf or 0.0 <= d <= 2.0  # |a − b| ≤ 2·max(|a|, |b|)
+    if np.isfinite(a).any() and np.any(np.abs(a[np.isfinite(a)]) > 0):
+        assert F.max_relative_difference(a, a) == 0.0
+    keys = list(model_names())[:5]
+    series = {k: s * np.linspace(1.0, 2.0, 4) for k, s in zip(keys, scales, strict=True)}
+    groups = F.coinciding(series)
+    members = [m for g, _ in groups for m in g]
+    assert len(members) == len(set(members))  # disjoint
+    for group, worst in groups:
+        assert list(group) == F.registry_order(group) and len(group) >= 2
+        assert all(any(F.max_relative_difference(series[m], series[o]) <= F.COINCIDE_REL for o in group if o != m)
+                   for m in group)  # fmt: skip
+        assert worst == max(F.max_relative_difference(series[m], series[o]) for m in group for o in group if o != m)
