@@ -5,7 +5,11 @@ Every function takes plain data (arrays, :class:`~analysis.measured.MeasuredCurv
 involved and figures can be drawn from threads); :func:`save_figure` writes it as PNG and a vector format.
 matplotlib is imported only inside these functions. Units are on every axis; a model has the same colour and
 name in every figure: label and style come from the contact-model registry (:mod:`sims.models`), see
-:func:`model_style`.
+:func:`model_style`; legends list models in registry order (:func:`registry_order`). Fonts, unit style and the
+repeat palette are :mod:`analysis.figure_style`. Models that coincide (:func:`coinciding`, within
+:data:`COINCIDE_REL`) are named together in the legend with their largest relative difference, and Figs. 2, 11 and 12
+(and the model ranking) show each model's difference to a reference model in a panel of their own. The experiment
+design's discrimination map is :func:`figure_discrimination`.
 
 The figures of an analysis are a registry of :class:`FigureSpec` (key, title, draw function, caption, report
 section, file name): :func:`register` adds one, :func:`write_figures` draws every registered figure (``contactrig
@@ -69,7 +73,6 @@ _COLOUR_CYCLE = (
 )  # fmt: skip
 _LINESTYLE_CYCLE = ("-", "--", "-.", ":")
 _MARKER_CYCLE = ("o", "s", "^", "v", "D", "x", "P", "*")
-_RC = RC
 
 #: Models whose curves differ nowhere by more than this (relative) are said to coincide: the figure names them in
 #: the legend with their largest relative difference, and the differences panel shows them.
@@ -117,7 +120,7 @@ def _figure(ncols: int = 1, nrows: int = 1, size: tuple[float, float] = (6.0, 4.
     import matplotlib
     from matplotlib.figure import Figure
 
-    matplotlib.rcParams.update(_RC)
+    matplotlib.rcParams.update(RC)
     fig = Figure(figsize=size, layout="constrained")
     axes = fig.subplots(nrows, ncols, squeeze=False, **kw)
     return fig, axes
