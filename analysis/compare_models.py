@@ -81,7 +81,8 @@ class ModelVerdict:
         k_lo, k_hi = self.stiffness_lo_hi
         text += f"; mean gap {_pct(self.gap_dev)}; stiffness {k_lo:.2f}–{k_hi:.2f}× BEM"
         if self.n_in_range < self.n_points:
-            text += f"; {self.n_points - self.n_in_range} pressure(s) beyond its curve left out"
+            out = self.n_points - self.n_in_range
+            text += f"; {out} {'pressure' if out == 1 else 'pressures'} beyond its curve left out"
         return text
 
 
