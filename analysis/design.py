@@ -392,23 +392,8 @@ def plan_scene_text(scene_text: str, plan: Plan, *, discriminating: bool = True)
 
 
 def draw_map(result: DesignResult, path: str, *, force: bool = False) -> None:
-    """Discrimination map: probability per plan (rows, by cost) and model pair (columns); saved to ``path``."""
-    import matplotlib
+    """Discrimination map: probability per plan (rows, by cost) and model pair (columns); saved to ``path``
+    (drawn by :func:`analysis.figures.figure_discrimination`)."""
+    from analysis.figures import write_discrimination_figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    pairs = list(result.pair_score)
-    grid = np.array([result.pair_score[p] for p in pairs]).T
-    fig, ax = plt.subplots(figsize=(1.2 + 0.9 * len(pairs), 0.18 * len(result.plans) + 1.5))
-    im = ax.imshow(grid, aspect="auto", vmin=0, vmax=1, cmap="viridis")
-    ax.set_xticks(range(len(pairs)), [f"{a}\nvs {b}" for a, b in pairs], fontsize=6, rotation=90)
-    labels = [f"{len(p.weights_kg)}×{p.repeats} {p.weights_kg[0]:g}–{p.weights_kg[-1]:g} kg" for p in result.plans]
-    ax.set_yticks(range(len(labels)), labels, fontsize=5)
-    ax.set_title(f"{result.geometry}: P(ΔAIC ≥ {DELTA_AIC:g}, both ways)", fontsize=8)
-    fig.colorbar(im, ax=ax)
-    fig.tight_layout()
-    from analysis.figures import save_figure_file
-
-    save_figure_file(fig, path, force=force)  # atomic; an existing file only with force
-    plt.close(fig)
+    write_discrimination_figure(result, path, force=force)  # atomic; an existing file only with force
