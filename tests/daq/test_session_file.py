@@ -321,7 +321,7 @@ def test_network_share_refusing_locks(tmp_path, monkeypatch):
             "available')",
         )
 
-    monkeypatch.setattr(session_file.h5py, "File", refuse)
+    monkeypatch.setattr(h5py, "File", refuse)
     with pytest.raises(FileLockingError, match="write the session to a local disk"):
         SessionFile.create(tmp_path / "s.h5")
 

@@ -1,0 +1,461 @@
+"""The writer of session files (:class:`SessionFile`), block by block; the layout is declared in
+:mod:`daq.session_schema`.
+
+Durability (reference notes, data-and-sessions.md): chunked resizable datasets appended per block, then
+``flush()`` and ``os.fsync`` before the next block starts; default ``libver`` (no SWMR), so a file whose writer
+was killed still opens and holds every flushed block. The summary row is written last in a block, so a block
+cut short by a kill has readings beyond the last summary row, which the reader ignores.
+"""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from contactrig.core import provenance
+from daq.errors import (
+    SessionExistsError,
+    SessionWriteError,
+    hdf5_error,
+)
+from daq.records import BlockRecord, StopRecord
+from daq.session_reader import check_readable_schema, read_raw, readable_rows
+from daq.session_schema import (
+    EXCHANGE_FIELDS,
+    FIELD_DESCRIPTIONS,
+    FORMAT_NAME,
+    READING_FIELDS,
+    SCHEMA_VERSION,
+    STR,
+    SUMMARY_FIELDS,
+    chain_digest,
+    seal,
+    software_versions,
+)
+from instruments.transport import Exchange
+
+__all__ = ["SessionFile"]
+
+def _open_h5(path: Path, mode: str) -> h5py.File:
+    try:
+        return h5py.File(path, mode)
+    except OSError as exc:
+        raise hdf5_error(path, exc, writing=mode != "r") from exc
+
+
+# ---- writer ------------------------------------------------------------------------------------------------------
+
+
+def _units(ds: h5py.Dataset, unit: str) -> None:
+    if unit:
+        ds.attrs["units"] = unit
+
+
+def _make_table(group: h5py.Group, fields: dict[str, tuple[Any, str]], chunk: int) -> None:
+    for name, (dtype, unit) in fields.items():
+        _make_column(group, name, dtype, unit, chunk)
+
+
+def _make_column(group: h5py.Group, name: str, dtype: Any, unit: str, chunk: int, rows: int = 0) -> None:
+    """One resizable column of ``rows`` zero rows, with its ``units`` (and description) attributes."""
+    ds = group.create_dataset(name, shape=(rows,), maxshape=(None,), dtype=dtype, chunks=(chunk,))
+    _units(ds, unit)
+    if name in FIELD_DESCRIPTIONS:
+        ds.attrs["description"] = FIELD_DESCRIPTIONS[name]
+
+
+def _upgrade_in_place(h5: h5py.File) -> None:
+    """Bring an older session file that is being continued to this schema: add the columns it lacks (zero for
+    every block it holds: schema 1 never read the compliance bit) and record the new schema."""
+    summary = h5["entry/summary"]
+    rows = min(summary[name].shape[0] for name in SUMMARY_FIELDS if name in summary)
+    for name, (dtype, unit) in SUMMARY_FIELDS.items():
+        if name not in summary:
+            _make_column(summary, name, dtype, unit, 64, rows)
+    h5.attrs["contactrig_schema"] = SCHEMA_VERSION
+
+
+_Columns = dict[str, tuple[Any, np.dtype]]
+
+
+def _columns(group: h5py.Group, fields: Iterable[str]) -> _Columns:
+    """Low-level dataset ids and dtypes of a table's columns, looked up once (h5py lookups cost ~0.05 ms each)."""
+    return {name: (group[name].id, group[name].dtype) for name in fields}
+
+
+def _append(columns: _Columns, values: dict[str, Any]) -> None:
+    """Append the same number of rows to each named column.
+
+    Uses h5py's low-level calls (extend, select the new rows, write): the high-level lookups and slicing cost
+    ~0.1 ms per call, which over the ~25 columns of a block were most of the per-block overhead.
+    """
+    for name, data in values.items():
+        dsid, dtype = columns[name]
+        arr = np.ascontiguousarray(np.asarray(data, dtype=dtype))
+        n_new = arr.shape[0]
+        if not n_new:
+            continue
+        old = dsid.get_space().shape[0]
+        dsid.set_extent((old + n_new,))
+        fspace = dsid.get_space()
+        fspace.select_hyperslab((old,), (n_new,))
+        dsid.write(h5py.h5s.create_simple((n_new,)), fspace, arr)
+
+
+def _json_dataset(group: h5py.Group, name: str, record: dict[str, Any]) -> None:
+    if name in group:
+        del group[name]
+    group.create_dataset(name, data=provenance.to_json(record, sort_keys=True, allow_nan=True), dtype=STR)
+
+
+class SessionFile:
+    """Writer of one session file. Create with :meth:`create` or :meth:`open_for_resume`; use as a context manager.
+
+    Every ``append_block`` ends with ``flush`` and ``os.fsync`` (``fsync=False`` skips the latter and leaves the
+    syncing to the OS: faster, but a power cut may lose the last blocks): the block is on disk before the
+    acquisition moves on.
+    """
+
+    def __init__(self, h5: h5py.File, path: Path, *, fsync: bool = True) -> None:
+        self._h5 = h5
+        self.path = path
+        self.fsync = fsync
+        self._entry = h5["entry"]
+        self.run = 0
+        self._readings = _columns(self._entry["readings"], READING_FIELDS)
+        self._summary = _columns(self._entry["summary"], SUMMARY_FIELDS)
+        self._exchanges = _columns(self._entry["exchanges"], EXCHANGE_FIELDS)
+        self.n_blocks_at_close = 0
+        self._block_hashes: list[str] = []
+
+    # -- creation ---------------------------------------------------------------------------------------------------
+    @classmethod
+    def create(
+        cls, path: str | Path, *, reading_unit: str = "V", force: bool = False, fsync: bool = True
+    ) -> SessionFile:
+        """Create a new session file at ``path`` (refuses an existing file unless ``force``); ``reading_unit`` is
+        the unit of the readings as the instruments return them (``V``, ``OHMS``/``ohm``)."""
+        p = Path(path)
+        if p.exists() and not force:
+            raise SessionExistsError(errno.EEXIST, f"{p} exists; use --force to overwrite it")
+        if p.is_dir():
+            raise SessionWriteError(errno.EISDIR, f"{p} is a folder, not a file name")
+        h5 = _open_h5(p, "w")
+        try:
+            cls._layout(h5, reading_unit)
+            h5.flush()
+        except (OSError, RuntimeError) as exc:
+            h5.close()
+            raise hdf5_error(p, exc, writing=True) from exc
+        return cls(h5, p, fsync=fsync)
+
+    @staticmethod
+    def _layout(h5: h5py.File, reading_unit: str) -> None:
+        versions = software_versions()
+        h5.attrs["contactrig_format"] = FORMAT_NAME
+        h5.attrs["contactrig_schema"] = SCHEMA_VERSION
+        h5.attrs["creator"] = f"contactrig {versions['contactrig']}"
+        h5.attrs["HDF5_Version"] = versions["hdf5"]
+        h5.attrs["h5py_version"] = versions["h5py"]
+        h5.attrs["file_time"] = provenance.now_iso()
+        h5.attrs["default"] = "entry"
+        h5.attrs["NX_class"] = "NXroot"
+        entry = h5.create_group("entry")
+        entry.attrs["NX_class"] = "NXentry"
+        entry.attrs["default"] = "summary"
+        prog = entry.create_dataset("program_name", data="contactrig", dtype=STR)
+        prog.attrs["version"] = versions["contactrig"]
+
+        summary = entry.create_group("summary")
+        summary.attrs["NX_class"] = "NXdata"
+        summary.attrs["signal"] = "mean_ohm"
+        summary.attrs["axes"] = ["weight_kg"]
+        summary.attrs["weight_kg_indices"] = 0
+        _make_table(summary, SUMMARY_FIELDS, 64)
+        summary["mean_ohm_errors"] = summary["sem_ohm"]  # hard link: NeXus error bars on the signal
+
+        readings = entry.create_group("readings")
+        readings.attrs["NX_class"] = "NXdata"
+        readings.attrs["signal"] = "resistance_ohm"
+        readings.attrs["axes"] = ["."]
+        fields = dict(READING_FIELDS)
+        fields["reading"] = ("<f8", {"OHMS": "ohm", "OHM": "ohm"}.get(reading_unit.upper(), reading_unit))
+        _make_table(readings, fields, 4096)
+
+        exchanges = entry.create_group("exchanges")
+        exchanges.attrs["NX_class"] = "NXcollection"
+        _make_table(exchanges, EXCHANGE_FIELDS, 1024)
+
+        for name in ("start", "runs"):
+            g = entry.create_group(name)
+            g.attrs["NX_class"] = "NXcollection"
+
+    @classmethod
+    def open_for_resume(cls, path: str | Path, *, fsync: bool = True, keep_blocks: int | None = None) -> SessionFile:
+        """Open an existing session to append more blocks; its stop record (if any) is moved to its run record.
+
+        ``keep_blocks``: the number of blocks :func:`load_session` verified; rows beyond it (a block cut short by
+        a kill or a failed write) are cut off before new blocks are appended.
+        """
+        p = Path(path)
+        schema = check_readable_schema(p)
+        h5 = _open_h5(p, "a")
+        try:
+            if schema < SCHEMA_VERSION:
+                _upgrade_in_place(h5)
+            writer = cls(h5, p, fsync=fsync)
+            runs = h5["entry/runs"]
+            writer.run = len(runs)
+            keep_exchanges = None
+            if "stop" in writer._entry:
+                keep_exchanges = json.loads(writer._entry["stop/record"][()]).get("exchanges_in_file")
+                last = runs[f"run_{writer.run - 1}"]
+                rec = json.loads(last["record"][()])
+                rec["stop"] = json.loads(writer._entry["stop/record"][()])
+                _json_dataset(last, "record", rec)
+                del writer._entry["stop"]
+                if "end_time" in writer._entry:
+                    del writer._entry["end_time"]
+            writer._drop_partial_rows(keep_blocks, keep_exchanges)
+            writer._block_hashes = [d.decode() for d in writer._entry["summary/sha256"][:]]
+            writer._sync()
+        except BaseException:
+            h5.close()
+            raise
+        return writer
+
+    def _drop_partial_rows(self, keep_blocks: int | None = None, keep_exchanges: int | None = None) -> None:
+        """Cut readings and exchanges a kill left beyond the last complete block (no summary row vouches for them).
+
+        ``keep_exchanges``: the exchange count of the stop record, if there is one; else the exchanges up to the
+        end of the last complete block are kept.
+        """
+        summary = self._entry["summary"]
+        n_blocks = min(summary[name].shape[0] for name in SUMMARY_FIELDS)
+        if keep_blocks is not None:
+            n_blocks = min(n_blocks, keep_blocks)
+        for name in SUMMARY_FIELDS:
+            if summary[name].shape[0] != n_blocks:
+                summary[name].resize((min(summary[name].shape[0], n_blocks),))
+        n_readings = int(summary["first_reading"][-1] + summary["count"][-1]) if n_blocks else 0
+        for name in READING_FIELDS:
+            ds = self._entry["readings"][name]
+            if ds.shape[0] > n_readings:
+                ds.resize((n_readings,))
+        group = self._entry["exchanges"]
+        n_ex = min(group[name].shape[0] for name in EXCHANGE_FIELDS)
+        if keep_exchanges is None:
+            keep_exchanges = (
+                int(summary["first_exchange"][n_blocks - 1] + summary["n_exchanges"][n_blocks - 1]) if n_blocks else 0
+            )
+        n_ok = readable_rows(group, EXCHANGE_FIELDS, min(n_ex, keep_exchanges))
+        for name in EXCHANGE_FIELDS:
+            if group[name].shape[0] > n_ok:
+                group[name].resize((n_ok,))
+
+    # -- records ------------------------------------------------------------------------------------------------------
+    def write_start(self, start: dict[str, Any], scene_text: str) -> None:
+        """Write the session's start record (the first run only) and the run record of this run."""
+        try:
+            group = self._entry["start"]
+            if "record" not in group:  # a resumed session keeps its first start record; each run has its own
+                _json_dataset(group, "record", start)
+                group.create_dataset("scene_text", data=scene_text, dtype=STR)
+                self._entry.create_dataset("start_time", data=start.get("started", provenance.now_iso()), dtype=STR)
+                for key in ("operator", "host", "started"):
+                    group.attrs[key] = str(start.get(key, ""))
+                group.attrs["schema_version"] = SCHEMA_VERSION
+            self.write_run(start)
+        except (OSError, RuntimeError) as exc:
+            raise hdf5_error(self.path, exc, writing=True) from exc
+
+    def write_run(self, run_record: dict[str, Any]) -> None:
+        g = self._entry["runs"].require_group(f"run_{self.run}")
+        g.attrs["NX_class"] = "NXcollection"
+        _json_dataset(g, "record", run_record)
+        self._sync()
+
+    @property
+    def n_blocks(self) -> int:
+        return int(self._summary["block"][0].get_space().shape[0])
+
+    @property
+    def n_exchanges(self) -> int:
+        return int(self._exchanges["run"][0].get_space().shape[0])
+
+    @property
+    def n_readings(self) -> int:
+        return int(self._readings["block"][0].get_space().shape[0])
+
+    def append_block(self, rec: BlockRecord) -> None:
+        """Append one completed block: readings and exchanges, flush, then its summary row, flush and fsync.
+
+        First checks that the file can grow by what the block needs (:meth:`_check_room`): a write that fails half
+        way can damage HDF5's global heap, where the exchanges of the blocks already on file keep their strings."""
+        n = int(rec.reading.size)
+        first = self.n_readings
+        first_exchange = self.n_exchanges
+        self._check_room(rec)
+        try:
+            _append(
+                self._readings,
+                {
+                    "block": np.full(n, rec.block, dtype=np.int32),
+                    "index": np.arange(n, dtype=np.int32),
+                    "time_s": rec.time_s,
+                    "reading": rec.reading,
+                    "resistance_ohm": rec.resistance_ohm,
+                    "valid": np.asarray(rec.valid, dtype=np.uint8),
+                },
+            )
+            if rec.exchanges:
+                self.append_exchanges(rec.exchanges, block=rec.block, sync=False)
+            # the readings reach the disk before the summary row that vouches for them: a write that fails (full
+            # disk) or a kill leaves at most readings without a summary row, which readers ignore
+            self._h5.flush()
+            st = rec.stats
+            _append(
+                self._summary,
+                {
+                    "block": [rec.block],
+                    "run": [rec.run],
+                    "weight_kg": [rec.weight_kg],
+                    "repeat": [rec.repeat],
+                    "mean_ohm": [st.mean],
+                    "sd_ohm": [st.sd],
+                    "sem_ohm": [st.sem],
+                    "n": [st.n],
+                    "n_invalid": [st.n_invalid],
+                    "count": [n],
+                    "first_reading": [first],
+                    "started": [rec.started.encode("ascii", "replace")],
+                    "sha256": [rec.sha256.encode()],
+                    "first_exchange": [first_exchange],
+                    "n_exchanges": [len(rec.exchanges)],
+                    "exchanges_sha256": [rec.exchanges_sha256.encode()],
+                    "compliance": [1 if rec.compliance else 0],
+                },
+            )
+            self._sync()
+        except (OSError, RuntimeError) as exc:
+            raise hdf5_error(self.path, exc, writing=True) from exc
+        self._block_hashes.append(rec.sha256)
+
+    def _check_room(self, rec: BlockRecord) -> None:
+        """Refuse (before anything is written) a block the file cannot take: the process' file-size limit
+        (RLIMIT_FSIZE) or the free space of the file system, against twice the block's bytes plus 1 MiB for HDF5's
+        chunks and metadata. Raises :class:`SessionWriteError` (EFBIG or ENOSPC)."""
+        needed = 2 * (int(rec.reading.size) * 33 + sum(len(e.message) + len(e.reply or "") + 64 for e in rec.exchanges))
+        needed += 1 << 20
+        size = self.path.stat().st_size if self.path.exists() else 0
+        limit = _file_size_limit()
+        if limit is not None and size + needed > limit:
+            raise SessionWriteError(errno.EFBIG, f"the file system refuses to let {self.path} grow (file too large)")
+        try:
+            st = os.statvfs(self.path.parent)
+        except (OSError, AttributeError):  # no statvfs (Windows): HDF5's own error will have to do
+            return
+        if st.f_bavail * st.f_frsize < needed:
+            raise SessionWriteError(errno.ENOSPC, f"no space left on the device holding {self.path}")
+
+    def append_exchanges(self, exchanges: Iterable[Exchange], *, block: int = -1, sync: bool = True) -> None:
+        """Record instrument exchanges of this run (``block`` −1: outside any block, e.g. identify, close)."""
+        ex = list(exchanges)
+        if not ex:
+            return
+        try:
+            _append(
+                self._exchanges,
+                {
+                    "run": np.full(len(ex), self.run, dtype=np.int32),
+                    "block": np.full(len(ex), block, dtype=np.int32),
+                    "kind": [e.kind for e in ex],
+                    "message": [e.message for e in ex],
+                    "reply": [e.reply or "" for e in ex],
+                    "t_s": np.array([e.t_s for e in ex], dtype=np.float64),
+                    "error": [e.error or "" for e in ex],
+                },
+            )
+            if sync:
+                self._sync()
+        except (OSError, RuntimeError) as exc:
+            raise hdf5_error(self.path, exc, writing=True) from exc
+
+    def write_stop(self, stop: StopRecord) -> None:
+        """Write the stop record, with the SHA-256 over all block digests; the session is then complete."""
+        record = {
+            "status": stop.status,
+            "reason": stop.reason,
+            "stopped": stop.stopped,
+            "blocks_planned": stop.blocks_planned,
+            "blocks_done": stop.blocks_done,
+            "blocks_in_file": self.n_blocks,
+            "readings_in_file": self.n_readings,
+            "readings_done": stop.readings_done,
+            "exchanges_in_file": self.n_exchanges,
+            "weights_skipped": list(stop.weights_skipped),
+            "run": self.run,
+            "sha256_blocks": chain_digest(self._block_hashes),
+        }
+        try:
+            self._h5.flush()
+            # the seal: SHA-256 of everything readers use, computed from what the file holds (read back through the
+            # reader itself), so that any later change to the file is reported as such
+            record["seal"] = seal(read_raw(self._h5, self.path, stop_override=record), record)
+            g = self._entry.require_group("stop")
+            g.attrs["NX_class"] = "NXcollection"
+            g.attrs["status"] = stop.status
+            g.attrs["reason"] = stop.reason
+            _json_dataset(g, "record", record)
+            if "end_time" in self._entry:
+                del self._entry["end_time"]
+            self._entry.create_dataset("end_time", data=stop.stopped, dtype=STR)
+            self._sync()
+        except (OSError, RuntimeError) as exc:
+            raise hdf5_error(self.path, exc, writing=True) from exc
+
+    # -- durability ---------------------------------------------------------------------------------------------
+    def _sync(self) -> None:
+        self._h5.flush()
+        if self.fsync:
+            try:
+                fd = self._h5.id.get_vfd_handle()
+            except Exception:  # a driver without a file descriptor (file-like objects in tests)
+                return
+            os.fsync(fd)
+
+    def close(self) -> None:
+        """Flush, fsync and close (safe to call twice); ``n_blocks_at_close`` keeps the final count."""
+        if not self._h5.id.valid:
+            return
+        self.n_blocks_at_close = self.n_blocks
+        try:
+            try:
+                self._sync()
+            finally:
+                self._h5.close()
+        except (OSError, RuntimeError) as exc:
+            raise hdf5_error(self.path, exc, writing=True) from exc
+
+    def __enter__(self) -> SessionFile:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _file_size_limit() -> int | None:
+    """The process' file-size limit in bytes (RLIMIT_FSIZE), or None when there is none (or no such notion)."""
+    try:
+        import resource
+    except ImportError:  # Windows
+        return None
+    soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
+    return None if soft == resource.RLIM_INFINITY else int(soft)
