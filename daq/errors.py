@@ -15,6 +15,7 @@ __all__ = [
     "IncompleteSessionWarning",
     "MissingFileError",
     "NewerSchemaError",
+    "NoStartRecordError",
     "SessionExistsError",
     "SessionFileError",
     "SessionNoteWarning",
@@ -23,6 +24,7 @@ __all__ = [
     "errno_of",
     "first_line",
     "hdf5_error",
+    "in_use_error",
 ]
 
 
@@ -42,6 +44,10 @@ class ChecksumError(SessionFileError):
 
     def __reduce__(self) -> tuple[type, tuple[str, int | None]]:  # crosses the process boundary of daq.bounded
         return (type(self), (str(self), self.position))
+
+
+class NoStartRecordError(SessionFileError):
+    """The file has no start record: its acquisition was stopped before it began (files of older versions)."""
 
 
 class NewerSchemaError(SessionFileError):
@@ -113,13 +119,18 @@ def hdf5_error(path: Path, exc: BaseException, writing: bool) -> Exception:
     return SessionWriteError(code or errno.EIO, f"cannot write {path}: {first_line(text)}")
 
 
+def in_use_error(path: Path) -> FileLockingError:
+    """The one refusal for a session file another process holds open (writer or reader)."""
+    return FileLockingError(
+        errno.EAGAIN,
+        f"{path} is open in another process (an acquisition writing it, or a program reading it); nothing was "
+        "changed: close it there first, or write to another file",
+    )
+
+
 def _locking_error(path: Path, code: int | None) -> FileLockingError:
     if code in (errno.EAGAIN, errno.EWOULDBLOCK):
-        return FileLockingError(
-            errno.EAGAIN,
-            f"{path} is open in another process (an acquisition still running?); "
-            "close it there first — HDF5 refuses to share a file being written",
-        )
+        return in_use_error(path)
     return FileLockingError(
         code or errno.ENOLCK,
         f"the file system holding {path} refuses HDF5 file locking (typical of NFS/SMB network shares): "

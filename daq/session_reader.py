@@ -29,6 +29,7 @@ from daq.errors import (
     ChecksumError,
     IncompleteSessionWarning,
     NewerSchemaError,
+    NoStartRecordError,
     SessionFileError,
     SessionNoteWarning,
     errno_of,
@@ -104,6 +105,7 @@ class Session:
 
 
 def check_readable_schema(path: Path) -> int:
+    """The schema of the session file at ``path`` (checked: a contactrig session this version can read)."""
     try:
         h5 = h5py.File(path, "r")
     except OSError as exc:
@@ -588,7 +590,7 @@ def _checked(
     for k in range(schema, SCHEMA_VERSION):
         raw = UPGRADES[k](raw)
     if raw["start"] is None:
-        raise SessionFileError(f"{p} has no start record: the acquisition died before it began; no data to read")
+        raise NoStartRecordError(f"{p} has no start record: the acquisition died before it began; no data to read")
     notes += _notes(raw, p, sealed=sealed, schema=schema, running=running)
     summary, readings, exchanges = _frames(raw)
     return Session(

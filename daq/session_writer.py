@@ -9,9 +9,11 @@ cut short by a kill has readings beyond the last summary row, which the reader i
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import json
 import os
+import stat
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -26,6 +28,7 @@ from daq.errors import (
     hdf5_error,
 )
 from daq.records import BlockRecord, StopRecord
+from daq.session_lock import lock_exclusive, publish, replaceable, temporary_beside
 from daq.session_reader import check_readable_schema, read_raw, readable_rows
 from daq.session_schema import (
     EXCHANGE_FIELDS,
@@ -44,10 +47,47 @@ from instruments.transport import Exchange
 __all__ = ["SessionFile"]
 
 def _open_h5(path: Path, mode: str) -> h5py.File:
+    """Open for writing and hold the writer's lock (:mod:`daq.session_lock`): HDF5 takes its ``flock`` on the file
+    as it opens it (before reading or writing a byte; a file another process holds is refused), and the same lock
+    is taken again on HDF5's own descriptor, so it holds even where HDF5's locking is switched off
+    (``HDF5_USE_FILE_LOCKING=FALSE``). It ends when the file is closed."""
     try:
-        return h5py.File(path, mode)
+        h5 = h5py.File(path, mode)
     except OSError as exc:
         raise hdf5_error(path, exc, writing=mode != "r") from exc
+    try:
+        lock_exclusive(h5.id.get_vfd_handle(), path)
+    except BaseException:
+        h5.close()
+        raise
+    return h5
+
+
+def check_new_session(path: Path, *, force: bool) -> None:
+    """Refuse, before anything is written, an output name that is taken (unless ``force``), a folder, something
+    other than a regular file or link, or — with ``force`` — a file another process holds."""
+    if os.path.lexists(path) and not force:
+        raise SessionExistsError(errno.EEXIST, f"{path} exists; use --force to overwrite it")
+    if path.is_dir() and not path.is_symlink():
+        raise SessionWriteError(errno.EISDIR, f"{path} is a folder, not a file name")
+    if force:
+        replaceable(path)
+
+
+def _check_resumable_path(path: Path) -> None:
+    """A session is continued in place only under its own name: a symbolic link or anything but a regular file
+    is refused (never followed for writing)."""
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return  # the open says what is wrong
+    if stat.S_ISLNK(st.st_mode):
+        raise SessionWriteError(
+            errno.ELOOP, f"{path} is a symbolic link: a session is continued only under its own name "
+            f"({os.path.realpath(path)})"
+        )  # fmt: skip
+    if not stat.S_ISREG(st.st_mode):
+        raise SessionWriteError(errno.EINVAL, f"{path} is not a regular file: not a session to continue")
 
 
 # ---- writer ------------------------------------------------------------------------------------------------------
@@ -86,8 +126,9 @@ _Columns = dict[str, tuple[Any, np.dtype]]
 
 
 def _columns(group: h5py.Group, fields: Iterable[str]) -> _Columns:
-    """Low-level dataset ids and dtypes of a table's columns, looked up once (h5py lookups cost ~0.05 ms each)."""
-    return {name: (group[name].id, group[name].dtype) for name in fields}
+    """Low-level dataset ids and dtypes of a table's columns, looked up once (h5py lookups cost ~0.05 ms each);
+    columns an older schema lacks are left out (added by :func:`_upgrade_in_place` before anything is appended)."""
+    return {name: (group[name].id, group[name].dtype) for name in fields if name in group}
 
 
 def _append(columns: _Columns, values: dict[str, Any]) -> None:
@@ -125,7 +166,9 @@ class SessionFile:
 
     def __init__(self, h5: h5py.File, path: Path, *, fsync: bool = True) -> None:
         self._h5 = h5
+        #: the session's name (messages, rescue files); the data are in :attr:`file` (a temporary file until published)
         self.path = path
+        self.file = path
         self.fsync = fsync
         self._entry = h5["entry"]
         self.run = 0
@@ -134,27 +177,49 @@ class SessionFile:
         self._exchanges = _columns(self._entry["exchanges"], EXCHANGE_FIELDS)
         self.n_blocks_at_close = 0
         self._block_hashes: list[str] = []
+        #: ``force`` of the pending publication (None: the file is under its name already)
+        self._publish_force: bool | None = None
+        #: publish as soon as the start record is on disk (False: the caller calls :meth:`publish`)
+        self.publish_on_start = True
+        self._created = False
+        self._schema_on_open = SCHEMA_VERSION
 
     # -- creation ---------------------------------------------------------------------------------------------------
     @classmethod
     def create(
         cls, path: str | Path, *, reading_unit: str = "V", force: bool = False, fsync: bool = True
     ) -> SessionFile:
-        """Create a new session file at ``path`` (refuses an existing file unless ``force``); ``reading_unit`` is
-        the unit of the readings as the instruments return them (``V``, ``OHMS``/``ohm``)."""
+        """A new session for ``path`` (refuses an existing file unless ``force``, and one in use always);
+        ``reading_unit`` is the unit of the readings as the instruments return them (``V``, ``OHMS``/``ohm``).
+
+        The file is written as a locked temporary file beside ``path`` and takes its name only at :meth:`publish` —
+        called by :meth:`write_start` once the start record is on disk (unless ``publish_on_start`` is set False):
+        until then ``path``, and whatever is there, is untouched (:mod:`daq.session_lock`)."""
         p = Path(path)
-        if p.exists() and not force:
-            raise SessionExistsError(errno.EEXIST, f"{p} exists; use --force to overwrite it")
-        if p.is_dir():
-            raise SessionWriteError(errno.EISDIR, f"{p} is a folder, not a file name")
-        h5 = _open_h5(p, "w")
+        check_new_session(p, force=force)
+        try:
+            tmp = temporary_beside(p)
+        except OSError as exc:  # the folder refuses it: the messages of any failed write (missing, no permission…)
+            raise hdf5_error(p, exc, writing=True) from exc
+        try:
+            h5 = _open_h5(tmp, "w")
+        except BaseException:
+            tmp.unlink(missing_ok=True)
+            raise
         try:
             cls._layout(h5, reading_unit)
             h5.flush()
-        except (OSError, RuntimeError) as exc:
+        except BaseException as exc:
+            tmp.unlink(missing_ok=True)
             h5.close()
-            raise hdf5_error(p, exc, writing=True) from exc
-        return cls(h5, p, fsync=fsync)
+            if isinstance(exc, (OSError, RuntimeError)):
+                raise hdf5_error(p, exc, writing=True) from exc
+            raise
+        writer = cls(h5, p, fsync=fsync)
+        writer.file = tmp
+        writer._publish_force = force
+        writer._created = True
+        return writer
 
     @staticmethod
     def _layout(h5: h5py.File, reading_unit: str) -> None:
@@ -198,38 +263,59 @@ class SessionFile:
             g.attrs["NX_class"] = "NXcollection"
 
     @classmethod
+    def open_existing(cls, path: str | Path, *, fsync: bool = True) -> SessionFile:
+        """Open an existing session to continue it (``--resume``), after taking its lock: a file another process
+        holds (writer or reader), a symbolic link, or anything but a regular file is refused with nothing changed.
+        Nothing is written yet (:meth:`begin_resume` does the changes)."""
+        p = Path(path)
+        _check_resumable_path(p)
+        schema = check_readable_schema(p)
+        h5 = _open_h5(p, "a")
+        try:
+            writer = cls(h5, p, fsync=fsync)
+        except BaseException:
+            h5.close()
+            raise
+        writer._schema_on_open = schema
+        return writer
+
+    @classmethod
     def open_for_resume(cls, path: str | Path, *, fsync: bool = True, keep_blocks: int | None = None) -> SessionFile:
-        """Open an existing session to append more blocks; its stop record (if any) is moved to its run record.
+        """:meth:`open_existing` then :meth:`begin_resume`."""
+        writer = cls.open_existing(path, fsync=fsync)
+        try:
+            writer.begin_resume(keep_blocks)
+        except BaseException:
+            writer.close()
+            raise
+        return writer
+
+    def begin_resume(self, keep_blocks: int | None = None) -> None:
+        """Prepare an opened session for more blocks: upgrade an older schema in place, move its stop record (if
+        any) to its run record, cut rows no summary row vouches for.
 
         ``keep_blocks``: the number of blocks :func:`load_session` verified; rows beyond it (a block cut short by
         a kill or a failed write) are cut off before new blocks are appended.
         """
-        p = Path(path)
-        schema = check_readable_schema(p)
-        h5 = _open_h5(p, "a")
-        try:
-            if schema < SCHEMA_VERSION:
-                _upgrade_in_place(h5)
-            writer = cls(h5, p, fsync=fsync)
-            runs = h5["entry/runs"]
-            writer.run = len(runs)
-            keep_exchanges = None
-            if "stop" in writer._entry:
-                keep_exchanges = json.loads(writer._entry["stop/record"][()]).get("exchanges_in_file")
-                last = runs[f"run_{writer.run - 1}"]
-                rec = json.loads(last["record"][()])
-                rec["stop"] = json.loads(writer._entry["stop/record"][()])
-                _json_dataset(last, "record", rec)
-                del writer._entry["stop"]
-                if "end_time" in writer._entry:
-                    del writer._entry["end_time"]
-            writer._drop_partial_rows(keep_blocks, keep_exchanges)
-            writer._block_hashes = [d.decode() for d in writer._entry["summary/sha256"][:]]
-            writer._sync()
-        except BaseException:
-            h5.close()
-            raise
-        return writer
+        h5 = self._h5
+        if self._schema_on_open < SCHEMA_VERSION:
+            _upgrade_in_place(h5)
+            self._summary = _columns(self._entry["summary"], SUMMARY_FIELDS)
+        runs = h5["entry/runs"]
+        self.run = len(runs)
+        keep_exchanges = None
+        if "stop" in self._entry:
+            keep_exchanges = json.loads(self._entry["stop/record"][()]).get("exchanges_in_file")
+            last = runs[f"run_{self.run - 1}"]
+            rec = json.loads(last["record"][()])
+            rec["stop"] = json.loads(self._entry["stop/record"][()])
+            _json_dataset(last, "record", rec)
+            del self._entry["stop"]
+            if "end_time" in self._entry:
+                del self._entry["end_time"]
+        self._drop_partial_rows(keep_blocks, keep_exchanges)
+        self._block_hashes = [d.decode() for d in self._entry["summary/sha256"][:]]
+        self._sync()
 
     def _drop_partial_rows(self, keep_blocks: int | None = None, keep_exchanges: int | None = None) -> None:
         """Cut readings and exchanges a kill left beyond the last complete block (no summary row vouches for them).
@@ -275,6 +361,29 @@ class SessionFile:
             self.write_run(start)
         except (OSError, RuntimeError) as exc:
             raise hdf5_error(self.path, exc, writing=True) from exc
+        if self.publish_on_start:
+            self.publish()
+
+    @property
+    def published(self) -> bool:
+        """The file is under its name (:attr:`path`); False while it is a temporary file beside it."""
+        return self._publish_force is None
+
+    def publish(self) -> None:
+        """Give the new file its name, once what it holds is on disk (flush, fsync): without ``force`` only if the
+        name is still free, with ``force`` over the old file unless another process holds it (refused, with the old
+        file left as it was). A link at the name is replaced, never followed (:func:`daq.session_lock.publish`)."""
+        if self._publish_force is None:
+            return
+        try:
+            self._h5.flush()
+            fd = self._h5.id.get_vfd_handle()
+            os.fsync(fd)
+        except (OSError, RuntimeError) as exc:
+            raise hdf5_error(self.path, exc, writing=True) from exc
+        publish(self.file, self.path, force=self._publish_force)
+        self.file = self.path
+        self._publish_force = None
 
     def write_run(self, run_record: dict[str, Any]) -> None:
         g = self._entry["runs"].require_group(f"run_{self.run}")
@@ -354,7 +463,7 @@ class SessionFile:
         chunks and metadata. Raises :class:`SessionWriteError` (EFBIG or ENOSPC)."""
         needed = 2 * (int(rec.reading.size) * 33 + sum(len(e.message) + len(e.reply or "") + 64 for e in rec.exchanges))
         needed += 1 << 20
-        size = self.path.stat().st_size if self.path.exists() else 0
+        size = self.file.stat().st_size if self.file.exists() else 0
         limit = _file_size_limit()
         if limit is not None and size + needed > limit:
             raise SessionWriteError(errno.EFBIG, f"the file system refuses to let {self.path} grow (file too large)")
@@ -432,7 +541,9 @@ class SessionFile:
             os.fsync(fd)
 
     def close(self) -> None:
-        """Flush, fsync and close (safe to call twice); ``n_blocks_at_close`` keeps the final count."""
+        """Flush, fsync and close (safe to call twice); ``n_blocks_at_close`` keeps the final count. A file never
+        published is removed first (its name was never given: nothing appears, nothing is replaced)."""
+        self._drop_unpublished()
         if not self._h5.id.valid:
             return
         self.n_blocks_at_close = self.n_blocks
@@ -443,6 +554,23 @@ class SessionFile:
                 self._h5.close()
         except (OSError, RuntimeError) as exc:
             raise hdf5_error(self.path, exc, writing=True) from exc
+
+    def discard(self) -> None:
+        """Close, and remove the file if this writer created it (nothing was recorded); a resumed file is only
+        closed. The file is removed while its lock is still held: it is ours to the last moment."""
+        self._drop_unpublished()
+        if self._created and self._h5.id.valid:
+            Path(self.path).unlink(missing_ok=True)
+        if self._h5.id.valid:
+            with contextlib.suppress(OSError, RuntimeError):
+                self._h5.close()
+
+    def _drop_unpublished(self) -> None:
+        if self._publish_force is not None:
+            Path(self.file).unlink(missing_ok=True)
+            self._publish_force = None
+            self.file = self.path
+            self._created = False  # the name was never given: there is nothing of ours under it
 
     def __enter__(self) -> SessionFile:
         return self

@@ -574,9 +574,11 @@ def import_table(
     }
     out = Path(output)
     with SessionFile.create(out, reading_unit="ohm", force=force) as sf:
+        sf.publish_on_start = False  # the session takes its name complete, or not at all
         sf.write_start(start, "")
         _write_blocks(sf, table, started)
         _write_stop(sf, n, f"imported {n} values from {Path(path).name} ({table.unit})")
+        sf.publish()
     return out
 
 

@@ -277,8 +277,12 @@ def test_existing_file_is_never_overwritten_without_force(session_path):
     with pytest.raises(SessionExistsError, match="--force"):
         SessionFile.create(session_path)
     assert session_path.read_bytes() == before
-    SessionFile.create(session_path, force=True).close()
+    SessionFile.create(session_path, force=True).close()  # never given its name: nothing replaced
+    assert session_path.read_bytes() == before
+    with SessionFile.create(session_path, force=True) as sf:
+        sf.write_start({"started": now_iso()}, "")  # the start record on disk: now it takes the name
     assert session_path.read_bytes() != before
+    assert [p.name for p in session_path.parent.iterdir()] == [session_path.name]  # no temporary file left
 
 
 def test_unwritable_paths(tmp_path):
