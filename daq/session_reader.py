@@ -57,7 +57,15 @@ from daq.session_schema import (
 from instruments.block import BlockStatistics
 from instruments.transport import Exchange
 
-__all__ = ["Session", "exchange_list", "load_session", "read_raw", "read_table", "readable_rows"]
+__all__ = [
+    "Session",
+    "exchange_list",
+    "load_session",
+    "open_for_reading",
+    "read_raw",
+    "read_table",
+    "readable_rows",
+]
 
 @dataclass(frozen=True)
 class Session:
@@ -611,7 +619,7 @@ def _checked(
     )
 
 
-def _open_for_reading(p: Path) -> tuple[h5py.File, bool]:
+def open_for_reading(p: Path) -> tuple[h5py.File, bool]:
     """Open read-only; a file locked by a live writer is opened without locking (True: it is being written)."""
     try:
         return h5py.File(p, "r"), False
@@ -642,7 +650,7 @@ def _read_file(p: Path, attempts: int = 1) -> tuple[int, dict[str, Any], bool]:
     """The file's schema, raw tables and whether a writer holds it; any failure to read them is one
     :class:`SessionFileError` naming the member. A file being written is read again if a read catches it mid-write."""
     for attempt in range(attempts):
-        h5, running = _open_for_reading(p)
+        h5, running = open_for_reading(p)
         try:
             return (*_read_open_file(h5, p), running)
         except SessionFileError:

@@ -11,10 +11,11 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import io
 import json
 import os
 import stat
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
@@ -88,6 +89,76 @@ def _check_resumable_path(path: Path) -> None:
         )  # fmt: skip
     if not stat.S_ISREG(st.st_mode):
         raise SessionWriteError(errno.EINVAL, f"{path} is not a regular file: not a session to continue")
+
+
+def _exchange_bytes(exchanges: Iterable[Exchange]) -> int:
+    return sum(len(e.message) + len(e.reply or "") + len(e.error or "") + 64 for e in exchanges)
+
+
+def _require_room(path: Path, file: Path | None, needed: int, margin: int = 1 << 20) -> None:
+    """Refuse, before HDF5 writes a byte, what the file cannot take: ``needed`` bytes plus ``margin`` (default 1 MiB,
+    for HDF5's chunks and metadata) against the process' file-size limit (RLIMIT_FSIZE) and the free space of the
+    file system. Raises :class:`SessionWriteError` (EFBIG or ENOSPC). A write HDF5 starts and cannot finish leaves
+    its caches in a state only :meth:`SessionFile._failed` can end; the check makes that the rare case (a disk
+    filled by another program meanwhile)."""
+    needed += margin
+    try:
+        size = file.stat().st_size if file is not None else 0
+    except OSError:
+        size = 0
+    limit = _file_size_limit()
+    if limit is not None and size + needed > limit:
+        raise SessionWriteError(errno.EFBIG, f"the file system refuses to let {path} grow (file too large)")
+    try:
+        st = os.statvfs(path.parent)
+    except (OSError, AttributeError):  # no statvfs (Windows): HDF5's own error will have to do
+        return
+    if st.f_bavail * st.f_frsize < needed:
+        raise SessionWriteError(errno.ENOSPC, f"no space left on the device holding {path}")
+
+
+def _start_records(entry: h5py.Group, start: dict[str, Any], scene_text: str, run: int) -> None:
+    """The start record and scene (the first run only: a resumed session keeps its first start record) and the run
+    record of run ``run``."""
+    group = entry["start"]
+    if "record" not in group:
+        _json_dataset(group, "record", start)
+        group.create_dataset("scene_text", data=scene_text, dtype=STR)
+        entry.create_dataset("start_time", data=start.get("started", provenance.now_iso()), dtype=STR)
+        for key in ("operator", "host", "started"):
+            group.attrs[key] = str(start.get(key, ""))
+        group.attrs["schema_version"] = SCHEMA_VERSION
+    _run_record(entry, start, run)
+
+
+def _run_record(entry: h5py.Group, record: dict[str, Any], run: int) -> None:
+    g = entry["runs"].require_group(f"run_{run}")
+    g.attrs["NX_class"] = "NXcollection"
+    _json_dataset(g, "record", record)
+
+
+def _write_image(path: Path, image: bytes) -> None:
+    """Write ``image`` as the whole content of the file ``path`` (ours, not yet published) and fsync it."""
+    fd = os.open(path, os.O_WRONLY | os.O_TRUNC | getattr(os, "O_NOFOLLOW", 0))
+    try:
+        view = memoryview(image)
+        while view:
+            view = view[os.write(fd, view) :]
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _cut_off(h5: h5py.File) -> None:
+    """Point HDF5's file descriptor at the null device: whatever HDF5 still writes (closing flushes its caches) goes
+    nowhere, and succeeds. The lock on the file ends with its descriptor."""
+    with contextlib.suppress(Exception):
+        fd = h5.id.get_vfd_handle()
+        null = os.open(os.devnull, os.O_RDWR)
+        try:
+            os.dup2(null, fd, inheritable=False)
+        finally:
+            os.close(null)
 
 
 # ---- writer ------------------------------------------------------------------------------------------------------
@@ -170,11 +241,8 @@ class SessionFile:
         self.path = path
         self.file = path
         self.fsync = fsync
-        self._entry = h5["entry"]
         self.run = 0
-        self._readings = _columns(self._entry["readings"], READING_FIELDS)
-        self._summary = _columns(self._entry["summary"], SUMMARY_FIELDS)
-        self._exchanges = _columns(self._entry["exchanges"], EXCHANGE_FIELDS)
+        self._bind()
         self.n_blocks_at_close = 0
         self._block_hashes: list[str] = []
         #: ``force`` of the pending publication (None: the file is under its name already)
@@ -183,6 +251,15 @@ class SessionFile:
         self.publish_on_start = True
         self._created = False
         self._schema_on_open = SCHEMA_VERSION
+        #: a write failed and the file was cut off from the disk (:meth:`_failed`)
+        self._broken = False
+
+    def _bind(self) -> None:
+        """Look up the groups and columns of the open file once."""
+        self._entry = self._h5["entry"]
+        self._readings = _columns(self._entry["readings"], READING_FIELDS)
+        self._summary = _columns(self._entry["summary"], SUMMARY_FIELDS)
+        self._exchanges = _columns(self._entry["exchanges"], EXCHANGE_FIELDS)
 
     # -- creation ---------------------------------------------------------------------------------------------------
     @classmethod
@@ -197,29 +274,38 @@ class SessionFile:
         until then ``path``, and whatever is there, is untouched (:mod:`daq.session_lock`)."""
         p = Path(path)
         check_new_session(p, force=force)
+        image = cls._layout_image(reading_unit)
         try:
             tmp = temporary_beside(p)
         except OSError as exc:  # the folder refuses it: the messages of any failed write (missing, no permission…)
             raise hdf5_error(p, exc, writing=True) from exc
         try:
-            h5 = _open_h5(tmp, "w")
+            _require_room(p, None, len(image))
+            _write_image(tmp, image)
+        except BaseException as exc:
+            tmp.unlink(missing_ok=True)
+            if isinstance(exc, OSError) and not isinstance(exc, SessionWriteError):
+                raise hdf5_error(p, exc, writing=True) from exc
+            raise
+        try:
+            h5 = _open_h5(tmp, "r+")
+            writer = cls(h5, p, fsync=fsync)
         except BaseException:
             tmp.unlink(missing_ok=True)
             raise
-        try:
-            cls._layout(h5, reading_unit)
-            h5.flush()
-        except BaseException as exc:
-            tmp.unlink(missing_ok=True)
-            h5.close()
-            if isinstance(exc, (OSError, RuntimeError)):
-                raise hdf5_error(p, exc, writing=True) from exc
-            raise
-        writer = cls(h5, p, fsync=fsync)
         writer.file = tmp
         writer._publish_force = force
         writer._created = True
         return writer
+
+    @classmethod
+    def _layout_image(cls, reading_unit: str) -> bytes:
+        """The empty session (:meth:`_layout`) as the bytes of an HDF5 file, built in memory: the file on disk is
+        written with plain writes (a full disk is a plain error) and HDF5 only ever opens a complete file."""
+        with h5py.File(f"contactrig-layout-{os.getpid()}-{id(cls)}", "w", driver="core", backing_store=False) as h5:
+            cls._layout(h5, reading_unit)
+            h5.flush()
+            return bytes(h5.id.get_file_image())
 
     @staticmethod
     def _layout(h5: h5py.File, reading_unit: str) -> None:
@@ -348,21 +434,46 @@ class SessionFile:
 
     # -- records ------------------------------------------------------------------------------------------------------
     def write_start(self, start: dict[str, Any], scene_text: str) -> None:
-        """Write the session's start record (the first run only) and the run record of this run."""
-        try:
-            group = self._entry["start"]
-            if "record" not in group:  # a resumed session keeps its first start record; each run has its own
-                _json_dataset(group, "record", start)
-                group.create_dataset("scene_text", data=scene_text, dtype=STR)
-                self._entry.create_dataset("start_time", data=start.get("started", provenance.now_iso()), dtype=STR)
-                for key in ("operator", "host", "started"):
-                    group.attrs[key] = str(start.get(key, ""))
-                group.attrs["schema_version"] = SCHEMA_VERSION
-            self.write_run(start)
-        except (OSError, RuntimeError) as exc:
-            raise hdf5_error(self.path, exc, writing=True) from exc
+        """Write the session's start record (the first run only) and the run record of this run.
+
+        A new session's first records are added to its file image in memory and the file rewritten with plain
+        writes (:meth:`_rewrite`): HDF5 never meets a failing write while it creates them."""
+        _require_room(self.path, self.file, 2 * (len(scene_text) + len(provenance.to_json(start))))
+        if not self.published and self.n_blocks == 0 and self.n_exchanges == 0:
+            self._rewrite(lambda h5: _start_records(h5["entry"], start, scene_text, self.run))
+        else:
+            try:
+                _start_records(self._entry, start, scene_text, self.run)
+                self._sync()
+            except (OSError, RuntimeError) as exc:
+                raise self._failed(exc) from exc
         if self.publish_on_start:
             self.publish()
+
+    def _rewrite(self, edit: Callable[[h5py.File], None]) -> None:
+        """Apply ``edit`` to the (unpublished, healthy) file's image in memory, write the result to a second
+        temporary file with plain writes and rename it over the first: a write that fails leaves the first as it was."""
+        self._h5.close()
+        image = io.BytesIO(self.file.read_bytes())
+        with h5py.File(image, "r+") as h5:
+            edit(h5)
+        try:
+            new = temporary_beside(self.path)
+        except OSError as exc:
+            self._reopen()
+            raise hdf5_error(self.path, exc, writing=True) from exc
+        try:
+            _write_image(new, image.getvalue())
+            os.replace(new, self.file)
+        except OSError as exc:
+            new.unlink(missing_ok=True)
+            self._reopen()
+            raise hdf5_error(self.path, exc, writing=True) from exc
+        self._reopen()
+
+    def _reopen(self) -> None:
+        self._h5 = _open_h5(self.file, "r+")
+        self._bind()
 
     @property
     def published(self) -> bool:
@@ -380,16 +491,18 @@ class SessionFile:
             fd = self._h5.id.get_vfd_handle()
             os.fsync(fd)
         except (OSError, RuntimeError) as exc:
-            raise hdf5_error(self.path, exc, writing=True) from exc
+            raise self._failed(exc) from exc
         publish(self.file, self.path, force=self._publish_force)
         self.file = self.path
         self._publish_force = None
 
     def write_run(self, run_record: dict[str, Any]) -> None:
-        g = self._entry["runs"].require_group(f"run_{self.run}")
-        g.attrs["NX_class"] = "NXcollection"
-        _json_dataset(g, "record", run_record)
-        self._sync()
+        """(Re)write the run record of this run."""
+        try:
+            _run_record(self._entry, run_record, self.run)
+            self._sync()
+        except (OSError, RuntimeError) as exc:
+            raise self._failed(exc) from exc
 
     @property
     def n_blocks(self) -> int:
@@ -454,31 +567,20 @@ class SessionFile:
             )
             self._sync()
         except (OSError, RuntimeError) as exc:
-            raise hdf5_error(self.path, exc, writing=True) from exc
+            raise self._failed(exc) from exc
         self._block_hashes.append(rec.sha256)
 
     def _check_room(self, rec: BlockRecord) -> None:
-        """Refuse (before anything is written) a block the file cannot take: the process' file-size limit
-        (RLIMIT_FSIZE) or the free space of the file system, against twice the block's bytes plus 1 MiB for HDF5's
-        chunks and metadata. Raises :class:`SessionWriteError` (EFBIG or ENOSPC)."""
-        needed = 2 * (int(rec.reading.size) * 33 + sum(len(e.message) + len(e.reply or "") + 64 for e in rec.exchanges))
-        needed += 1 << 20
-        size = self.file.stat().st_size if self.file.exists() else 0
-        limit = _file_size_limit()
-        if limit is not None and size + needed > limit:
-            raise SessionWriteError(errno.EFBIG, f"the file system refuses to let {self.path} grow (file too large)")
-        try:
-            st = os.statvfs(self.path.parent)
-        except (OSError, AttributeError):  # no statvfs (Windows): HDF5's own error will have to do
-            return
-        if st.f_bavail * st.f_frsize < needed:
-            raise SessionWriteError(errno.ENOSPC, f"no space left on the device holding {self.path}")
+        """Refuse (before anything is written) a block the file cannot take (:func:`_require_room`), against twice
+        the block's bytes plus 1 MiB for HDF5's chunks and metadata."""
+        _require_room(self.path, self.file, 2 * (int(rec.reading.size) * 33 + _exchange_bytes(rec.exchanges)))
 
     def append_exchanges(self, exchanges: Iterable[Exchange], *, block: int = -1, sync: bool = True) -> None:
         """Record instrument exchanges of this run (``block`` −1: outside any block, e.g. identify, close)."""
         ex = list(exchanges)
         if not ex:
             return
+        _require_room(self.path, self.file, 2 * _exchange_bytes(ex))
         try:
             _append(
                 self._exchanges,
@@ -495,7 +597,7 @@ class SessionFile:
             if sync:
                 self._sync()
         except (OSError, RuntimeError) as exc:
-            raise hdf5_error(self.path, exc, writing=True) from exc
+            raise self._failed(exc) from exc
 
     def write_stop(self, stop: StopRecord) -> None:
         """Write the stop record, with the SHA-256 over all block digests; the session is then complete."""
@@ -513,6 +615,7 @@ class SessionFile:
             "run": self.run,
             "sha256_blocks": chain_digest(self._block_hashes),
         }
+        _require_room(self.path, self.file, 0, margin=64 << 10)  # the stop record: a few kB
         try:
             self._h5.flush()
             # the seal: SHA-256 of everything readers use, computed from what the file holds (read back through the
@@ -528,7 +631,7 @@ class SessionFile:
             self._entry.create_dataset("end_time", data=stop.stopped, dtype=STR)
             self._sync()
         except (OSError, RuntimeError) as exc:
-            raise hdf5_error(self.path, exc, writing=True) from exc
+            raise self._failed(exc) from exc
 
     # -- durability ---------------------------------------------------------------------------------------------
     def _sync(self) -> None:
@@ -546,24 +649,50 @@ class SessionFile:
         self._drop_unpublished()
         if not self._h5.id.valid:
             return
-        self.n_blocks_at_close = self.n_blocks
+        with contextlib.suppress(Exception):
+            self.n_blocks_at_close = self.n_blocks
+        if self._broken:
+            self._close_broken()
+            return
         try:
-            try:
-                self._sync()
-            finally:
-                self._h5.close()
+            self._sync()
+            self._h5.close()
         except (OSError, RuntimeError) as exc:
-            raise hdf5_error(self.path, exc, writing=True) from exc
+            error = self._failed(exc)
+            self._close_broken()
+            raise error from exc
+
+    def _failed(self, exc: BaseException) -> Exception:
+        """A write HDF5 could not do (full disk, file-size limit, lost drive): the file is cut off from the disk at
+        once — HDF5's descriptor is pointed at the null device — so that nothing more lands in it (what was flushed
+        before stays readable, as after a kill) and closing it cannot fail again: HDF5 closing a file whose writes
+        fail can crash the process (SIGSEGV at exit). Returns the one-line error to raise."""
+        if not self._broken and self._h5.id.valid:
+            self._broken = True
+            _cut_off(self._h5)
+        return hdf5_error(self.path, exc, writing=True)
+
+    def _close_broken(self) -> None:
+        """Close a file cut off by :meth:`_failed`: its handles first, then the file; errors are the first one's."""
+        self._readings = self._summary = self._exchanges = {}
+        with contextlib.suppress(Exception):
+            self._h5.close()
 
     def discard(self) -> None:
-        """Close, and remove the file if this writer created it (nothing was recorded); a resumed file is only
-        closed. The file is removed while its lock is still held: it is ours to the last moment."""
-        self._drop_unpublished()
-        if self._created and self._h5.id.valid:
-            Path(self.path).unlink(missing_ok=True)
-        if self._h5.id.valid:
+        """Close without keeping anything (the run failed before its first block): a file this writer created is
+        removed — while its lock is still held, so it is ours to the last moment — and nothing more is written to
+        it; a resumed file is closed as it is. Never raises: the error that ended the run is on its way."""
+        new_and_named = self._created and self.published
+        if self._publish_force is None and not new_and_named:
             with contextlib.suppress(OSError, RuntimeError):
-                self._h5.close()
+                self.close()
+            return
+        if new_and_named:
+            Path(self.path).unlink(missing_ok=True)
+        self._drop_unpublished()
+        if self._h5.id.valid:
+            self._failed(RuntimeError("discarded"))
+            self._close_broken()
 
     def _drop_unpublished(self) -> None:
         if self._publish_force is not None:

@@ -316,18 +316,31 @@ def test_file_in_use_by_another_process(session_path):
 
 
 def test_network_share_refusing_locks(tmp_path, monkeypatch):
-    """NFS/SMB without lock support: HDF5 says 'unable to lock file … No locks available' (errno 37)."""
+    """NFS/SMB without lock support: ``flock`` fails with ENOLCK (HDF5 says 'unable to lock file … No locks
+    available', errno 37): one line saying to write locally, and no file left behind."""
+    from daq import session_lock
 
-    def refuse(path, mode):
-        raise OSError(
-            errno.ENOLCK,
-            "Unable to synchronously create file (unable to lock file, errno = 37, error message = 'No locks "
-            "available')",
-        )
+    def refuse(fd, op):
+        raise OSError(errno.ENOLCK, "No locks available")
 
-    monkeypatch.setattr(h5py, "File", refuse)
+    monkeypatch.setattr(session_lock.fcntl, "flock", refuse)
     with pytest.raises(FileLockingError, match="write the session to a local disk"):
         SessionFile.create(tmp_path / "s.h5")
+    assert list(tmp_path.iterdir()) == []
+    monkeypatch.undo()
+    with pytest.raises(FileLockingError, match="write the session to a local disk"):  # HDF5's own wording
+        raise session_file_error(tmp_path / "s.h5")
+
+
+def session_file_error(path):
+    from daq.errors import hdf5_error
+
+    return hdf5_error(
+        path,
+        OSError(errno.ENOLCK, "Unable to synchronously create file (unable to lock file, errno = 37, error message = "
+                "'No locks available')"),
+        writing=True,
+    )  # fmt: skip
 
 
 @pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
