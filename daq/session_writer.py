@@ -16,6 +16,7 @@ import json
 import os
 import stat
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -28,7 +29,7 @@ from daq.errors import (
     SessionWriteError,
     hdf5_error,
 )
-from daq.records import BlockRecord, StopRecord
+from daq.records import BlockRecord, StopRecord, block_digests, exchanges_digest
 from daq.session_lock import lock_exclusive, publish, replaceable, temporary_beside
 from daq.session_reader import check_readable_schema, read_raw, readable_rows
 from daq.session_schema import (
@@ -45,7 +46,7 @@ from daq.session_schema import (
 )
 from instruments.transport import Exchange
 
-__all__ = ["SessionFile"]
+__all__ = ["BlockBatch", "SessionFile"]
 
 def _open_h5(path: Path, mode: str) -> h5py.File:
     """Open for writing and hold the writer's lock (:mod:`daq.session_lock`): HDF5 takes its ``flock`` on the file
@@ -89,6 +90,47 @@ def _check_resumable_path(path: Path) -> None:
         )  # fmt: skip
     if not stat.S_ISREG(st.st_mode):
         raise SessionWriteError(errno.EINVAL, f"{path} is not a regular file: not a session to continue")
+
+
+@dataclass(frozen=True)
+class BlockBatch:
+    """Many blocks taken at once (an imported table): per block ``block``, ``weight_kg`` (kg), ``repeat`` and
+    ``count`` (readings); per reading ``reading`` (as measured), ``time_s`` (s), ``resistance_ohm`` (Ω), ``valid``."""
+
+    block: np.ndarray
+    weight_kg: np.ndarray
+    repeat: np.ndarray
+    count: np.ndarray
+    reading: np.ndarray
+    time_s: np.ndarray
+    resistance_ohm: np.ndarray
+    valid: np.ndarray
+    started: str
+
+    def statistics(self) -> dict[str, np.ndarray]:
+        """Per block over its valid readings (as :func:`instruments.block.block_statistics`): mean_ohm, sd_ohm
+        (n − 1), sem_ohm (Ω; NaN where undefined), n, n_invalid."""
+        count = np.asarray(self.count, dtype=np.int64)
+        owner = np.repeat(np.arange(count.size), count)
+        good = np.asarray(self.valid, dtype=bool)
+        x = np.where(good, self.resistance_ohm, 0.0)
+        n = np.bincount(owner, weights=good, minlength=count.size).astype(np.int64)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean = np.bincount(owner, weights=x, minlength=count.size) / n
+            dev = np.where(good, self.resistance_ohm - mean[owner], 0.0)
+            var = np.bincount(owner, weights=dev * dev, minlength=count.size) / (n - 1)
+            sd = np.where(n > 1, np.sqrt(var), np.nan)
+            sem = np.where(n > 1, sd / np.sqrt(n), np.nan)
+        mean = np.where(n > 0, mean, np.nan)
+        return {"mean_ohm": mean, "sd_ohm": sd, "sem_ohm": sem, "n": n.astype(np.int32),
+                "n_invalid": (count - n).astype(np.int32)}  # fmt: skip
+
+
+def _indices(count: np.ndarray) -> np.ndarray:
+    """0, 1, … within each block of ``count`` readings."""
+    count = np.asarray(count, dtype=np.int64)
+    starts = np.repeat(np.concatenate(([0], np.cumsum(count)[:-1])), count)
+    return (np.arange(int(count.sum())) - starts).astype(np.int32)
 
 
 def _exchange_bytes(exchanges: Iterable[Exchange]) -> int:
@@ -515,6 +557,40 @@ class SessionFile:
     @property
     def n_readings(self) -> int:
         return int(self._readings["block"][0].get_space().shape[0])
+
+    def append_blocks(self, batch: BlockBatch) -> None:
+        """Append many completed blocks at once — a table is one measurement: every column written in one call,
+        then one flush and fsync (a 60 000-block table in well under a second, instead of 60 000 separately fsynced
+        blocks). Same rows, statistics and SHA-256 as :meth:`append_block` would write; no instrument exchanges."""
+        k = len(batch.block)
+        if not k:
+            return
+        _require_room(self.path, self.file, 2 * (batch.resistance_ohm.size * 33 + k * 320))
+        first = self.n_readings + np.concatenate(([0], np.cumsum(batch.count)[:-1])).astype(np.int64)
+        summary = {
+            "block": batch.block, "run": np.full(k, self.run, dtype=np.int32), "weight_kg": batch.weight_kg,
+            "repeat": batch.repeat, **batch.statistics(), "count": batch.count, "first_reading": first,
+            "started": np.full(k, batch.started.encode("ascii", "replace"), dtype="S40"),
+            "first_exchange": np.full(k, self.n_exchanges, dtype=np.int64), "n_exchanges": np.zeros(k, np.int32),
+            "exchanges_sha256": np.full(k, exchanges_digest([]).encode(), dtype="S64"),
+            "compliance": np.zeros(k, dtype=np.uint8),
+        }  # fmt: skip
+        readings = {
+            "block": np.repeat(batch.block, batch.count), "index": _indices(batch.count),
+            "time_s": batch.time_s, "reading": batch.reading, "resistance_ohm": batch.resistance_ohm,
+            "valid": batch.valid.astype(np.uint8),
+        }  # fmt: skip
+        relative = {**summary, "first_reading": first - self.n_readings}
+        digests = block_digests(relative, readings)
+        summary["sha256"] = np.array([d.encode() for d in digests], dtype="S64")
+        try:
+            _append(self._readings, readings)
+            self._h5.flush()
+            _append(self._summary, summary)
+            self._sync()
+        except (OSError, RuntimeError) as exc:
+            raise self._failed(exc) from exc
+        self._block_hashes.extend(digests)
 
     def append_block(self, rec: BlockRecord) -> None:
         """Append one completed block: readings and exchanges, flush, then its summary row, flush and fsync.
