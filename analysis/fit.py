@@ -145,6 +145,7 @@ def area_at_weights(weight_sim_kg: np.ndarray, area_sim_m2: np.ndarray, weight_k
     if np.any(np.diff(ws) <= 0):
         raise SettingError("weight_kg", ws.tolist(), "expected distinct simulated weights")
     out = np.empty(w.shape)
+    interpolate: Any = None
     for i, wi in enumerate(w):
         hit = np.flatnonzero(np.abs(ws - wi) <= 1e-9 * max(abs(wi), 1e-12))
         if hit.size:
@@ -154,9 +155,11 @@ def area_at_weights(weight_sim_kg: np.ndarray, area_sim_m2: np.ndarray, weight_k
             raise SettingError(
                 "weight_kg", float(wi), f"measured weight outside the simulated range [{ws[0]:g}, {ws[-1]:g}] kg"
             )
-        from scipy.interpolate import PchipInterpolator
+        if interpolate is None:  # built once: 10 000 weights would build it 10 000 times
+            from scipy.interpolate import PchipInterpolator
 
-        out[i] = math.exp(float(PchipInterpolator(np.log(ws), np.log(a))(math.log(wi))))
+            interpolate = PchipInterpolator(np.log(ws), np.log(a))
+        out[i] = math.exp(float(interpolate(math.log(wi))))
     return out
 
 
@@ -211,7 +214,9 @@ def _resample(curve: MeasuredCurve, mode: str, n_boot: int, rng: np.random.Gener
     m, r = v.shape
     if mode == "series":
         cols = rng.integers(0, r, size=(n_boot, r))
-        return _Resamples(mode, v[:, cols].mean(axis=2).T, cols=cols)
+        counts = np.zeros((n_boot, r))  # how often each series is drawn: no (m, n_boot, r) copy (1 GB at m = 10 000)
+        np.add.at(counts, (np.arange(n_boot)[:, None], cols), 1.0)
+        return _Resamples(mode, counts @ (v.T / r), cols=cols)
     means = np.empty((n_boot, m))
     var = np.zeros((n_boot, m))
     for i in range(m):
@@ -528,8 +533,9 @@ def _parameter_covariance(
     n = curve.n
     if paired:
         r = curve.values_ohm.shape[1]
-        c = np.cov(curve.values_ohm, ddof=1) / r
-        return wls @ c @ wls.T, np.full(2, float(r - 1))
+        d = curve.values_ohm - curve.values_ohm.mean(axis=1, keepdims=True)
+        q = wls @ d  # M C Mᵀ with C = d dᵀ/((r − 1) r), never formed: (m, m) is 800 MB for 10 000 weights
+        return q @ q.T / ((r - 1) * r), np.full(2, float(r - 1))
     if weighting == "blocks" or np.any(n < 2):
         return (wls * sigma**2) @ wls.T, np.full(2, math.inf)
     var = curve.sem_ohm**2  # each weight's own scatter, whatever the weighting
@@ -1095,8 +1101,7 @@ def _bootstrap_ranking(
             f = fits[n]
             assert f.boot_params is not None
             design = np.column_stack((np.ones_like(f.points.regressor_per_m), f.points.regressor_per_m))
-            pred = f.boot_params @ design.T  # (B, m)
-            chi2s.append(np.sum(((boot - off[n] - pred) / sigma) ** 2, axis=1))
+            chi2s.append(_chi2_rows(boot, f.boot_params, design, sigma, off[n]))
         table = np.vstack(chi2s)  # (models, B)
     winner = np.argmin(table, axis=0)
     first = {n: float(np.mean(winner == i)) for i, n in enumerate(names)}
@@ -1129,6 +1134,18 @@ def _criterion(g: GoodnessOfFit, c_hat: float) -> float:
     if math.isfinite(c_hat) and c_hat > OVERDISPERSION:
         return g.chi2 / c_hat + 2 * (g.n_parameters + 1)
     return g.aic
+
+
+def _chi2_rows(
+    boot: np.ndarray, params: np.ndarray, design: np.ndarray, sigma: np.ndarray, offset: np.ndarray
+) -> np.ndarray:
+    """Σ((boot − offset − params·designᵀ)/σ)² of each bootstrap row, a few hundred rows at a time: no (B, m) temporaries
+    (160 MB each for 2000 resamples of 10 000 weights)."""
+    out = np.empty(boot.shape[0])
+    for a in range(0, boot.shape[0], 256):
+        z = (boot[a : a + 256] - offset - params[a : a + 256] @ design.T) / sigma
+        out[a : a + 256] = np.einsum("ij,ij->i", z, z)
+    return out
 
 
 def _statement(

@@ -348,13 +348,29 @@ def _load_sim(sim_path: str | Path | None, scene: Any, weights: np.ndarray, mode
             )
         info = {"source": str(sim_path), "warnings": list(result.warnings), "provenance": result.provenance}
         return result, None, info
-    result, database = simulate(scene, weights, models)
+    result, database = simulate(scene, _simulated_weights(weights), models)
     info = {
         "source": f"simulated now from scene {scene.name!r} ({scene.source})",
         "warnings": list(result.warnings),
         "provenance": result.provenance,
     }
     return result, database, info
+
+
+#: At most this many distinct weights are simulated for one analysis; a curve with more (an imported table of 10 000
+#: weights) is simulated on a geometric grid over its range and the contact area interpolated (PCHIP in log–log,
+#: :func:`analysis.fit.area_at_weights`): the simulation's time and memory stay those of a bench session.
+SIM_WEIGHTS_MAX = 128
+
+
+def _simulated_weights(weights: np.ndarray) -> np.ndarray:
+    """The weights to simulate for a curve at ``weights`` (kg): its own, or a grid of :data:`SIM_WEIGHTS_MAX`."""
+    w = np.unique(np.asarray(weights, dtype=float))
+    if w.size <= SIM_WEIGHTS_MAX or w[0] <= 0:
+        return w
+    grid = np.geomspace(w[0], w[-1], SIM_WEIGHTS_MAX)
+    grid[0], grid[-1] = w[0], w[-1]  # the ends exactly: no extrapolation
+    return grid
 
 
 def analyse_session(

@@ -1,9 +1,11 @@
 """``contactrig acquire`` as a function: a scene's session plan, run on the bench (or the simulated bench), to HDF5.
 
-Order of work, so that a fault costs nothing already recorded: validate the plan, create (or reopen for
-``--resume``) the output file — this proves it is writable before any instrument is touched — open the bench,
-identify both instruments, write the start record, then run the blocks (each on disk before the next). An
-unreachable instrument removes the file just created (it holds nothing); it never touches an existing session.
+Order of work, so that a fault costs nothing already recorded: validate the plan, create the output file as a
+locked temporary file beside its name (or lock and reopen it for ``--resume``) — this proves it is writable before
+any instrument is touched — open the bench, identify both instruments, write the start record, give the file its
+name (:mod:`daq.session_lock`: renamed over an existing one only with ``--force`` and only if no other process holds
+it), then run the blocks (each on disk before the next). An unreachable instrument removes the temporary file (it
+holds nothing); an existing session is never truncated, and is replaced only once the new one has its start record.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from typing import Any, TextIO
 from contactrig.core.provenance import host_name, login_name, now_iso
 from contactrig.core.scene import Scene, load_scene, parse_scene
 from daq.engine import AcquisitionEngine, Decision, Interrupts, OperatorQuit, Prompter, RunOutcome, Writer, answer_yes
-from daq.errors import MissingFileError, SessionExistsError, SessionStateError, SessionWriteError
+from daq.errors import MissingFileError, NoStartRecordError, SessionExistsError, SessionStateError
 from daq.link import Bench, InstrumentLink, OpenedBench, VisaBench
 from daq.plan import (
     CONVERSION_OVERHEAD_S,
@@ -32,6 +34,7 @@ from daq.plan import (
     session_steps,
 )
 from daq.session_file import SCHEMA_VERSION, SessionFile, load_session, software_versions
+from daq.session_writer import check_new_session
 from daq.writers import FileWriter, LiveDisplay
 
 __all__ = [
@@ -208,7 +211,13 @@ def _resume_state(path: Path, scene: Scene | None, simulated: bool) -> tuple[Sce
         raise MissingFileError(errno.ENOENT, f"--resume: no session file {path} to continue")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        session = load_session(path)
+        try:
+            session = load_session(path)
+        except NoStartRecordError:
+            raise SessionStateError(
+                f"{path} has no start record (its acquisition was stopped before it began): nothing to resume; "
+                "use --force to start a new session in its place"
+            ) from None
     if session.imported:
         raise SessionStateError(f"{path} is an imported table, not an acquisition: nothing to resume")
     if session.running:
@@ -313,23 +322,15 @@ def acquire(
     check = getattr(bench, "check", None)  # a bench's own part of the scene (the --sim simulation), before any output
     if check is not None:
         check(plan)
-    created = _prepare_file(path, plan, resume=resume, force=force, fsync=fsync)
-    out = stream if stream is not None else sys.stderr
-
-    def say(text: str) -> None:
-        if not quiet:
-            print(text, file=out, flush=True)
-
-    chooser = resume_chooser if resume_chooser is not None else None if yes else terminal_resume_chooser(stream)
-    order = _resume_order(plan, prior, chooser, say)
-    steps = list(session_steps(plan, prior.done, first=order.first, leave_out=order.leave_out))
-    time_scale = float(getattr(bench, "time_scale", 1.0)) if bench.simulated else 1.0
-    for line in plan_lines(plan, steps, blocks_on_file=len(prior.done), attended=prompter is not None or not yes,
-                           time_scale=time_scale):  # fmt: skip
-        say(line)
-    opened = _open_bench(bench, plan, path, created)
+    sf = _prepare_file(path, plan, resume=resume, force=force, fsync=fsync)
+    try:
+        steps, order = _announce(plan, prior, bench, stream=stream, quiet=quiet, yes=yes, prompter=prompter,
+                                 resume_chooser=resume_chooser)  # fmt: skip
+    except BaseException:
+        sf.discard()
+        raise
+    opened = _open_bench(bench, plan, sf)
     ask = prompter or (answer_yes if yes else terminal_prompter(stream))
-    sf: SessionFile | None = None
     display: LiveDisplay | None = None
     outcome: RunOutcome | None = None
     notices: list[Callable[[str], None]] = []
@@ -343,7 +344,8 @@ def acquire(
     # clean-up too: once the run is over, a further Ctrl-C cannot cut the closing of the file short.
     with Interrupts(notify=notify) as interrupts:
         try:
-            sf = SessionFile.open_for_resume(path, fsync=fsync, keep_blocks=len(prior.done) if prior.resumed else None)
+            if prior.resumed:
+                sf.begin_resume(keep_blocks=len(prior.done))
             start = _start_record(plan, scene, simulated=bench.simulated, opened=opened, run=sf.run, prior=prior)
             start["loading_order_kg"] = _loading_order(steps)
             start["resume_choices"] = list(order.choices)
@@ -355,7 +357,7 @@ def acquire(
             outcome = _run(opened.link, plan, start, sf, display, (steps, kept, prior), ask, interrupts, extra_writers)
         finally:
             interrupts.phase = "writing"  # deferred, never raised: the run has ended already
-            _clean_up(opened.link, display, sf, outcome, path, created)
+            _clean_up(opened.link, display, sf, outcome)
     if outcome.error is not None:
         raise outcome.error
     return AcquisitionResult(
@@ -368,6 +370,34 @@ def acquire(
     )
 
 
+def _announce(
+    plan: SessionPlan,
+    prior: _Prior,
+    bench: Bench,
+    *,
+    stream: TextIO | None,
+    quiet: bool,
+    yes: bool,
+    prompter: Prompter | None,
+    resume_chooser: ResumeChooser | None,
+) -> tuple[list[PlaceWeight | Measure], _Order]:
+    """Ask about the weights an earlier run skipped, then print the plan; returns the steps still to take."""
+    out = stream if stream is not None else sys.stderr
+
+    def say(text: str) -> None:
+        if not quiet:
+            print(text, file=out, flush=True)
+
+    chooser = resume_chooser if resume_chooser is not None else None if yes else terminal_resume_chooser(stream)
+    order = _resume_order(plan, prior, chooser, say)
+    steps = list(session_steps(plan, prior.done, first=order.first, leave_out=order.leave_out))
+    time_scale = float(getattr(bench, "time_scale", 1.0)) if bench.simulated else 1.0
+    for line in plan_lines(plan, steps, blocks_on_file=len(prior.done), attended=prompter is not None or not yes,
+                           time_scale=time_scale):  # fmt: skip
+        say(line)
+    return steps, order
+
+
 def _scene_and_prior(
     scene: Scene | str | Path | None, path: Path, *, resume: bool, force: bool, simulated: bool
 ) -> tuple[Scene, _Prior]:
@@ -378,30 +408,28 @@ def _scene_and_prior(
         return _resume_state(path, scene, simulated)
     if scene is None:
         scene = load_scene(None)
-    if path.exists() and not force:
+    if os.path.lexists(path) and not force:
         raise SessionExistsError(errno.EEXIST, f"{path} exists; use --force to overwrite it or --resume to continue it")
+    check_new_session(path, force=force)  # --force: a file in use is refused before anything is done
     return scene, _Prior()
 
 
-def _prepare_file(path: Path, plan: SessionPlan, *, resume: bool, force: bool, fsync: bool) -> bool:
-    """Create the output file (or check a resumed one is writable) before any instrument is touched: proves the
-    path is writable. True when a new file was created."""
+def _prepare_file(path: Path, plan: SessionPlan, *, resume: bool, force: bool, fsync: bool) -> SessionFile:
+    """The session file, open and locked before any instrument is touched (proves the path is writable): a resumed
+    file as it is (changed only once the bench answers), or a new one as a temporary file beside ``path`` that takes
+    its name once its start record is on disk (:mod:`daq.session_lock`)."""
     if resume:
-        if not os.access(path, os.W_OK):
-            raise SessionWriteError(errno.EACCES, f"no permission to write {path}")
-        return False
+        return SessionFile.open_existing(path, fsync=fsync)
     unit = plan.pair.reading_unit(plan.block_settings)
-    SessionFile.create(path, reading_unit=unit, force=force, fsync=fsync).close()
-    return True
+    return SessionFile.create(path, reading_unit=unit, force=force, fsync=fsync)
 
 
-def _open_bench(bench: Bench, plan: SessionPlan, path: Path, created: bool) -> OpenedBench:
-    """Open the bench; if it cannot be reached, the file just created (it holds nothing) is removed."""
+def _open_bench(bench: Bench, plan: SessionPlan, sf: SessionFile) -> OpenedBench:
+    """Open the bench; if it cannot be reached, a new file (it holds nothing) is removed, a resumed one closed."""
     try:
         return bench.open(plan)
     except BaseException:
-        if created:
-            path.unlink(missing_ok=True)
+        sf.discard()
         raise
 
 
@@ -500,10 +528,8 @@ def _duration(seconds: float) -> str:
 def _clean_up(
     link: InstrumentLink,
     display: LiveDisplay | None,
-    sf: SessionFile | None,
+    sf: SessionFile,
     outcome: RunOutcome | None,
-    path: Path,
-    created: bool,
 ) -> None:
     """Close link, display and file on every path; an error here is reported only when the run itself was fine."""
     ok = outcome is not None and outcome.error is None
@@ -514,14 +540,14 @@ def _clean_up(
             raise
     if display is not None:
         display.close()
-    if sf is not None:
-        try:
-            sf.close()
-        except OSError:
-            if ok:
-                raise  # otherwise the error that ended the session is the one to report
-    if outcome is None and created and (sf is None or sf.n_blocks_at_close == 0):
-        path.unlink(missing_ok=True)  # failed before the first block (e.g. identify): nothing recorded
+    if outcome is None and sf.n_blocks == 0:
+        sf.discard()  # failed before the first block (e.g. identify): nothing recorded, a new file is not kept
+        return
+    try:
+        sf.close()
+    except OSError:
+        if ok:
+            raise  # otherwise the error that ended the session is the one to report
 
 
 def _start_record(

@@ -26,6 +26,7 @@ __all__ = [
     "BlockRecord",
     "StopRecord",
     "block_digest",
+    "block_digests",
     "exchanges_digest",
     "how_run_ended",
     "now_iso",
@@ -61,6 +62,39 @@ def block_digest(
     if compliance:
         h.update(b"compliance")
     return h.hexdigest()
+
+
+def block_digests(summary: Mapping[str, np.ndarray], readings: Mapping[str, np.ndarray]) -> list[str]:
+    """:func:`block_digest` of every block at once (the same bytes, so the same digests), from the summary columns
+    (block, repeat, n, n_invalid, weight_kg, mean_ohm, sd_ohm, sem_ohm, first_reading, count and, if present,
+    compliance) and the reading columns (reading, time_s, resistance_ohm, valid). About 3 µs a block instead of
+    30 µs: a 60 000-block table is checked in a fraction of a second."""
+    k = len(summary["block"])
+    ints = np.empty((k, 4), dtype="<i8")
+    for j, name in enumerate(("block", "repeat", "n", "n_invalid")):
+        ints[:, j] = summary[name]
+    floats = np.empty((k, 4), dtype="<f8")
+    for j, name in enumerate(("weight_kg", "mean_ohm", "sd_ohm", "sem_ohm")):
+        floats[:, j] = summary[name]
+    ib, fb = ints.tobytes(), floats.tobytes()
+    columns = [np.ascontiguousarray(readings[name], dtype="<f8").tobytes() for name in ("reading", "time_s",
+               "resistance_ohm")] + [np.ascontiguousarray(readings["valid"], dtype="u1").tobytes()]  # fmt: skip
+    widths = (8, 8, 8, 1)
+    first = np.asarray(summary["first_reading"], dtype=np.int64).tolist()
+    count = np.asarray(summary["count"], dtype=np.int64).tolist()
+    flags = np.asarray(summary.get("compliance", np.zeros(k)), dtype=bool).tolist()
+    out = []
+    sha = hashlib.sha256
+    for i in range(k):
+        h = sha(ib[32 * i : 32 * i + 32])
+        h.update(fb[32 * i : 32 * i + 32])
+        a, b = first[i], first[i] + count[i]
+        for data, w in zip(columns, widths, strict=True):
+            h.update(data[w * a : w * b])
+        if flags[i]:
+            h.update(b"compliance")
+        out.append(h.hexdigest())
+    return out
 
 
 def exchanges_digest(exchanges: Iterable[Exchange]) -> str:

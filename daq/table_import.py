@@ -574,28 +574,29 @@ def import_table(
     }
     out = Path(output)
     with SessionFile.create(out, reading_unit="ohm", force=force) as sf:
+        sf.publish_on_start = False  # the session takes its name complete, or not at all
         sf.write_start(start, "")
         _write_blocks(sf, table, started)
         _write_stop(sf, n, f"imported {n} values from {Path(path).name} ({table.unit})")
+        sf.publish()
     return out
 
 
 def _write_blocks(sf: Any, table: ResistanceTable, started: str) -> None:
-    from daq.records import BlockRecord
+    """One block per value (weight, repeat), written in one batch: a table is one measurement."""
+    from daq.session_writer import BlockBatch
 
-    block = 0
-    for i, weight in enumerate(table.weight_kg):
-        for j, value in enumerate(table.resistance_ohm[i]):
-            if not math.isfinite(value):
-                continue  # a missing repeat (allow_missing): no block
-            r = np.array([value])
-            sf.append_block(
-                BlockRecord(
-                    block=block, run=0, weight_kg=float(weight), repeat=j + 1, unit="ohm", reading=r,
-                    time_s=np.array([math.nan]), resistance_ohm=r, valid=np.array([True]), started=started,
-                )
-            )  # fmt: skip
-            block += 1
+    values = np.asarray(table.resistance_ohm, dtype=np.float64)
+    rows, cols = np.nonzero(np.isfinite(values))  # row-major: weight by weight, repeat by repeat
+    r = values[rows, cols]  # a missing repeat (allow_missing): no block
+    k = r.size
+    sf.append_blocks(
+        BlockBatch(
+            block=np.arange(k, dtype=np.int32), weight_kg=np.asarray(table.weight_kg, dtype=np.float64)[rows],
+            repeat=(cols + 1).astype(np.int32), count=np.ones(k, dtype=np.int32), reading=r,
+            time_s=np.full(k, math.nan), resistance_ohm=r, valid=np.ones(k, dtype=bool), started=started,
+        )
+    )  # fmt: skip
 
 
 def _write_stop(sf: Any, n: int, reason: str) -> None:

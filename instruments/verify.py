@@ -24,6 +24,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from contactrig.core.files import write_text_atomic
 from contactrig.core.validation import check_range
 from instruments.delta import DeltaSettings
 from instruments.k6221 import Keithley6221
@@ -272,8 +273,7 @@ def write_report(report: VerifyReport, directory: Path) -> tuple[Path, Path]:
         "checks": [asdict(c) for c in report.checks],
         "transcript": report.transcript,
     }
-    js = directory / "verify.json"
-    js.write_text(json.dumps(data, indent=1, default=str), encoding="utf-8")
-    md = directory / "verify.md"
-    md.write_text(report.markdown(), encoding="utf-8")
+    # atomic, and a link at either name is replaced, never followed (contactrig.core.files: every output's rule)
+    js = write_text_atomic(directory / "verify.json", json.dumps(data, indent=1, default=str), force=True)
+    md = write_text_atomic(directory / "verify.md", report.markdown(), force=True)
     return js, md

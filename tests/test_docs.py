@@ -318,6 +318,34 @@ def test_every_inline_option_exists():
     assert not problems, "\n".join(problems)
 
 
+_PYTHON_NAME = re.compile(r"^(?:contactrig|daq|sims|analysis|instruments)(?:\.\w+)+(?:\(\))?$")
+
+
+def _resolves(name: str) -> bool:
+    """Whether a dotted name (``daq.session_file.UPGRADES``, ``sims.rig.dynamics.settle()``) exists."""
+    parts = name.removesuffix("()").split(".")
+    for i in range(len(parts), 0, -1):
+        try:
+            obj: object = importlib.import_module(".".join(parts[:i]))
+        except ModuleNotFoundError:
+            continue
+        for attribute in parts[i:]:
+            if not hasattr(obj, attribute):
+                return False
+            obj = getattr(obj, attribute)
+        return True
+    return False
+
+
+def test_every_python_name_in_inline_code_exists():
+    spans = [(path, s) for path in _texts() for s in inline_code(path.read_text(encoding="utf-8"))]
+    names = [(path, s) for path, s in spans if _PYTHON_NAME.match(s)]
+    assert len(names) > 20  # the check sees the manual's names (module paths, functions, constants)
+    stale = [f"{_name(path)}: `{s}`" for path, s in names if not _resolves(s)]
+    assert not stale, "names in the docs that the code no longer has:\n" + "\n".join(stale)
+    assert not _resolves("daq.session_file.NO_SUCH_NAME") and not _resolves("sims.no_such_module")
+
+
 def _python_pages() -> list[Path]:
     return [p for p in _texts() if any("python" in b.classes for b in fenced_blocks(p))]
 

@@ -51,10 +51,10 @@ def recorded_scene_text(path: str | Path) -> tuple[str, str]:
     """(kind, scene text) of the file at ``path``: a scene ``.toml`` (parsed, to report errors), or the scene
     recorded in a session, sweep or contact-database file. A file with no recorded scene is a ValueError."""
     from contactrig.core.scene import load_scene
+    from daq.bounded import check_regular_file
 
     p = Path(path)
-    if not p.is_file():
-        raise ValueError(f"{p}: no such file")
+    check_regular_file(p, "file")  # a FIFO or device is refused before it is opened (it would block)
     with p.open("rb") as f:
         is_hdf5 = f.read(8) == b"\x89HDF\r\n\x1a\n"
     if not is_hdf5:
@@ -65,11 +65,20 @@ def recorded_scene_text(path: str | Path) -> tuple[str, str]:
     return kind, text
 
 
-def _recorded(p: Path) -> tuple[str, str]:
-    import h5py
+def _format_of(p: Path) -> str:
+    """The format attribute of an HDF5 file; a session being written is opened without locking (the lock-free
+    reader of :mod:`daq.session_reader`)."""
+    from daq.session_reader import open_for_reading
 
-    with h5py.File(p, "r") as f:
-        fmt = str(f.attrs.get("format", f.attrs.get("contactrig_format", "")))
+    f, _ = open_for_reading(p)
+    with f:
+        return str(f.attrs.get("format", f.attrs.get("contactrig_format", "")))[:80]
+
+
+def _recorded(p: Path) -> tuple[str, str]:
+    from daq.bounded import call_bounded
+
+    fmt = call_bounded(_format_of, (p,), path=p, what="HDF5 file")  # untrusted: a child process with a deadline
     if fmt == "contactrig-contact-database":
         from daq.database_file import load_database
 
@@ -78,9 +87,13 @@ def _recorded(p: Path) -> tuple[str, str]:
         from daq.sweep_file import load_sweep
 
         return "rig sweep", str(load_sweep(p).provenance.get("scene_text", ""))
+    import warnings
+
     from daq import load_session
 
-    return "session", load_session(p).scene_text
+    with warnings.catch_warnings():  # running, incomplete, aborted: the scene is shown all the same
+        warnings.simplefilter("ignore")
+        return "session", load_session(p).scene_text
 
 
 def run_show(args: argparse.Namespace) -> int:

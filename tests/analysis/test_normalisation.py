@@ -82,3 +82,19 @@ def test_simulated_curve_is_exact():
 def test_single_repeat_has_no_uncertainty_to_give():
     with pytest.raises(SettingError, match="repeats"):
         normalise_measured(MeasuredCurve([1.0, 2.0], [[1.0], [2.0]]), paired=False)
+
+
+@pytest.mark.parametrize("paired", [True, False])
+def test_standard_errors_without_the_dense_covariance_match_it(paired, monkeypatch):
+    """Beyond DENSE_COV_MAX weights no (m, m) matrix is formed; the standard errors are the dense J C Jᵀ's."""
+    from analysis import normalisation
+
+    rng = np.random.default_rng(3)
+    v = 5e-3 * (1 + 0.05 * rng.normal(size=(50, 6)))
+    curve = MeasuredCurve(np.linspace(1.0, 5.0, 50), v, paired=True)
+    dense = normalise_measured(curve, paired=paired)
+    monkeypatch.setattr(normalisation, "DENSE_COV_MAX", 10)
+    sparse = normalise_measured(curve, paired=paired)
+    assert sparse.cov is None and dense.cov is not None
+    np.testing.assert_allclose(sparse.se, np.sqrt(np.clip(np.diag(dense.cov), 0, None)), rtol=1e-10, atol=0)
+    np.testing.assert_array_equal(sparse.ratio, dense.ratio)

@@ -64,7 +64,7 @@ def written_commands(path: Path) -> list[str]:
 def _rewrite_stop(path: Path, edit) -> None:
     import h5py
 
-    from daq.session_file import _json_dataset
+    from daq.session_writer import _json_dataset
 
     with h5py.File(path, "a") as h5:
         stop = json.loads(h5["entry/stop/record"][()])
@@ -80,7 +80,8 @@ def unseal(path: Path) -> None:
 def reseal(path: Path) -> None:
     """Recompute the seal after a test edited the file: what a deliberate forgery (or a changed driver, for replay's
     own comparison) would look like — the seal is a checksum, not a signature."""
-    from daq.session_file import _read_raw, _seal
+    from daq.session_reader import read_raw as _read_raw
+    from daq.session_schema import seal as _seal
 
     def edit(h5, stop):
         stop.pop("seal", None)

@@ -211,10 +211,10 @@ def test_every_exit_path_leaves_the_source_idle(plan, where):
     assert _last_command(link) == "SOUR:SWE:ABOR"
 
 
-@pytest.mark.parametrize("what", ["reopen", "display"])
+@pytest.mark.parametrize("what", ["start record", "display"])
 def test_acquire_closes_the_link_when_setting_up_the_run_fails(plan, tmp_path, monkeypatch, what):
-    """A failure between opening the bench and starting the run (reopening the file, building the live display)
-    still leaves the source idle and removes the file it created."""
+    """A failure between opening the bench and starting the run (writing the start record, building the live
+    display) still leaves the source idle and leaves no file (neither the name nor its temporary file)."""
     from daq import acquire as acquire_module
     from daq import link as link_module
     from daq.acquire import acquire
@@ -242,7 +242,7 @@ def test_acquire_closes_the_link_when_setting_up_the_run_fails(plan, tmp_path, m
     with pytest.raises(OSError, match="disk gone"):
         acquire(plan.scene, tmp_path / "x.h5", yes=True, bench=VisaBench(rm), quiet=True)
     assert links and links[0].driver._closed and links[0].recorder.exchanges[-1].message == "SOUR:SWE:ABOR"
-    assert not (tmp_path / "x.h5").exists()  # it held nothing
+    assert sorted(p.name for p in tmp_path.iterdir()) == []  # it held nothing: no file, no temporary file
 
 
 @pytest.mark.filterwarnings("ignore::instruments.errors.ComplianceWarning")  # expected: compliance on purpose

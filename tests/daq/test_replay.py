@@ -29,7 +29,8 @@ def _edit_exchange(path, match, edit):
     """Edit the first recorded exchange whose message satisfies ``match``; re-sign its block's exchange digest
     (a recording whose replies and readings disagree, as a buggy writer would leave), return the block."""
     from daq.records import exchanges_digest
-    from daq.session_file import _read_table, exchange_list
+    from daq.session_reader import exchange_list
+    from daq.session_reader import read_table as _read_table
 
     with h5py.File(path, "a") as h5:
         ex = h5["entry/exchanges"]

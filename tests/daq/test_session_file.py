@@ -277,8 +277,12 @@ def test_existing_file_is_never_overwritten_without_force(session_path):
     with pytest.raises(SessionExistsError, match="--force"):
         SessionFile.create(session_path)
     assert session_path.read_bytes() == before
-    SessionFile.create(session_path, force=True).close()
+    SessionFile.create(session_path, force=True).close()  # never given its name: nothing replaced
+    assert session_path.read_bytes() == before
+    with SessionFile.create(session_path, force=True) as sf:
+        sf.write_start({"started": now_iso()}, "")  # the start record on disk: now it takes the name
     assert session_path.read_bytes() != before
+    assert [p.name for p in session_path.parent.iterdir()] == [session_path.name]  # no temporary file left
 
 
 def test_unwritable_paths(tmp_path):
@@ -312,18 +316,31 @@ def test_file_in_use_by_another_process(session_path):
 
 
 def test_network_share_refusing_locks(tmp_path, monkeypatch):
-    """NFS/SMB without lock support: HDF5 says 'unable to lock file … No locks available' (errno 37)."""
+    """NFS/SMB without lock support: ``flock`` fails with ENOLCK (HDF5 says 'unable to lock file … No locks
+    available', errno 37): one line saying to write locally, and no file left behind."""
+    from daq import session_lock
 
-    def refuse(path, mode):
-        raise OSError(
-            errno.ENOLCK,
-            "Unable to synchronously create file (unable to lock file, errno = 37, error message = 'No locks "
-            "available')",
-        )
+    def refuse(fd, op):
+        raise OSError(errno.ENOLCK, "No locks available")
 
-    monkeypatch.setattr(session_file.h5py, "File", refuse)
+    monkeypatch.setattr(session_lock.fcntl, "flock", refuse)
     with pytest.raises(FileLockingError, match="write the session to a local disk"):
         SessionFile.create(tmp_path / "s.h5")
+    assert list(tmp_path.iterdir()) == []
+    monkeypatch.undo()
+    with pytest.raises(FileLockingError, match="write the session to a local disk"):  # HDF5's own wording
+        raise session_file_error(tmp_path / "s.h5")
+
+
+def session_file_error(path):
+    from daq.errors import hdf5_error
+
+    return hdf5_error(
+        path,
+        OSError(errno.ENOLCK, "Unable to synchronously create file (unable to lock file, errno = 37, error message = "
+                "'No locks available')"),
+        writing=True,
+    )  # fmt: skip
 
 
 @pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
@@ -424,3 +441,56 @@ def test_roundtrip_is_bit_exact_for_any_readings(tmp_path_factory, blocks):
             assert row.sd_ohm == pytest.approx(np.std(good, ddof=1), rel=1e-9, abs=1e-300)
         else:
             assert np.isnan(row.sd_ohm) and np.isnan(row.sem_ohm)
+
+
+def test_a_batch_of_blocks_is_written_as_block_by_block(tmp_path):
+    """append_blocks (an imported table, one flush) writes the rows, statistics and SHA-256 that append_block
+    writes one block at a time — including NaN (invalid) readings and blocks of one reading; block_digests (the
+    reader's vectorised check) gives block_digest's digests."""
+    from daq.records import block_digest, block_digests
+    from daq.session_writer import BlockBatch
+    from instruments.block import block_statistics
+
+    rng = np.random.default_rng(5)
+    count = np.array([1, 3, 1, 5, 2])
+    r = 1e-3 * (1 + 0.1 * rng.standard_normal(count.sum()))
+    valid = np.ones(r.size, bool)
+    valid[[2, 6]] = False
+    t = 0.02 * np.arange(r.size)
+    weight, repeat = np.array([5.0, 5.0, 7.0, 7.0, 9.0]), np.array([1, 2, 1, 2, 1], np.int32)
+    ends = np.cumsum(count)
+    starts = ends - count
+    one, batch = tmp_path / "one.h5", tmp_path / "batch.h5"
+    with SessionFile.create(one, reading_unit="ohm") as sf:
+        sf.write_start({"started": "x"}, "")
+        for k, (a, b) in enumerate(zip(starts, ends, strict=True)):
+            sf.append_block(BlockRecord(
+                block=k, run=0, weight_kg=float(weight[k]), repeat=int(repeat[k]), unit="ohm", reading=r[a:b],
+                time_s=t[a:b], resistance_ohm=r[a:b], valid=valid[a:b], started="x",
+            ))  # fmt: skip
+    with SessionFile.create(batch, reading_unit="ohm") as sf:
+        sf.write_start({"started": "x"}, "")
+        sf.append_blocks(BlockBatch(
+            block=np.arange(5, dtype=np.int32), weight_kg=weight, repeat=repeat, count=count.astype(np.int32),
+            reading=r, time_s=t, resistance_ohm=r, valid=valid, started="x",
+        ))  # fmt: skip
+    with h5py.File(one, "r") as a, h5py.File(batch, "r") as b:
+        for group in ("summary", "readings"):
+            for name in a[f"entry/{group}"]:
+                x, y = a[f"entry/{group}/{name}"][:], b[f"entry/{group}/{name}"][:]
+                if x.dtype.kind == "f":
+                    np.testing.assert_allclose(x, y, rtol=1e-15, atol=0, equal_nan=True, err_msg=name)
+                else:
+                    np.testing.assert_array_equal(x, y, err_msg=name)
+    with pytest.warns(UserWarning, match="INCOMPLETE"):
+        s = load_session(batch)
+    assert len(s.summary) == 5 and s.complete is False
+    for k, (a, b) in enumerate(zip(starts, ends, strict=True)):  # the statistics are instruments.block's
+        st = block_statistics(r[a:b], valid[a:b])
+        assert s.summary["n"][k] == st.n and s.summary["mean_ohm"][k] == pytest.approx(st.mean, rel=1e-15)
+    digests = block_digests(
+        {c: s.summary[c].to_numpy() for c in s.summary} | {"count": count, "first_reading": starts},
+        {c: s.readings[c].to_numpy() for c in ("reading", "time_s", "resistance_ohm", "valid")},
+    )
+    st = block_statistics(r[1:4], valid[1:4])
+    assert digests[1] == block_digest(1, 5.0, 2, r[1:4], t[1:4], r[1:4], valid[1:4], st) == s.summary["sha256"][1]
