@@ -464,10 +464,13 @@ def compare_models_by_default(a: Analysis) -> tuple[bool, str]:
     return True, ""
 
 
-def rank_against_bem(scene: Any, models: Any = None, *, pressures_pa: Any = RANKING_PRESSURES_PA, jobs: int = 1) -> Any:
+def rank_against_bem(
+    scene: Any, models: Any = None, *, pressures_pa: Any = RANKING_PRESSURES_PA, jobs: int = 1, progress: Any = None
+) -> Any:
     """The boundary-element comparison of ``scene``'s composite surface (:func:`analysis.compare_models.
     compare_models`, one realisation, hardness-capped, at ``pressures_pa``) for the registered ``models`` among
-    ``models`` (None: the scene's), in this process (``jobs`` 1: every core as FFT threads)."""
+    ``models`` (None: the scene's), in this process (``jobs`` 1: every core as FFT threads); ``progress(done,
+    total)`` as its tasks finish."""
     from analysis.compare_models import compare_models
     from sims.ensemble import BEM
     from sims.models import model_names
@@ -475,7 +478,7 @@ def rank_against_bem(scene: Any, models: Any = None, *, pressures_pa: Any = RANK
     names = None if models is None else [m for m in models if m in model_names() and m != BEM]
     if names is not None and not names:
         raise ValueError("no registered contact model to compare with the boundary-element reference")
-    return compare_models(scene, names, pressures_pa=pressures_pa, jobs=jobs)
+    return compare_models(scene, names, pressures_pa=pressures_pa, jobs=jobs, progress=progress)
 
 
 def with_report_extras(a: Analysis, *, ranking: Any = None, ranking_note: str = "", statement: bool = True) -> Analysis:

@@ -12,6 +12,7 @@ import sys
 from typing import Any
 
 from contactrig.cli.options import add_max_memory_option, add_models_option
+from contactrig.cli.progress import add_quiet_option, progress_bar
 from contactrig.core.text import escape_terminal
 
 _TAB1 = "tab1"
@@ -100,10 +101,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     r.add_argument("--force", action="store_true", help="overwrite an existing report and its figures")
     r.add_argument(
         "--compare-models", action=argparse.BooleanOptionalAction, default=None,
-        help="ask the boundary-element reference which contact model it favours on the scene's surface (a short "
-        "run, ~5-10 s). Default: on when the simulation's surfaces are the scene's (its fingerprint records them "
+        help="ask the boundary-element reference which contact model it favours on the scene's surface (about "
+        "5 s on two cores). Default: on when the simulation's surfaces are the scene's (its fingerprint records them "
         "and they match), off otherwise",
     )  # fmt: skip
+    add_quiet_option(r)
     r.set_defaults(handler=_report)
 
     d = subparsers.add_parser(
@@ -117,6 +119,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--compare-models", action=argparse.BooleanOptionalAction, default=True,
         help="ask the boundary-element reference which contact model it favours (default: on)",
     )  # fmt: skip
+    add_quiet_option(d)
     add_max_memory_option(d)
     d.set_defaults(handler=_demo)
 
@@ -328,7 +331,10 @@ def _report(args: argparse.Namespace) -> int:
     refuse_existing(report_outputs(out, [])[:2], force=args.force)  # report.md, report.html: before any work
     a = _analysis(args)
     compare, why_not = compare_models_by_default(a) if args.compare_models is None else (args.compare_models, "")
-    ranking = rank_against_bem(a.scene, list(a.areas_m2)) if compare else None
+    ranking = None
+    if compare:
+        with progress_bar("report: BEM reference", quiet=args.quiet) as progress:
+            ranking = rank_against_bem(a.scene, list(a.areas_m2), progress=progress)
     note = "" if compare else (why_not or "not run (--no-compare-models)")
     a = with_report_extras(a, ranking=ranking, ranking_note=note)
     path = write_report([a], out, force=args.force)
@@ -346,8 +352,8 @@ def _report(args: argparse.Namespace) -> int:
 def _demo(args: argparse.Namespace) -> int:
     from analysis.demo import run_demo
 
-    result = run_demo(
-        args.output, n_boot=args.bootstrap, stream=sys.stdout, force=args.force, compare=args.compare_models
-    )
+    with progress_bar("demo: BEM reference", quiet=args.quiet) as progress:
+        result = run_demo(args.output, n_boot=args.bootstrap, stream=sys.stdout, force=args.force,
+                          compare=args.compare_models, progress=progress)  # fmt: skip
     print(escape_terminal(f"report: {result.report} and {result.report.with_suffix('.html')}"))
     return 0

@@ -12,6 +12,7 @@ import sys
 import warnings
 
 from contactrig.cli.options import add_max_memory_option, add_models_option
+from contactrig.cli.progress import add_quiet_option, progress_bar
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -37,6 +38,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "asperity models) or 'seed' (eq. 1-3 as printed); default: the scene's [database].gt_heights",
     )
     p.add_argument("--plot", default=None, metavar="FILE", help="also draw pressure vs separation (Fig. 2) to FILE")
+    add_quiet_option(p)
     add_max_memory_option(p)
     p.set_defaults(handler=run_database)
 
@@ -53,9 +55,10 @@ def run_database(args: argparse.Namespace) -> int:
 
     refuse_existing([args.output] + ([args.plot] if args.plot else []), force=args.force)  # before any work
     config = SimConfig.from_scene(load_scene(args.scene))
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), progress_bar("database: models", quiet=args.quiet) as progress:
         warnings.simplefilter("ignore", RuntimeWarning)  # the same text is in provenance["warnings"], printed below
-        db = build_database(config, args.models, n_separations=args.n_separations, gt_heights=args.gt_heights)
+        db = build_database(config, args.models, n_separations=args.n_separations, gt_heights=args.gt_heights,
+                            progress=progress)  # fmt: skip
     out = save_database(db, args.output, force=args.force)
     prov = db.provenance
     for w in list(prov.get("warnings", [])) + plasticity_warnings(list(db), prov):

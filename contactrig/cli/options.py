@@ -59,3 +59,42 @@ def add_max_memory_option(parser: argparse.ArgumentParser) -> None:
 def add_models_option(parser: argparse.ArgumentParser, default: str = "the scene's [database] models") -> None:
     """The one ``--models`` option (``args.models``: a list of registered keys, or None for the default)."""
     parser.add_argument("--models", metavar="NAME,NAME", action=_Models, default=None, help=models_help(default))
+
+
+#: Unit suffixes a pressure option accepts (bare numbers are Pa, the SI unit of every pressure option).
+PRESSURE_UNITS = {"pa": 1.0, "kpa": 1e3, "mpa": 1e6, "gpa": 1e9}
+
+
+def parse_pressure_pa(option: str, text: str) -> float:
+    """A pressure option's value in Pa: a number (Pa) or a number with a unit suffix, e.g. ``3e5``, ``300kPa``,
+    ``0.3MPa`` (the tables print MPa; both are accepted). Raises SettingError naming the option."""
+    from contactrig.core.validation import SettingError
+
+    t = text.strip().lower().replace(" ", "")
+    factor = 1.0
+    for unit in sorted(PRESSURE_UNITS, key=len, reverse=True):
+        if t.endswith(unit):
+            t, factor = t[: -len(unit)], PRESSURE_UNITS[unit]
+            break
+    try:
+        return float(t) * factor
+    except ValueError:
+        raise SettingError(option, text, "a pressure in Pa, or with a unit: 3e5, 300kPa, 0.3MPa") from None
+
+
+def pressure_type(option: str) -> object:
+    """argparse ``type=`` for one pressure (see :func:`parse_pressure_pa`)."""
+
+    def parse(text: str) -> float:
+        try:
+            return parse_pressure_pa(option, text)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+
+    return parse
+
+
+def add_json_option(parser: argparse.ArgumentParser, what: str = "the result") -> None:
+    """The one ``--json`` option: print ``what`` as JSON on stdout (units in the keys and a ``units`` object; schema
+    in ``contactrig/schemas/<command>.json``)."""
+    parser.add_argument("--json", action="store_true", help=f"print {what} as JSON on stdout")
