@@ -23,9 +23,9 @@ CSV: one file per table, the first at the output path, the others beside it (``o
 Numbers are unquoted (negative ones too: they stay numbers); every text field is quoted, and one that a spreadsheet
 would run as a formula (leading ``= + - @``, tab or CR) starts with ``'`` (:func:`csv_field`); the ``#`` lines are
 ``# key:,"value"`` records, so no string from a file can split into cells or become a formula.
-Excel (``.xlsx``, one sheet per table plus ``about``) needs the optional ``excel`` extra (openpyxl); without it,
-:class:`ExcelUnavailable` says so in one line. Every file is written atomically and none is replaced without
-``force`` (:mod:`contactrig.core.files`); every output is checked before anything is written.
+Excel (``.xlsx``, one sheet per table plus ``about``) uses openpyxl (in the base install); should it be missing,
+:class:`ExcelUnavailable` says so in one line naming the pip install. Every file is written atomically and none
+is replaced without ``force`` (:mod:`contactrig.core.files`); every output is checked before anything is written.
 """
 
 from __future__ import annotations
@@ -63,11 +63,12 @@ __all__ = [
 #: Output formats.
 FORMATS = ("csv", "xlsx")
 _UNIT_FACTORS = (("ohm", 1.0), ("mohm", 1e3), ("uohm", 1e6))
-_INSTALL = "pip install 'contactrig[excel]'"
+#: openpyxl is in the base install (pyproject): this is for an environment where it was removed or broken.
+_INSTALL = "pip install 'openpyxl>=3.1'"
 
 
 class ExcelUnavailable(RuntimeError):
-    """``--to xlsx`` without the ``excel`` extra (openpyxl) installed."""
+    """``--to xlsx`` without openpyxl installed (it is in the base install; a damaged environment)."""
 
 
 @dataclass(frozen=True)
@@ -342,7 +343,7 @@ def _openpyxl() -> Any:
     try:
         openpyxl = importlib.import_module("openpyxl")
     except ImportError:
-        raise ExcelUnavailable(f"--to xlsx needs the optional 'excel' extra (openpyxl): {_INSTALL}") from None
+        raise ExcelUnavailable(f"--to xlsx needs openpyxl, which is not installed: {_INSTALL}") from None
     return openpyxl
 
 
