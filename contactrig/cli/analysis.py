@@ -141,7 +141,9 @@ def _circuit(args: argparse.Namespace) -> int:
     )
     d = settings.design(current_a=args.current)
     if args.json:
-        print(json.dumps({"inputs": settings.__dict__, "result": d.as_dict()}, indent=2))
+        from contactrig.cli.options import json_units
+
+        print(json.dumps({"units": json_units(), "inputs": settings.__dict__, "result": d.as_dict()}, indent=2))
         return 0
     s = settings
     if args.current:
@@ -234,7 +236,10 @@ def _fit(args: argparse.Namespace) -> int:
     if cmp is None:
         raise ValueError("; ".join(n for n in a.left_out if n.startswith("no fit")))
     if args.json:
-        d = cmp.as_dict()
+        from contactrig.cli.options import json_units
+
+        d = {"units": json_units(scale="Ω·m (s of R = R_s + s·x(A))", R_series_se="Ω", scale_se="Ω·m"),
+             **cmp.as_dict()}  # fmt: skip
         d["measured"] = {k: v for k, v in a.measured_info.items() if k in ("path", "kind", "complete", "status")}
         d["simulation"] = a.sim_info.get("source")
         d["warnings"] = list(a.warnings)

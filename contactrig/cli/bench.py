@@ -47,7 +47,10 @@ def _bench(args: argparse.Namespace) -> int:
 
         outcomes = run_atlas()
     if args.json:
-        print(json.dumps({"rows": [r.as_dict() for r in rows], "atlas": [o.as_dict() for o in outcomes]}, indent=1))
+        from contactrig.cli.options import json_units
+
+        print(json.dumps({"units": json_units(), "rows": [r.as_dict() for r in rows],
+                          "atlas": [o.as_dict() for o in outcomes]}, indent=1))  # fmt: skip
     else:
         print(format_rows(rows))
         if outcomes:

@@ -16,6 +16,7 @@ from contactrig.cli.options import (
     add_json_option,
     add_max_memory_option,
     add_models_option,
+    json_units,
     parse_pressure_pa,
     pressure_type,
 )
@@ -91,7 +92,9 @@ def run_compare(args: argparse.Namespace) -> int:
     prov = cmp.provenance
     if args.json:
         written = _plot(cmp, args.plot)
-        print(json.dumps({**comparison_dict(cmp), "figure": written}, indent=1))
+        d = comparison_dict(cmp)
+        d["units"] = json_units(**d["units"])
+        print(json.dumps({**d, "figure": written}, indent=1))  # schema: contactrig/schemas/compare-models.json
         return 0
     print(comparison_table(cmp, width=TABLE_WIDTH))
     print()

@@ -9,7 +9,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from contactrig.cli.options import add_json_option, add_max_memory_option
+from contactrig.cli.options import add_json_option, add_max_memory_option, json_units
 from contactrig.cli.progress import add_quiet_option, progress_bar
 
 __all__ = ["register"]
@@ -100,7 +100,7 @@ def _json(result: Any, plan: Any, index: int, sessions: int, scene_name: str, pa
     from analysis.design import DELTA_AIC
 
     return {
-        "units": {"weight": "kg", "cost": "s", "probability": "1"},
+        "units": json_units(probability="1 (a fraction)", delta_aic="1", target="1 (a fraction)"),
         "scene": scene_name,
         "statement": result.statement(),
         "delta_aic": DELTA_AIC,

@@ -15,7 +15,7 @@ import math
 import sys
 from typing import TYPE_CHECKING
 
-from contactrig.cli.options import add_deprecated_alias
+from contactrig.cli.options import add_deprecated_alias, add_json_option
 
 if TYPE_CHECKING:
     from instruments.block import Block
@@ -37,6 +37,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     ident = sub.add_parser("identify", help="*IDN? of the 6221 and (relayed) the 2182A, or of another pair")
     _common(ident)
     ident.add_argument("--pair", default=None, help="registered instrument pair (default: the 6221/2182A)")
+    add_json_option(ident, "the two identities")
     ident.set_defaults(handler=identify_command)
 
     delta = sub.add_parser("delta", help="run one Delta block and print its statistics")
@@ -162,6 +163,9 @@ def identify_command(args: argparse.Namespace) -> int:
 
     with _open(args, get_pair(args.pair or DEFAULT_PAIR)) as k:
         ident = k.identify()
+    if args.json:
+        print(json.dumps({"source": ident.source, "voltmeter": ident.voltmeter}))
+        return 0
     print(f"source:    {escape_terminal(ident.source)}")  # replies are data: no control character reaches the terminal
     print(f"voltmeter: {escape_terminal(ident.voltmeter)}")
     return 0
@@ -258,8 +262,11 @@ def format_block(block: Block, as_json: bool = False) -> str:
 
     st = block_statistics(block.readings, block.valid)
     if as_json:
+        from contactrig.cli.options import json_units
+
         return json.dumps(
             {
+                "units": json_units(readings=block.unit, mean=block.unit, sd=block.unit, sem=block.unit),
                 "readings": [_num(x) for x in block.readings.tolist()],
                 "mean": _num(st.mean),
                 "sd": _num(st.sd),

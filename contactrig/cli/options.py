@@ -164,3 +164,16 @@ OPTION_VOCABULARY: dict[str, tuple[str, str]] = {
 KNOWN_CONFLICTS = {"--sim": "flag on acquire/instruments; SIM.h5 path on fit/figures/report/export"}
 #: Old names that still work with a warning on stderr: old → new.
 DEPRECATED = {"--out": "-o/--output", "--time-scale": "--sim-speed"}
+
+
+#: Units of JSON numbers by the suffix of their key (``contact_area_m2``: m²); every ``--json`` object carries this
+#: map as ``units["by_suffix"]`` (plus entries for keys without a suffix), so a reader needs no manual.
+JSON_SUFFIX_UNITS = {
+    "_ohm": "Ω", "_ohm_m": "Ω·m", "_m": "m", "_m2": "m²", "_per_m": "1/m", "_a": "A", "_v": "V", "_kg": "kg",
+    "_n": "N", "_pa": "Pa", "_pa_per_m": "Pa/m", "_s": "s", "_ms": "ms",
+}  # fmt: skip
+
+
+def json_units(**keys: str) -> dict[str, Any]:
+    """The ``units`` object of a ``--json`` output: the suffix map and ``keys`` (key → unit) for keys without one."""
+    return {"by_suffix": dict(JSON_SUFFIX_UNITS), **keys}
