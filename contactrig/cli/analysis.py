@@ -48,6 +48,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("session", metavar="SESSION.h5", help=f"session file, or '{_TAB1}' for the seed paper's Tab. 1")
     common.add_argument("--sim", metavar="SIM.h5", help="rig sweep file (default: simulate the session's scene now)")
+    common.add_argument(
+        "--database", metavar="DB.h5", default=None,
+        help="contact database file from `contactrig database -o`: the rig (or press) is simulated now on it instead "
+        "of building the database again; refused when made for other surfaces or materials (see --allow-mismatch)",
+    )  # fmt: skip
     add_models_option(common, default="all in the sweep")
     add_max_memory_option(common)
     common.add_argument(
@@ -101,9 +106,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     r.add_argument("--force", action="store_true", help="overwrite an existing report and its figures")
     r.add_argument(
         "--compare-models", action=argparse.BooleanOptionalAction, default=None,
-        help="ask the boundary-element reference which contact model it favours on the scene's surface (about "
-        "5 s on two cores). Default: on when the simulation's surfaces are the scene's (its fingerprint records them "
-        "and they match), off otherwise",
+        help="ask the boundary-element reference which contact model it favours on the scene's surface "
+        "(5–10 s on two cores, measured). Default: on when the simulation's surfaces are the scene's (its "
+        "fingerprint records them and they match), off otherwise",
     )  # fmt: skip
     add_quiet_option(r)
     r.set_defaults(handler=_report)
@@ -220,6 +225,7 @@ def _analysis(args: argparse.Namespace) -> Any:
         "seed": args.seed,
         "boot_interval": args.interval,
         "allow_mismatch": args.allow_mismatch,
+        "database_path": args.database,
     }
     if args.session == _TAB1:
         from analysis.pipeline import analyse_tab1
