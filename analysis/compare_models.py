@@ -244,10 +244,10 @@ def comparison_dict(cmp: Comparison) -> dict[str, Any]:
     models: dict[str, Any] = {}
     for m in cmp.models:
         r = ratios(cmp, m)
-        inside = r["mask"].all(axis=0)
+        inside = [bool(v) for v in np.asarray(r["mask"]).all(axis=0).ravel()]
         models[m] = {
             "label": _label(m),
-            "in_range": [bool(v) for v in inside],
+            "in_range": inside,
             **{name: [v if ok else None for v, ok in zip(_floats(r[key].mean(axis=0)), inside, strict=True)]
                for key, name in (("area", "area_ratio"), ("gap", "mean_gap_deviation"),
                                  ("stiffness", "stiffness_ratio"))},

@@ -11,6 +11,7 @@ Nothing heavy is imported at module level.
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 from contactrig.cli.options import (
     add_json_option,
@@ -108,7 +109,7 @@ def run_compare(args: argparse.Namespace) -> int:
     return 0
 
 
-def _plot(cmp: object, path: str | None) -> str | None:
+def _plot(cmp: Any, path: str | None) -> str | None:
     """``--plot FILE``: the figure, drawn to FILE; its path (None without --plot)."""
     if not path:
         return None
