@@ -15,7 +15,10 @@ file and in a spreadsheet (the header is normally row 1).
   ``load`` without a unit is refused (N or kg?).
 - **Every further column: one repeat/series** (M1 … Mk). Its unit is the header's (``M1_mohm``, ``R [mΩ]``,
   ``R (ohm)``; spellings ohm/Ω, mohm/mΩ, uohm/µohm/μΩ, case-insensitive) or else the ``unit`` argument
-  (``--unit``). A header unit that differs from ``unit`` is an error, so is a column with neither.
+  (``--unit``). A header unit that differs from ``unit`` is an error, so is a column with neither. A value is
+  converted to Ω exactly (its decimal text shifted by 3 or 6 digits, then rounded once: :data:`DIGITS_PER_OHM`).
+- **A table written by** ``contactrig export``: its ``#`` lines give the imported session its sample, operator,
+  notes and scene name, and its per-weight statistics columns are left out (:mod:`daq.table_provenance`).
 - **Separators**: ``,`` ``;`` or tab, detected from the header row; the decimal mark ``.`` or ``,`` (only with
   ``;`` or tab separators), detected from the cells. ``delimiter`` / ``decimal`` force them (``--delimiter``,
   ``--decimal``). Spreadsheet exports in UTF-16 or Windows-1252 are decoded too (the notes say so).

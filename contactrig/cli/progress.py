@@ -45,9 +45,12 @@ def progress_bar(label: str, *, quiet: bool = False, stream: TextIO | None = Non
     if not shows_progress(quiet, stream):
         yield _nothing
         return
+    import shutil
+
     from tqdm import tqdm
 
-    bar: Any = tqdm(total=None, desc=label, file=stream, leave=False, dynamic_ncols=True, unit="step")
+    width = shutil.get_terminal_size((100, 24)).columns or 100  # a pseudo-terminal may report 0 columns
+    bar: Any = tqdm(total=None, desc=label, file=stream, leave=False, ncols=min(width, 100), unit="step")
 
     def update(done: int, total: int) -> None:
         if bar.total != total:
