@@ -82,7 +82,8 @@ class ModelVerdict:
         k_lo, k_hi = self.stiffness_lo_hi
         text += f"; mean gap {_pct(self.gap_dev)}; stiffness {k_lo:.2f}–{k_hi:.2f}× BEM"
         if self.n_in_range < self.n_points:
-            text += f"; {self.n_points - self.n_in_range} pressure(s) beyond its curve left out"
+            out = self.n_points - self.n_in_range
+            text += f"; {out} {'pressure' if out == 1 else 'pressures'} beyond its curve left out"
         return text
 
 
@@ -173,12 +174,16 @@ def favoured(cmp: Comparison) -> str:
     return text
 
 
+def _realisations(n: int) -> str:
+    return "one surface realisation" if n == 1 else f"{n} surface realisations"
+
+
 def report_lines(cmp: Comparison) -> list[str]:
     """What the report and the demo print: the favoured model, then one verdict per model."""
     head = (
         f"Contact models vs boundary elements (periodic FFT-BEM of the composite surface, "
         f"{'hardness-capped' if cmp.settings.plastic else 'elastic'}, {cmp.settings.area} area, "
-        f"{cmp.settings.realisations} realisation(s)):"
+        f"{_realisations(cmp.settings.realisations)}):"
     )
     return [head, favoured(cmp), *verdicts(cmp)]
 
@@ -344,39 +349,68 @@ def _config(scene: Any) -> Any:
 # The figure.
 
 
+_PANELS = (
+    ("area", "Real contact area", "A / A$_\\mathrm{BEM}$ [–]", 1.0),
+    ("gap", "Mean gap", "(h − ū$_\\mathrm{BEM}$) / ū$_\\mathrm{BEM}$ [–]", 0.0),
+    ("stiffness", "Interfacial stiffness K = −dp̄/dū", "K / K$_\\mathrm{BEM}$ [–]", 1.0),
+)
+
+
+def _suptitle(cmp: Comparison) -> str:
+    n = cmp.settings.realisations
+    scene = str(cmp.provenance.get("scene_name", "") or "").replace("$", r"\$")
+    where = f"{scene}: " if scene else ""
+    mean = "" if n == 1 else "mean of "
+    band = "" if n == 1 else " (bands: min–max)"
+    return f"{where}contact models against BEM, {mean}{_realisations(n)}{band}"
+
+
 def figure_compare_models(cmp: Comparison) -> Any:
-    """Three panels against mean nominal pressure (MPa, log): A/A_BEM, (h − ū_BEM)/ū_BEM and K/K_BEM per model;
-    lines are realisation means, shaded bands their min–max (N > 1); the dashed line is BEM."""
-    import matplotlib
-    from matplotlib.figure import Figure
+    """Panels against mean nominal pressure p̄ [MPa, log]: A/A_BEM, (h − ū_BEM)/ū_BEM and K/K_BEM per model
+    (K = −dp̄/dū, the interfacial stiffness); lines are realisation means, shaded bands their min–max (N > 1); the
+    dashed line is BEM. The fourth panel shows each model's real area relative to a reference model [%]. Models in
+    registry order; models whose area ratios coincide (within :data:`analysis.figures.COINCIDE_REL`) are named in
+    the legend with their largest relative difference."""
+    from analysis.figures import (
+        _differences,
+        _figure,
+        _legend,
+        _note,
+        _reference,
+        coinciding,
+        model_style,
+        registry_order,
+    )
 
-    from analysis.figures import model_style
-
-    matplotlib.rcParams.update({"font.size": 9.0, "axes.grid": True, "grid.alpha": 0.3})
-    fig = Figure(figsize=(11.0, 3.6), layout="constrained")
-    axes = fig.subplots(1, 3)
+    fig, grid = _figure(2, 2, size=(9.6, 6.6), sharex=True)
+    axes = [grid[0, 0], grid[0, 1], grid[1, 1]]
     p = cmp.pressures_pa / 1e6
-    titles = (("area", "A / A_BEM (−)", 1.0), ("gap", "(h − ū_BEM) / ū_BEM (−)", 0.0),
-              ("stiffness", "K / K_BEM (−)", 1.0))  # fmt: skip
-    for m in cmp.models:
+    names = registry_order(cmp.models)
+    means: dict[str, Any] = {}
+    for m in names:
         r = ratios(cmp, m)
         style = model_style(m)
-        for ax, (name, _, _) in zip(axes, titles, strict=True):
+        for ax, (name, _, _, _) in zip(axes, _PANELS, strict=True):
             # points beyond the model's curve are left out
             vals = np.ma.masked_array(r[name], mask=np.logical_not(r["mask"]))
-            ax.plot(p, vals.mean(axis=0).filled(np.nan), **style)
+            mean = vals.mean(axis=0).filled(np.nan)
+            if name == "area":
+                means[m] = mean
+            ax.plot(p, mean, **style)
             if cmp.settings.realisations > 1:
                 lo, hi = vals.min(axis=0).filled(np.nan), vals.max(axis=0).filled(np.nan)
                 ax.fill_between(p, lo, hi, color=style["color"], alpha=0.15)
-    for ax, (_, ylabel, ref) in zip(axes, titles, strict=True):
-        ax.axhline(ref, color="black", linestyle="--", linewidth=1.0, label="BEM")
-        ax.set_xscale("log")
-        ax.set_xlabel("mean nominal pressure p̄ (MPa)")
-        ax.set_ylabel(ylabel)
-    axes[0].legend(fontsize=7)
-    fig.suptitle(
-        f"{cmp.provenance.get('scene_name', '')}: contact models vs BEM ({cmp.settings.realisations} realisation(s))"
-    )
+    for ax, (_, title, ylabel, ref) in zip(axes, _PANELS, strict=True):
+        ax.axhline(ref, color="black", linestyle="--", linewidth=1.0, label="BEM" if ax is axes[0] else "_BEM")
+        ax.set(xscale="log", ylabel=ylabel, title=title)
+    groups = coinciding(means)
+    if names:
+        _differences(grid[1, 0], {m: (p, means[m]) for m in names}, _reference(names, groups), "A")
+    for ax in grid[1]:
+        ax.set_xlabel("mean nominal pressure p̄ [MPa]")
+    _note(axes[0], groups)
+    _legend(axes[0], host=axes[1])
+    fig.suptitle(_suptitle(cmp))
     return fig
 
 

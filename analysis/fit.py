@@ -40,6 +40,14 @@ When a bootstrap interval cannot be computed honestly it is reported as not avai
 resamples (one series drawn r times has no spread, so its studentized t is infinite: probability r^(1−r), 11 % for
 3 series), or a non-finite interval.
 
+**One rule for every fitted quantity** (``fit``, :mod:`analysis.resistance_model`, the report): paired series that
+are arithmetic copies of others (:func:`independent_series`, :mod:`analysis.series_dependence`) are counted once —
+left out of the fit, its degrees of freedom and its bootstrap. The errors are the covariance from the repeats above,
+unless the fit is over-dispersed (ĉ = χ²/ν > :data:`OVERDISPERSION`): then the curvature covariance scaled by ĉ is
+used when it is larger (:func:`_error_rule`; ``Estimate.error_rule`` says which), the models are ranked by QAIC =
+χ²/ĉ + 2(k + 1) (ĉ of the best physical fit; Burnham & Anderson 2002 §2.5) and "how often is the best first" resamples
+the residuals about the best fit instead of the repeats, which cannot show a lack of fit common to every series.
+
 A fit is **unphysical** when the series resistance is significantly below zero (its t upper limit < 0) or the scale
 significantly ≤ 0 (resistance would grow with the area). Unphysical fits are ranked after every physical fit whatever
 their AIC, flagged in the ranking (``ModelFit.unphysical`` says why) and named in the verdict; they are never "best"
@@ -93,11 +101,14 @@ DELTA_AIC_INDISTINGUISHABLE = 2.0
 
 
 def regressor(area_m2: np.ndarray, height_m: float, conversion: str = "bulk") -> np.ndarray:
-    """x(A) [1/m] such that R = R_s + s·x with s in Ω·m: h/A (seed eq. 23) or √π/(2√A) (Holm, one spot)."""
+    """x(A) such that R = R_s + s·x: h/A [1/m] (seed eq. 23, s in Ω·m), √π/(2√A) [1/m] (Holm, one spot, s in Ω·m)
+    or 1/A [1/m²] (``"physical"``: the film term σ_f/A, s = σ_f in Ω·m², the clean-metal terms a known offset)."""
     check_choice("conversion", conversion, CONVERSIONS)
     a = np.asarray(area_m2, dtype=float)
     if not np.all(np.isfinite(a)) or np.any(a <= 0):
         raise SettingError("contact_area_m2", a.tolist(), "expected finite areas > 0 m² (zero area: no contact)")
+    if conversion == "physical":
+        return 1.0 / a
     if conversion == "bulk":
         h = check_range("height_m", height_m, 0.0, None, lo_open=True, unit="m")
         return h / a
@@ -110,6 +121,8 @@ def regressor_label(conversion: str) -> str:
     check_choice("conversion", conversion, CONVERSIONS)
     if conversion == "bulk":
         return "h/A (eq. 23)"
+    if conversion == "physical":
+        return "1/A (film σ_f/A; + Barber clean-metal and band constriction, computed)"
     return "√π/(2√A) (Holm single spot — an upper bound on the clean-metal constriction)"
 
 
@@ -274,14 +287,23 @@ def _bootstrap_availability(
 
 
 def _bootstrap_ci(
-    curve: MeasuredCurve, wls: np.ndarray, p: np.ndarray, res: _Resamples, level: float, interval: str
+    curve: MeasuredCurve,
+    wls: np.ndarray,
+    p: np.ndarray,
+    res: _Resamples,
+    level: float,
+    interval: str,
+    inflate: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Bootstrap parameters (B, 2) and the (2, 2) interval [[lo_R, lo_s], [hi_R, hi_s]] (module docstring).
 
     Studentized: t*_b = (p*_b − p̂)/se*_b with se* the resample's own repeat standard error; interval
     [p̂ − t*_(1−α/2)·se, p̂ − t*_(α/2)·se]. A resample that drew one series r times has se* = 0 and t* = ±∞
     (probability r^(1−r)); it is kept, so very few series give wide (honest) intervals rather than NaN.
+    ``inflate`` (2,) widens the interval about p̂ by the error rule's factor (χ²-scaled errors larger than the
+    repeats' own: :func:`_error_rule`), so the bootstrap follows the same rule as the t-intervals.
     """
+    k = np.ones(2) if inflate is None else np.asarray(inflate, dtype=float)
     probs = (0.5 * (1.0 - level), 0.5 * (1.0 + level))
     if res.mode == "series":
         q = curve.values_ohm.T @ wls.T  # (r, 2)
@@ -292,8 +314,9 @@ def _bootstrap_ci(
         boot = res.means @ wls.T
         se_b = np.sqrt(res.var_of_mean @ (wls**2).T) if interval == "studentized" else None
     if se_b is None:
-        return boot, _quantiles(boot, probs)
-    se = _repeat_se(curve, wls, res.mode)
+        q = _quantiles(boot, probs)
+        return boot, p + k * (q - p)
+    se = _repeat_se(curve, wls, res.mode) * k
     dev = boot - p
     ok = se_b > _DEGENERATE * se  # a resample of one series: spread zero up to rounding, t infinite
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -338,9 +361,11 @@ class _Result:
 
 @dataclass(frozen=True, eq=False)
 class Estimate(_Result):
-    """The parameters of R = R_s + s·x: ``R_series_ohm`` R_s [Ω] and ``scale`` s [Ω·m] (an effective resistivity),
-    their standard errors and covariance ``cov`` (order R_s, s; series correlation included when paired, see
-    :func:`_parameter_covariance`), and the correlation coefficient of the two estimates."""
+    """The parameters of R = R_s + s·x: ``R_series_ohm`` R_s [Ω] and ``scale`` s [Ω·m] (an effective resistivity;
+    Ω·m² for the film term, ``scale_units``), their standard errors and covariance ``cov`` (order R_s, s), the
+    correlation coefficient of the two estimates, ``c_hat`` ĉ = χ²/ν of this fit and ``error_rule`` which
+    covariance the errors come from, in words (:func:`_error_rule`: the paired-series / repeat covariance, or the
+    curvature covariance scaled by ĉ when the data are over-dispersed)."""
 
     R_series_ohm: float
     R_series_se: float
@@ -349,6 +374,8 @@ class Estimate(_Result):
     cov: np.ndarray
     correlation: float
     scale_units: str = "ohm*m"
+    error_rule: str = ""
+    c_hat: float = math.nan
 
     @property
     def params(self) -> np.ndarray:
@@ -451,7 +478,9 @@ class ModelFit(_Result):
     (:class:`Estimate`), ``intervals`` (:class:`Intervals`: t and bootstrap), ``goodness`` (:class:`GoodnessOfFit`),
     ``diagnostics`` (:class:`Diagnostics`), ``points`` (:class:`FitPoints`, per weight). ``boot_params`` (B, 2) the
     bootstrap estimates (None without bootstrap; not exported by :meth:`as_dict`). ``unphysical``: why the fit is
-    unphysical, in words (empty: physical; module docstring).
+    unphysical, in words (empty: physical; module docstring). ``shares`` each term's share of the measured mean per
+    weight (:func:`_shares`); ``load_independent`` why the slope says the resistance does not depend on the load
+    ("" when it does; such a fit is not ranked).
     """
 
     model: str
@@ -464,6 +493,8 @@ class ModelFit(_Result):
     points: FitPoints
     boot_params: np.ndarray | None = field(default=None, repr=False, metadata={"export": False})
     unphysical: tuple[str, ...] = ()
+    shares: dict[str, np.ndarray] = field(default_factory=dict)
+    load_independent: str = ""
 
     @property
     def physical(self) -> bool:
@@ -562,8 +593,8 @@ def _warnings(
     notes = []
     if gof.dof > 0 and gof.reduced_chi2 > 1.5:
         notes.append(
-            f"χ²/dof = {gof.reduced_chi2:.3g}: the scatter about the fit exceeds the repeat scatter; standard errors "
-            f"scaled by √(χ²/dof) would be {math.sqrt(gof.reduced_chi2):.3g}× larger"
+            f"χ²/dof = {gof.reduced_chi2:.3g}: the scatter about the fit exceeds the repeat scatter (over-dispersed); "
+            f"errors: {est.error_rule}"
         )
     if weighting == "repeats" and int(np.min(curve.n)) < 30:
         notes.append(
@@ -574,6 +605,11 @@ def _warnings(
         notes.append(
             f"negative series resistance ({est.R_series_ohm:.3g} Ω, {level:.0%} upper limit {t_hi_r:.3g} Ω): the "
             "model's shape does not follow the data"
+        )
+    elif est.R_series_ohm < 0:
+        notes.append(
+            f"negative series resistance estimate ({est.R_series_ohm:.3g} ± {est.R_series_se:.2g} Ω), not "
+            f"significantly below zero at {level:.0%} ({level:.0%} upper limit {t_hi_r:.3g} Ω)"
         )
     if est.scale <= 0:
         notes.append(f"non-positive scale ({est.scale:.3g} Ω·m): resistance does not fall as the model's area grows")
@@ -590,6 +626,7 @@ def _intervals(
     bootstrap: str,
     ci_level: float,
     boot_interval: str,
+    inflate: np.ndarray | None = None,
 ) -> tuple[Intervals, np.ndarray | None]:
     """t and bootstrap intervals of both parameters, and the bootstrap estimates (None without resamples)."""
     p, se = est.params, np.array([est.R_series_se, est.scale_se])
@@ -603,7 +640,7 @@ def _intervals(
     ci = np.full((2, 2), math.nan)
     degenerate = 0.0
     if resamples is not None:
-        boot, ci = _bootstrap_ci(curve, wls, p, resamples, ci_level, boot_interval)
+        boot, ci = _bootstrap_ci(curve, wls, p, resamples, ci_level, boot_interval, inflate)
         if boot_interval == "studentized":
             degenerate = _degenerate_fraction(curve, wls, resamples)
     why = _bootstrap_availability(curve, bootstrap, ci_level, boot, ci, degenerate)
@@ -646,7 +683,13 @@ def _fit_arrays(
     bootstrap: str,
     ci_level: float,
     boot_interval: str = "studentized",
+    offset_ohm: np.ndarray | None = None,
+    scale_units: str = "ohm*m",
+    offset_terms: Mapping[str, np.ndarray] | None = None,
 ) -> ModelFit:
+    offset = np.zeros_like(sigma) if offset_ohm is None else np.asarray(offset_ohm, dtype=float)
+    if offset_ohm is not None:  # known terms (the clean-metal constriction) subtracted from every repeat
+        curve, resamples = _shifted(curve, resamples, offset_ohm)
     y = curve.mean_ohm
     if np.ptp(x) <= 1e-12 * np.max(np.abs(x)):
         raise SettingError(f"{model} contact area", area.tolist(), "expected an area that changes with weight")
@@ -654,7 +697,11 @@ def _fit_arrays(
     p = res.x
     p_lin = wls @ y
     paired = bootstrap == "series" and curve.values_ohm.shape[1] >= 2 and weighting != "blocks"
-    cov, dof_eff = _parameter_covariance(curve, wls, sigma, paired=paired, weighting=weighting)
+    fitted = p[0] + p[1] * x
+    resid = y - fitted
+    gof = _goodness(curve, resid, sigma, weighting)
+    cov_rep, dof_rep = _parameter_covariance(curve, wls, sigma, paired=paired, weighting=weighting)
+    cov, dof_eff, rule = _error_rule(cov_rep, dof_rep, (wls * sigma**2) @ wls.T, gof, paired=paired, curve=curve)
     se = np.sqrt(np.diag(cov))
     est = Estimate(
         R_series_ohm=float(p[0]),
@@ -663,13 +710,14 @@ def _fit_arrays(
         scale_se=float(se[1]),
         cov=cov,
         correlation=float(cov[0, 1] / math.sqrt(cov[0, 0] * cov[1, 1])),
+        scale_units=scale_units,
+        error_rule=rule,
+        c_hat=gof.reduced_chi2,
     )
     intervals, boot = _intervals(
-        curve, wls, est, dof_eff, resamples, bootstrap=bootstrap, ci_level=ci_level, boot_interval=boot_interval
-    )
-    fitted = p[0] + p[1] * x
-    resid = y - fitted
-    gof = _goodness(curve, resid, sigma, weighting)
+        curve, wls, est, dof_eff, resamples, bootstrap=bootstrap, ci_level=ci_level, boot_interval=boot_interval,
+        inflate=se / np.sqrt(np.diag(cov_rep)),
+    )  # fmt: skip
     diagnostics = Diagnostics(
         nfev=int(res.nfev),
         njev=int(res.njev or 0),
@@ -686,9 +734,9 @@ def _fit_arrays(
         weight_kg=curve.weight_kg.copy(),
         area_m2=area,
         regressor_per_m=x,
-        measured_ohm=y,
+        measured_ohm=y + offset,
         sigma_ohm=sigma,
-        fitted_ohm=fitted,
+        fitted_ohm=fitted + offset,
         residuals_ohm=resid,
         normalised_residuals=resid / sigma,
     )
@@ -703,7 +751,90 @@ def _fit_arrays(
         points=points,
         boot_params=boot,
         unphysical=_unphysical(est, intervals, curve),
+        shares=_shares(est, x, y + offset, conversion, offset_terms),
+        load_independent=_load_independent(est, intervals),
     )
+
+
+def _shares(
+    est: Estimate, x: np.ndarray, measured: np.ndarray, conversion: str, terms: Mapping[str, np.ndarray] | None
+) -> dict[str, np.ndarray]:
+    """Each term's share of the measured mean per weight [-]: "series" R_s, the area term s·x ("film" for the
+    physical model, else "area_term") and every known term (e.g. "barber", "macro")."""
+    out = {
+        "series": np.full(x.shape, est.R_series_ohm) / measured,
+        ("film" if conversion == "physical" else "area_term"): est.scale * x / measured,
+    }
+    for name, values in (terms or {}).items():
+        out[name] = np.asarray(values, dtype=float) / measured
+    return out
+
+
+def _load_independent(est: Estimate, intervals: Intervals) -> str:
+    """Why the fit says the resistance does not depend on the load ("" when it does): the slope s is consistent with
+    zero or negative (the t-interval's lower limit ≤ 0). Such a fit is not ranked."""
+    lo, hi = intervals.t.scale
+    if lo > 0:
+        return ""
+    return (
+        f"s = {est.scale:.3g} ± {est.scale_se:.2g} (t-interval [{lo:.3g}, {hi:.3g}]) is consistent with zero or "
+        "negative: the resistance does not depend on the load: this is not a contact-area measurement"
+    )
+
+
+#: ĉ = χ²/ν above which the data count as over-dispersed: errors scaled, models ranked by QAIC (Burnham & Anderson
+#: 2002 §2.5 use ĉ > 1 beyond chance; 1.5 keeps the ordinary rule for the chance excess of a well-fitting model).
+OVERDISPERSION = 1.5
+
+
+def _error_rule(
+    cov_rep: np.ndarray,
+    dof_rep: np.ndarray,
+    cov_curv: np.ndarray,
+    gof: GoodnessOfFit,
+    *,
+    paired: bool,
+    curve: MeasuredCurve,
+) -> tuple[np.ndarray, np.ndarray, str]:
+    """The one rule for every fitted quantity: (covariance, degrees of freedom per parameter, the rule in words).
+
+    Errors come from the repeats — the paired-series covariance (series correlation across weights included) or
+    each weight's own scatter — unless the fit is over-dispersed (ĉ = χ²/ν > :data:`OVERDISPERSION`): a lack of fit
+    common to every series is invisible to the repeat scatter, so then the curvature covariance (JᵀJ)⁻¹ scaled by
+    ĉ (quasi-likelihood, ν degrees of freedom: what ``scipy.optimize.curve_fit(absolute_sigma=False)`` gives) is
+    used when it is the larger (compared on the scale s).
+    """
+    c_hat = gof.reduced_chi2
+    r = curve.values_ohm.shape[1]
+    if paired:
+        base = f"paired-series covariance ({r} independent series, {r - 1} dof)"
+    elif np.all(np.isinf(dof_rep)):
+        base = "within-block standard errors"
+    else:
+        base = "each weight's own repeat scatter (Welch dof)"
+    if gof.dof > 0 and c_hat > OVERDISPERSION and cov_curv[1, 1] * c_hat > cov_rep[1, 1]:
+        return (
+            cov_curv * c_hat,
+            np.full(2, float(gof.dof)),
+            f"χ²-scaled: (JᵀJ)⁻¹·χ²/ν, χ²/ν = {c_hat:.3g} ({gof.dof} dof; larger than the {base})",
+        )
+    extra = f"; χ²/ν = {c_hat:.3g}" if gof.dof > 0 and math.isfinite(c_hat) else ""
+    return cov_rep, dof_rep, base + extra
+
+
+def _shifted(
+    curve: MeasuredCurve, resamples: _Resamples | None, offset_ohm: np.ndarray
+) -> tuple[MeasuredCurve, _Resamples | None]:
+    """``curve`` and its bootstrap resamples with a known term ``offset_ohm`` (per weight) [Ω] subtracted."""
+    import dataclasses
+
+    off = np.asarray(offset_ohm, dtype=float)
+    if off.shape != curve.weight_kg.shape or not np.all(np.isfinite(off)):
+        raise SettingError("offset_ohm", off.tolist(), f"expected finite values, shape {curve.weight_kg.shape}")
+    shifted = dataclasses.replace(curve, values_ohm=curve.values_ohm - off[:, None])
+    if resamples is not None:
+        resamples = dataclasses.replace(resamples, means=resamples.means - off)
+    return shifted, resamples
 
 
 def _unphysical(est: Estimate, intervals: Intervals, curve: MeasuredCurve) -> tuple[str, ...]:
@@ -751,6 +882,31 @@ def _prepare(
     return sigma, mode
 
 
+def independent_series(curve: MeasuredCurve) -> tuple[MeasuredCurve, tuple[str, ...]]:
+    """``curve`` with the series that are arithmetic copies of others left out (:mod:`analysis.series_dependence`:
+    Tab. 1's M4 = mean(M1..M3) and M5, M6 = M4 + offsets), and what was found, in words; unchanged (and no notes)
+    when nothing is derived or the repeats are not paired series."""
+    import dataclasses
+
+    from analysis.series_dependence import find_dependence
+
+    if not curve.paired:
+        return curve, ()
+    dep = find_dependence(curve.values_ohm, curve.repeat_labels)
+    if not dep.dropped:
+        return curve, dep.notes
+    keep = list(dep.keep)
+    labels = tuple(curve.repeat_labels[k] for k in keep) if curve.repeat_labels else ()
+    dropped = ", ".join(curve.repeat_labels[k] if curve.repeat_labels else f"series {k + 1}" for k in dep.dropped)
+    sem = None if curve.block_sem_ohm is None else curve.block_sem_ohm[:, keep]
+    reduced = dataclasses.replace(curve, values_ohm=curve.values_ohm[:, keep], repeat_labels=labels, block_sem_ohm=sem)
+    note = (
+        f"{'; '.join(dep.notes)}: {dropped} counted once — left out of the fit, the degrees of freedom and the "
+        f"bootstrap ({dep.n_independent} independent series)"
+    )
+    return reduced, (note,)
+
+
 def fit_model(
     curve: MeasuredCurve,
     area_m2: np.ndarray,
@@ -788,9 +944,13 @@ class ModelComparison(_Result):
     ``fits[name]`` each model's :class:`ModelFit` (``"models"`` in :meth:`as_dict`); ``delta_aic[name]`` AIC − min
     AIC; ``akaike_weights`` exp(−Δ/2) normalised; ``first_fraction[name]`` the share of bootstrap resamples in which
     the model has the lowest χ² (weights held fixed); ``decisive_fraction`` the share in which the overall best model
-    is first by Δχ² ≥ 2; ``discriminates`` true when the runner-up is at ΔAIC ≥ 2, the best model is first by ≥ 2 in
-    ≥ 95 % of the resamples *and* it fits within the repeat scatter (χ² tail probability ≥ 0.01); otherwise the
-    statement says which condition failed.
+    is first by Δχ²/ĉ ≥ 2; ``criterion`` "AIC", or "QAIC" = χ²/ĉ + 2(k + 1) when the best physical fit is
+    over-dispersed (``c_hat`` = its χ²/ν > :data:`OVERDISPERSION`; ``delta_aic`` and the Akaike weights are then
+    QAIC differences and weights); ``n_repeats`` the independent series or repeats fitted and ``series_notes`` the
+    series left out as copies of others (:func:`independent_series`); ``discriminates`` true when the runner-up
+    is at Δ(Q)AIC ≥ 2, the best model is first by ≥ 2 in ≥ 95 % of the resamples (residuals resampled when
+    over-dispersed, :func:`_bootstrap_ranking`) *and* it fits within the repeat scatter (χ² tail probability ≥
+    0.01); otherwise the statement says which condition failed.
     """
 
     fits: dict[str, ModelFit] = field(metadata={"key": "models"})
@@ -804,6 +964,9 @@ class ModelComparison(_Result):
     n_weights: int
     n_repeats: int
     source: str = ""
+    criterion: str = "AIC"
+    c_hat: float = math.nan
+    series_notes: tuple[str, ...] = ()
 
     @property
     def best(self) -> ModelFit:
@@ -823,14 +986,26 @@ def compare_models(
     bootstrap: str = "auto",
     boot_interval: str = "studentized",
     seed: int | None = 0,
+    offset_terms: Mapping[str, Mapping[str, np.ndarray]] | None = None,
+    scale_units: str | None = None,
 ) -> ModelComparison:
     """Fit every model in ``areas_m2`` (name → contact area at ``curve.weight_kg``) and rank them.
 
     The same bootstrap resamples are used for every model, so "how often is the best model first" compares
-    like with like. Arguments as :func:`fit_model`.
+    like with like. Series that are copies of others are counted once (:func:`independent_series`).
+    ``offset_terms[name]`` known terms per weight [Ω] by name (the physical model's "barber" and "macro"
+    constriction), their sum subtracted before the fit and each term's share of the measured mean reported;
+    ``scale_units`` the unit of s (default Ω·m, Ω·m² for ``conversion="physical"``). Other arguments as
+    :func:`fit_model`.
     """
+    if scale_units is None:
+        scale_units = "ohm*m2" if conversion == "physical" else "ohm*m"
+    offsets_ohm = None
+    if offset_terms is not None:
+        offsets_ohm = {n: np.sum([np.asarray(v, float) for v in t.values()], axis=0) for n, t in offset_terms.items()}
     if not areas_m2:
         raise SettingError("models", [], "expected at least one model")
+    curve, series_notes = independent_series(curve)
     sigma, mode = _prepare(curve, weighting, bootstrap, ci_level, n_boot, boot_interval, seed)
     res = _resample(curve, mode, n_boot, np.random.default_rng(seed)) if n_boot else None
     boot = res.means if res is not None else None
@@ -843,42 +1018,30 @@ def compare_models(
         fits[name] = _fit_arrays(
             name, curve, area, x, sigma, res, conversion=conversion, weighting=weighting, bootstrap=mode,
             ci_level=ci_level, boot_interval=boot_interval,
+            offset_ohm=None if offsets_ohm is None else offsets_ohm[name], scale_units=scale_units,
+            offset_terms=None if offset_terms is None else offset_terms[name],
         )  # fmt: skip
     names = list(fits)
-    # physical fits first, by AIC; an unphysical fit is never ranked above a physical one
-    ranking = tuple(sorted(names, key=lambda n: (not fits[n].physical, fits[n].goodness.aic)))
+    c_hat, criterion = _overdispersion(fits)
+    ic = {n: _criterion(fits[n].goodness, c_hat) for n in names}
+    # physical fits first, by (Q)AIC; an unphysical fit is never ranked above a physical one
+    ranking = tuple(sorted(names, key=lambda n: (not fits[n].physical, bool(fits[n].load_independent), ic[n])))
     best = ranking[0]
-    delta = {n: fits[n].goodness.aic - fits[best].goodness.aic for n in names}
-    lowest = min(fits[n].goodness.aic for n in names)  # an unphysical fit may have a lower AIC than the best
-    raw = {n: math.exp(-0.5 * (fits[n].goodness.aic - lowest)) for n in names}
+    delta = {n: ic[n] - ic[best] for n in names}
+    lowest = min(ic.values())  # an unphysical fit may have a lower AIC than the best
+    raw = {n: math.exp(-0.5 * (ic[n] - lowest)) for n in names}
     total = sum(raw.values())
     weights = {n: raw[n] / total for n in names}
 
-    first: dict[str, float] = {}
-    candidates = [n for n in names if fits[n].physical] or names
-    if boot is not None and len(candidates) > 1:
-        names = candidates
-        chi2s = []
-        for n in names:
-            f = fits[n]
-            assert f.boot_params is not None
-            design = np.column_stack((np.ones_like(f.points.regressor_per_m), f.points.regressor_per_m))
-            pred = f.boot_params @ design.T  # (B, m)
-            chi2s.append(np.sum(((boot - pred) / sigma) ** 2, axis=1))
-        table = np.vstack(chi2s)  # (models, B)
-        winner = np.argmin(table, axis=0)
-        first = {n: float(np.mean(winner == i)) for i, n in enumerate(names)}
-        ordered = np.sort(table, axis=0)
-        margin = ordered[1] - ordered[0]
-        decisive = float(np.mean((winner == names.index(best)) & (margin >= DELTA_AIC_INDISTINGUISHABLE)))
-    elif boot is not None:
-        first = {best: 1.0}
-        decisive = 1.0
-    else:
-        decisive = math.nan
+    candidates = [n for n in names if fits[n].physical and not fits[n].load_independent] or names
+    first, decisive = _bootstrap_ranking(
+        fits, candidates, best, boot, sigma, offsets_ohm, c_hat if criterion == "QAIC" else math.nan, seed
+    )
     names = list(fits)
 
-    discriminates, statement = _statement(fits, ranking, delta, first, decisive, n_boot if boot is not None else 0)
+    discriminates, statement = _statement(
+        fits, ranking, delta, first, decisive, n_boot if boot is not None else 0, criterion=criterion, c_hat=c_hat
+    )
     return ModelComparison(
         fits=fits,
         ranking=ranking,
@@ -891,7 +1054,81 @@ def compare_models(
         n_weights=int(curve.weight_kg.size),
         n_repeats=int(curve.values_ohm.shape[1]),
         source=curve.source,
+        criterion=criterion,
+        c_hat=c_hat,
+        series_notes=series_notes,
     )
+
+
+def _bootstrap_ranking(
+    fits: Mapping[str, ModelFit],
+    names: list[str],
+    best: str,
+    boot: np.ndarray | None,
+    sigma: np.ndarray,
+    offsets_ohm: Mapping[str, np.ndarray] | None,
+    c_hat: float,
+    seed: int | None,
+) -> tuple[dict[str, float], float]:
+    """(share of resamples in which each model has the lowest χ², share in which ``best`` is first by ≥ 2).
+
+    Ordinarily the repeats' resamples ``boot`` (B, m) are used, with each model's bootstrap parameters. When the data
+    are over-dispersed (``c_hat`` finite) the lack of fit is common to every series and resampling the repeats
+    cannot show it: the residuals about the best fit are resampled instead (wild bootstrap, a random sign per
+    weight), every model refitted, ĉ re-estimated per resample, and the margin is in Δχ²/ĉ.
+    """
+    if boot is None:
+        return {}, math.nan
+    if len(names) < 2:
+        return {best: 1.0}, 1.0
+    off = {n: np.zeros_like(sigma) if offsets_ohm is None else np.asarray(offsets_ohm[n], float) for n in names}
+    if math.isfinite(c_hat):
+        pb = fits[best].points
+        rng = np.random.default_rng(None if seed is None else seed + 1)
+        signs = rng.choice([-1.0, 1.0], (boot.shape[0], sigma.size))
+        y_star = pb.fitted_ohm + pb.residuals_ohm * signs  # (B, m), raw R (fitted_ohm includes the offset)
+        table = np.vstack([_refit_chi2(fits[n].points.regressor_per_m, y_star - off[n], sigma) for n in names])
+        table = table / (np.min(table, axis=0) / max(sigma.size - 2, 1))
+    else:
+        chi2s = []
+        for n in names:
+            f = fits[n]
+            assert f.boot_params is not None
+            design = np.column_stack((np.ones_like(f.points.regressor_per_m), f.points.regressor_per_m))
+            pred = f.boot_params @ design.T  # (B, m)
+            chi2s.append(np.sum(((boot - off[n] - pred) / sigma) ** 2, axis=1))
+        table = np.vstack(chi2s)  # (models, B)
+    winner = np.argmin(table, axis=0)
+    first = {n: float(np.mean(winner == i)) for i, n in enumerate(names)}
+    ordered = np.sort(table, axis=0)
+    margin = ordered[1] - ordered[0]
+    return first, float(np.mean((winner == names.index(best)) & (margin >= DELTA_AIC_INDISTINGUISHABLE)))
+
+
+def _refit_chi2(x: np.ndarray, y: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """χ² of the weighted straight-line fit y ≈ a + b·x for every row of ``y`` (B, m) at once [-]."""
+    design = np.column_stack((np.ones_like(x), x)) / sigma[:, None]
+    coef, *_ = np.linalg.lstsq(design, (y / sigma).T, rcond=None)
+    return np.asarray(np.sum(((y / sigma).T - design @ coef) ** 2, axis=0))
+
+
+def _overdispersion(fits: Mapping[str, ModelFit]) -> tuple[float, str]:
+    """(ĉ, criterion): ĉ = χ²/ν of the best-fitting physical model (every model has k = 2, so none is more general;
+    the best fit's χ²/ν is the smallest over-dispersion estimate), and "QAIC" when ĉ > :data:`OVERDISPERSION`."""
+    pool = [f for f in fits.values() if f.physical and f.goodness.dof > 0] or [
+        f for f in fits.values() if f.goodness.dof > 0
+    ]
+    if not pool:
+        return math.nan, "AIC"
+    c_hat = min(f.goodness.reduced_chi2 for f in pool)
+    return c_hat, ("QAIC" if c_hat > OVERDISPERSION else "AIC")
+
+
+def _criterion(g: GoodnessOfFit, c_hat: float) -> float:
+    """AIC = χ² + 2k, or QAIC = χ²/ĉ + 2(k + 1) (ĉ counted as a parameter) when ĉ > :data:`OVERDISPERSION`."""
+    if math.isfinite(c_hat) and c_hat > OVERDISPERSION:
+        return g.chi2 / c_hat + 2 * (g.n_parameters + 1)
+    return g.aic
 
 
 def _statement(
@@ -901,12 +1138,26 @@ def _statement(
     first: dict[str, float],
     decisive: float,
     n_boot: int,
+    *,
+    criterion: str = "AIC",
+    c_hat: float = math.nan,
 ) -> tuple[bool, str]:
     """The verdict in words, models by their display labels (:func:`sims.models.model_label`)."""
     best = ranking[0]
     fb = fits[best].goodness
-    physical = [n for n in ranking if fits[n].physical]
-    parts, close, discriminates = _ranking_phrases(fits, physical, delta, first, decisive, n_boot)
+    flat = [n for n in ranking if fits[n].physical and fits[n].load_independent]
+    physical = [n for n in ranking if fits[n].physical and not fits[n].load_independent]
+    if flat and not physical:
+        return False, _flat_phrase(fits, flat)
+    parts = [_flat_phrase(fits, flat)] if flat else []
+    if criterion == "QAIC":
+        parts.append(
+            f"The data are over-dispersed (ĉ = χ²/ν = {c_hat:.3g} for the best fit, > {OVERDISPERSION:g}): models "
+            "are ranked by QAIC = χ²/ĉ + 2(k + 1), not by AIC on the raw χ², and every standard error is the larger "
+            "of the repeats' and the χ²-scaled one."
+        )
+    ranked, close, discriminates = _ranking_phrases(fits, physical, delta, first, decisive, n_boot, criterion)
+    parts += ranked
     parts += _unphysical_phrases(fits, ranking, physical)
     misfit = fb.dof > 0 and fb.p_value < 0.01
     if misfit:
@@ -934,8 +1185,10 @@ def _ranking_phrases(
     first: dict[str, float],
     decisive: float,
     n_boot: int,
+    criterion: str = "AIC",
 ) -> tuple[list[str], list[str], bool]:
-    """What the ranking of the physical fits says: (phrases, models within ΔAIC < 2 of the best, discriminates)."""
+    """What the ranking of the physical fits says: (phrases, models within Δ(Q)AIC < 2 of the best,
+    discriminates)."""
     if not physical:
         return [], [], False
     best = physical[0]
@@ -946,23 +1199,43 @@ def _ranking_phrases(
         return [f"{lb} is the only model whose fit is physical (χ² = {fb.chi2:.3g})."], [], True
     close = [n for n in physical[1:] if delta[n] < DELTA_AIC_INDISTINGUISHABLE]
     runner = physical[1]
+    ic, dchi = criterion, ("Δχ²/ĉ" if criterion == "QAIC" else "Δχ²")
     if close:
-        listed = ", ".join(f"{model_label(n)} (ΔAIC = {delta[n]:.2g})" for n in close)
+        listed = ", ".join(f"{model_label(n)} (Δ{ic} = {delta[n]:.2g})" for n in close)
         parts = [
-            f"The data do not discriminate between {lb} (lowest AIC, χ² = {fb.chi2:.2f}) and {listed}: "
-            f"ΔAIC < {DELTA_AIC_INDISTINGUISHABLE:g}. Every model has 2 parameters, so ΔAIC = Δχ²."
+            f"The data do not discriminate between {lb} (lowest {ic}, χ² = {fb.chi2:.2f}) and {listed}: "
+            f"Δ{ic} < {DELTA_AIC_INDISTINGUISHABLE:g}. Every model has 2 parameters, so Δ{ic} = {dchi}."
         ]
     else:
         parts = [
-            f"{lb} has the lowest AIC (χ² = {fb.chi2:.3g}); the runner-up {model_label(runner)} is at ΔAIC = "
+            f"{lb} has the lowest {ic} (χ² = {fb.chi2:.3g}); the runner-up {model_label(runner)} is at Δ{ic} = "
             f"{delta[runner]:.3g} (≥ 2: less support; ≥ 10: essentially none)."
         ]
-    if n_boot:
+    if n_boot and criterion == "QAIC":
+        parts.append(
+            f"Resampling the residuals about the best fit ({n_boot} wild-bootstrap resamples; resampling the repeats "
+            f"cannot show a lack of fit common to every series), {lb} has the lowest χ² in "
+            f"{first.get(best, 0.0):.0%} of them, and by {dchi} ≥ {DELTA_AIC_INDISTINGUISHABLE:g} in {decisive:.0%}."
+        )
+    elif n_boot:
         parts.append(
             f"Resampling the repeats ({n_boot} bootstrap resamples), {lb} has the lowest χ² in "
-            f"{first.get(best, 0.0):.0%} of them, and by Δχ² ≥ {DELTA_AIC_INDISTINGUISHABLE:g} in {decisive:.0%}."
+            f"{first.get(best, 0.0):.0%} of them, and by {dchi} ≥ {DELTA_AIC_INDISTINGUISHABLE:g} in {decisive:.0%}."
         )
     return parts, close, not close and (decisive >= 0.95 if n_boot else True)
+
+
+def _flat_phrase(fits: dict[str, ModelFit], flat: list[str]) -> str:
+    """The fits whose slope is consistent with zero or negative: not ranked, and why (the data's load dependence)."""
+    est = {n: fits[n].estimate for n in flat}
+    listed = ", ".join(f"{model_label(n)} (s = {est[n].scale:.3g} ± {est[n].scale_se:.2g})" for n in flat)
+    if len(flat) == len([f for f in fits.values() if f.physical]):
+        return (
+            f"The resistance does not depend on the load: this is not a contact-area measurement. Every model's "
+            f"slope is consistent with zero or negative ({listed}); the models are not ranked. Verdict: no model "
+            "can be tested with these data."
+        )
+    return f"Not ranked (slope consistent with zero or negative, the resistance does not follow the area): {listed}."
 
 
 def _unphysical_phrases(fits: dict[str, ModelFit], ranking: tuple[str, ...], physical: list[str]) -> list[str]:

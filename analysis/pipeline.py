@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from analysis.circuit import CircuitSettings
-from analysis.fit import ModelComparison, area_at_weights, compare_models, regressor
+from analysis.fit import ModelComparison, area_at_weights, compare_models, independent_series, regressor
 from analysis.measured import MeasuredCurve, load_tab1
 from analysis.normalisation import NormalisedCurve, normalise_measured, normalise_simulated
 from contactrig.core.fingerprint import differences, has_tables
@@ -157,12 +157,14 @@ def analyse(
     fit_curve, keep, left_out = _fittable(curve, weighting)
     comparison = None
     if fit_curve is not None:
+        terms = physical_terms(scene, list(areas), fit_curve.weight_kg, database) if conversion == "physical" else None
         comparison = compare_models(
             fit_curve, {n: a[keep] for n, a in areas.items()}, height_m=circuit.contact_height_m,
             conversion=conversion, weighting=weighting, ci_level=ci_level, n_boot=n_boot, seed=seed,
-            boot_interval=boot_interval,
+            boot_interval=boot_interval, offset_terms=terms,
         )  # fmt: skip
-    measured_norm, norm_keep, norm_notes = _normalised(curve, keep)
+    # R/R₀ and its error from the independent series, as the fit (copies of other series counted once)
+    measured_norm, norm_keep, norm_notes = _normalised(independent_series(curve)[0], keep)
     sim_norm = {
         n: normalise_simulated(
             curve.weight_kg[norm_keep], regressor(a[norm_keep], circuit.contact_height_m, conversion)
@@ -188,6 +190,30 @@ def analyse(
         left_out=tuple(left_out + norm_notes),
         fingerprint=fingerprint,
     )
+
+
+def physical_terms(
+    scene: Any, models: list[str], weights_kg: np.ndarray, database: Any = None
+) -> dict[str, dict[str, np.ndarray]]:
+    """The computed terms of the physical model (``--conversion physical``) per model and weight [Ω]: Barber's
+    clean-metal constriction and the band's macro-constriction (:func:`analysis.resistance_model.
+    rig_resistance_terms`). A press scene, a scene without both resistivities, or a model that is not registered is a
+    SettingError naming what is missing."""
+    from analysis.resistance_model import rig_resistance_terms
+    from contactrig.core.validation import SettingError
+    from sims.config import SimConfig
+    from sims.models import model_names
+
+    config = SimConfig.from_scene(scene)
+    if config.press is not None:
+        raise SettingError("conversion", "physical", "the physical model describes the piston/liner rig, not a press")
+    out = {}
+    for name in models:
+        if name not in model_names():
+            raise SettingError("conversion", "physical", f"model {name!r} is not registered: its stiffness is needed")
+        law = database[name] if database is not None and name in database else None
+        out[name] = rig_resistance_terms(config, name, [float(w) for w in weights_kg], law=law).known_terms()
+    return out
 
 
 def _sim_ratio(weight_kg: np.ndarray, area_m2: np.ndarray, height_m: float, conversion: str) -> NormalisedCurve:
@@ -563,24 +589,9 @@ def resistance_statement(a: Analysis) -> str:
 
 
 def _resistance_sentence(a: Analysis, config: Any, curve: MeasuredCurve, model: str) -> str:
-    from analysis.resistance_model import fit_measured, rig_resistance_terms, tab1_statement
+    from analysis.resistance_model import fit_measured, physical_sentence, rig_resistance_terms
     from sims.models import model_label
 
-    if a.measured_info.get("kind") == "table" and str(a.measured_info.get("path", "")).endswith("tab1.csv"):
-        return tab1_statement(config, model, curve)
+    is_tab1 = a.measured_info.get("kind") == "table" and str(a.measured_info.get("path", "")).endswith("tab1.csv")
     terms = rig_resistance_terms(config, model, [float(w) for w in curve.weight_kg])
-    fit = fit_measured(curve, terms)
-    clean = fit.shares["clean_metal"]
-    lo, hi = 100 * float(np.min(clean)), 100 * float(np.max(clean))
-    verdict = (
-        "so this session measures a film (or the circuit), not metal-to-metal constriction."
-        if hi < 10
-        else "so the clean-metal constriction is a visible part of what this session measures."
-    )
-    return (
-        f"With the {model_label(model)} contact area, this session is R = R_s + σ_f/A + clean metal with σ_f = "
-        f"{float(fit.film_ohm_m2):.2e} ± {float(fit.film_se):.1e} Ω·m² (a surface film; eq. 23's ζh) and R_s = "
-        f"{1e3 * float(fit.series_ohm):.2f} ± {1e3 * float(fit.series_se):.2f} mΩ; the clean-metal constriction "
-        f"(Barber, ρ1+ρ2 = {terms.resistivity_sum_ohm_m:.3g} Ω·m, plus the band's macro-constriction "
-        f"{1e3 * float(terms.macro_ohm.mean()):.3f} mΩ) is {lo:.1f}–{hi:.1f} % of the measured resistance, {verdict}"
-    )
+    return physical_sentence(fit_measured(curve, terms), model_label(model), "Tab. 1" if is_tab1 else "this session")

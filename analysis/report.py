@@ -339,6 +339,20 @@ def _measured_section(a: Any) -> list[Any]:
             f"Repeats treated as {paired}. R₀ = {nm.reference_ohm * k:.4g} ± {nm.reference_se_ohm * k:.2g} {unit}; "
             "R₀/R₀ = 1 exactly."
         ),
+        *_independence_note(a),
+    ]
+
+
+def _independence_note(a: Any) -> list[Any]:
+    """When some series are copies of others: the table counts every column, the fit only the independent ones."""
+    cmp = a.comparison
+    if cmp is None or not cmp.series_notes:
+        return []
+    return [
+        Para(
+            f"The columns above include copies of other series; the fit counts {cmp.n_repeats} independent series "
+            f"(SD and SEM in this table are over every column): {'; '.join(cmp.series_notes)}."
+        )
     ]
 
 
@@ -417,7 +431,8 @@ def _fit_section(a: Any) -> list[Any]:
     k, unit = resistance_unit(first.points.measured_ohm)
     headers = (
         "model", f"R_s ± SE [{unit}]", f"R_s {lvl}% t-CI [{unit}]", f"R_s {lvl}% bootstrap [{unit}]", "s ± SE [Ω·m]",
-        f"s {lvl}% bootstrap", "χ²", "χ²/dof", "p", "AIC", "ΔAIC", "Akaike w", "first in bootstrap", f"RMSE [{unit}]",
+        f"s {lvl}% bootstrap", "χ²", "χ²/dof", "p", "AIC", f"Δ{cmp.criterion}", f"{cmp.criterion} weight",
+        "first in bootstrap", f"RMSE [{unit}]",
     )  # fmt: skip
     boot = first.intervals.bootstrap
     blocks: list[Any] = [
@@ -428,16 +443,21 @@ def _fit_section(a: Any) -> list[Any]:
             f"{_WEIGHTING_TEXT.get(first.weighting, first.weighting)}; {boot.n_boot} bootstrap resamples of the "
             f"repeats ({_BOOTSTRAP_TEXT.get(boot.resampling, boot.resampling)}), {boot.method} intervals; t-intervals "
             f"with {first.intervals.t.dof[0]:.3g} degrees of freedom; p: goodness of fit against "
-            f"{first.goodness.reference}. k = 2 for every model, so ΔAIC = ΔBIC = Δχ²."
+            f"{first.goodness.reference}. k = 2 for every model, so ΔAIC = ΔBIC = Δχ²"
+            + (f" (ΔQAIC = Δχ²/ĉ, ĉ = {cmp.c_hat:.3g})" if cmp.criterion == "QAIC" else "")
+            + f". {cmp.n_repeats} independent series or repeats; errors: {first.estimate.error_rule}."
         ),
         Para(Strong(_about_models(cmp.statement, cmp.ranking))),
     ]
+    if a.conversion == "physical":
+        blocks += _shares_blocks(cmp.best)
     notes: list[Any] = [
         [_label(n), ": ", _about_models(note, [n])] for n in cmp.ranking for note in cmp.fits[n].diagnostics.warnings
     ]
     notes += [
         [_label(n), ": UNPHYSICAL: ", _about_models(why, [n])] for n in cmp.ranking for why in cmp.fits[n].unphysical
     ]
+    notes += list(cmp.series_notes)
     if not boot.available:
         notes.append(f"bootstrap intervals {boot.note}")
     if notes:
@@ -451,6 +471,18 @@ def _fit_section(a: Any) -> list[Any]:
     if statement:
         blocks += [Heading(4, "Resistance model: film, series and clean-metal constriction"), Para(statement)]
     return blocks
+
+
+def _shares_blocks(fit: Any) -> list[Any]:
+    """The physical model's terms as shares of the measured mean per weight, for the best model."""
+    names = list(fit.shares)
+    rows = tuple(
+        (f"{w:g}", *(f"{100 * float(fit.shares[n][i]):.2f}" for n in names)) for i, w in enumerate(fit.points.weight_kg)
+    )
+    return [
+        Para(["Share of the measured mean R per weight [%], ", _label(fit.model), " (R_s, σ_f/A, Barber, band):"]),
+        Table(("weight [kg]", *names), rows),
+    ]
 
 
 def _diagnostics_line(name: str, d: Any) -> Any:

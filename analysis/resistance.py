@@ -49,7 +49,7 @@ __all__ = [
 ]
 
 #: Named conversions from a real contact area A to a resistance (see :func:`area_to_resistance_ohm`).
-CONVERSIONS = ("bulk", "holm")
+CONVERSIONS = ("bulk", "holm", "physical")
 
 #: Display units of resistance, largest first: (factor to multiply ohms by, unit).
 _RESISTANCE_UNITS = ((1.0, "Ω"), (1e3, "mΩ"), (1e6, "µΩ"))
@@ -218,10 +218,15 @@ def area_to_resistance_ohm(
     """Real contact area A [m²] → contact resistance [Ω] by a named conversion.
 
     ``"bulk"``: seed eq. 23, ζ h/A. ``"holm"``: all of A in one Holm spot, ζ/(2√(A/π)) (``height_m`` unused).
+    ``"physical"`` (R_s + σ_f/A + Barber + band constriction) is a fit only (:mod:`analysis.resistance_model`).
     The fit (:mod:`analysis.fit`) uses the same conversions as regressors.
     """
     if conversion == "bulk":
         return bulk_resistance_ohm(area_m2, resistivity_ohm_m, height_m)
     if conversion == "holm":
         return holm_single_spot_resistance_ohm(area_m2, resistivity_ohm_m)
+    if conversion == "physical":
+        raise SettingError(
+            "conversion", conversion, "the physical model needs the rig's clean-metal terms: analysis.resistance_model"
+        )
     raise SettingError("conversion", conversion, "expected one of " + ", ".join(repr(c) for c in CONVERSIONS))

@@ -41,6 +41,7 @@ from contactrig.core.validation import SettingError, check_range
 
 __all__ = [
     "FilmFit",
+    "PhysicalFit",
     "RigResistanceTerms",
     "barber_resistance_ohm",
     "elliptic_spot_resistance_ohm",
@@ -48,7 +49,9 @@ __all__ = [
     "fit_measured",
     "holm_upper_bound_ohm",
     "parallel_holm_ohm",
+    "physical_sentence",
     "rig_resistance_terms",
+    "stiffness_weighted_width_m",
     "tab1_statement",
 ]
 
@@ -112,8 +115,10 @@ class RigResistanceTerms:
     """The computed (not fitted) parts of R(W) for one contact model, per weight.
 
     ``weight_kg`` [kg]; ``area_m2`` real area A(W) [m²]; ``stiffness_n_per_m`` K(W) = Σ −p′(h) ΔA [N/m];
-    ``band_width_m`` nominal band width [m]; ``barber_ohm`` R_c [Ω]; ``macro_ohm`` R_macro [Ω]; ``holm_bound_ohm``
-    Holm's single-spot upper bound [Ω]; ``resistivity_sum_ohm_m`` ρ1 + ρ2; ``composite_modulus_pa`` E*.
+    ``band_width_m`` the stiffness-weighted band width [m] (:func:`stiffness_weighted_width_m`; R_macro uses it);
+    ``pressure_width_m`` the p > 0 band width of the rigid rig [m]; ``barber_ohm`` R_c [Ω]; ``macro_ohm`` R_macro
+    [Ω]; ``holm_bound_ohm`` Holm's single-spot upper bound [Ω]; ``resistivity_sum_ohm_m`` ρ1 + ρ2;
+    ``composite_modulus_pa`` E*.
     """
 
     model: str
@@ -126,11 +131,16 @@ class RigResistanceTerms:
     holm_bound_ohm: np.ndarray
     resistivity_sum_ohm_m: float
     composite_modulus_pa: float
+    pressure_width_m: np.ndarray | None = None
 
     @property
     def clean_ohm(self) -> np.ndarray:
         """Clean-metal part R_c + R_macro [Ω]."""
         return self.barber_ohm + self.macro_ohm
+
+    def known_terms(self) -> dict[str, np.ndarray]:
+        """The computed terms of the physical model by name, per weight [Ω]: "barber" and "macro"."""
+        return {"barber": self.barber_ohm, "macro": self.macro_ohm}
 
 
 def _skirt_stiffness(batch: Any) -> np.ndarray:
@@ -138,6 +148,20 @@ def _skirt_stiffness(batch: Any) -> np.ndarray:
     h = batch.loads.gap(np.asarray(batch.min_separation_m, dtype=float))
     dp = np.asarray(batch.loads.law.dpressure_dh(h.reshape(-1)), dtype=float).reshape(h.shape)
     return np.asarray(np.einsum("...ty,ty->...", -dp, batch.mesh.area_m2))
+
+
+def stiffness_weighted_width_m(batch: Any) -> np.ndarray:
+    """The band width the current sees [m], per weight: 2√3·σ with σ² the stiffness-weighted mean square of the
+    arc length R_p·θ over the skirt (weights −p′(h)·ΔA, both mirror halves: mean zero). The current flows where the
+    interface is stiff (Barber: conductance ∝ stiffness); the p > 0 edge of the band is the contact law's tail
+    (model-dependent, much wider) and made R_macro 30–40 % low (issue 21 §2). A uniform band of width b gives b."""
+    h = batch.loads.gap(np.asarray(batch.min_separation_m, dtype=float))
+    dp = np.asarray(batch.loads.law.dpressure_dh(h.reshape(-1)), dtype=float).reshape(h.shape)
+    k_theta = np.sum(-dp * batch.mesh.area_m2, axis=-1)  # (..., n_theta)
+    s = batch.mesh.radius_m * batch.mesh.theta_rad
+    total = np.sum(k_theta, axis=-1)
+    var = np.sum(k_theta * s**2, axis=-1) / np.where(total > 0, total, 1.0)
+    return np.asarray(2.0 * math.sqrt(3.0) * np.sqrt(var))
 
 
 def rig_resistance_terms(
@@ -162,7 +186,7 @@ def rig_resistance_terms(
     e_star = float(config.materials.E_star)
     stiffness = _skirt_stiffness(batch)
     area = np.asarray(batch.contact_area_m2, dtype=float)
-    width = np.asarray(batch.contact_width_m, dtype=float)
+    width = stiffness_weighted_width_m(batch)
     return RigResistanceTerms(
         model=model,
         weight_kg=np.asarray(weights, dtype=float),
@@ -174,6 +198,7 @@ def rig_resistance_terms(
         holm_bound_ohm=holm_upper_bound_ohm(area, rho),
         resistivity_sum_ohm_m=rho,
         composite_modulus_pa=e_star,
+        pressure_width_m=np.asarray(batch.contact_width_m, dtype=float),
     )
 
 
@@ -262,19 +287,64 @@ def relative_sigma_ohm(values_ohm: ArrayLike) -> np.ndarray:
     return np.asarray(c[..., None] * mean / math.sqrt(n))
 
 
-def fit_measured(curve: Any, terms: RigResistanceTerms) -> FilmFit:
-    """Fit a :class:`analysis.measured.MeasuredCurve` (complete repeats) with the clean terms of ``terms``."""
+@dataclass(frozen=True, eq=False)
+class PhysicalFit:
+    """The physical model ``R = R_s + σ_f/A + R_Barber + R_macro`` fitted to a measured curve.
+
+    ``fit`` the :class:`analysis.fit.ModelFit` of R − R_clean = R_s + σ_f·(1/A) (``fit.estimate.scale`` is σ_f
+    [Ω·m²]; its errors follow :mod:`analysis.fit`'s one rule: repeat covariance, or χ²-scaled when
+    over-dispersed, copies of other series counted once); ``terms`` the computed clean-metal terms; ``measured_ohm``
+    the measured mean per weight [Ω] (independent series only); ``shares`` each term's share of the **measured**
+    mean per weight: "series", "film", "barber", "macro" (they add up to fitted/measured, not exactly 1).
+    """
+
+    fit: Any
+    terms: RigResistanceTerms
+    measured_ohm: np.ndarray
+    shares: dict[str, np.ndarray]
+    n_series: int
+    series_notes: tuple[str, ...] = ()
+
+
+def fit_measured(curve: Any, terms: RigResistanceTerms, *, n_boot: int = 0, seed: int | None = 0) -> PhysicalFit:
+    """Fit a :class:`analysis.measured.MeasuredCurve` with the clean terms of ``terms`` (:class:`PhysicalFit`),
+    through :func:`analysis.fit.compare_models` (same weights, error rule and series handling as every fit)."""
+    from analysis.fit import compare_models
+
     if curve.weight_kg.shape != terms.weight_kg.shape or not np.allclose(curve.weight_kg, terms.weight_kg):
         raise SettingError("weight_kg", curve.weight_kg.tolist(), "expected the weights the terms were computed at")
-    n = curve.n
-    rel = curve.sd_ohm / curve.mean_ohm
-    c = math.sqrt(float(np.sum((n - 1) * rel**2) / np.sum(n - 1)))
-    sigma = c * curve.mean_ohm / np.sqrt(n)
-    return fit_film_series(curve.mean_ohm, sigma, terms.area_m2, terms.clean_ohm, barber_ohm=terms.barber_ohm)
+    cmp = compare_models(
+        curve, {terms.model: terms.area_m2}, height_m=1.0, conversion="physical", n_boot=n_boot, seed=seed,
+        offset_terms={terms.model: terms.known_terms()},
+    )  # fmt: skip
+    fit = cmp.fits[terms.model]
+    return PhysicalFit(fit, terms, fit.points.measured_ohm, dict(fit.shares), cmp.n_repeats, cmp.series_notes)
+
+
+def physical_sentence(pf: PhysicalFit, label: str, what: str = "Tab. 1") -> str:
+    """The plain sentence: σ_f and R_s with the rule their errors follow, and the clean-metal share of the measured
+    mean; ``label`` the contact model's display name, ``what`` the data ("Tab. 1", "this session")."""
+    est, terms = pf.fit.estimate, pf.terms
+    clean = pf.shares["barber"] + pf.shares["macro"]
+    lo, hi = 100 * float(np.min(clean)), 100 * float(np.max(clean))
+    verdict = (
+        f"so {what} measures a film (or the circuit), not metal-to-metal constriction."
+        if hi < 10
+        else f"so the clean-metal constriction is a visible part of what {what} measures."
+    )
+    return (
+        f"With the {label} contact area, {what} is R = R_s + σ_f/A + clean metal with σ_f = {est.scale:.2e} ± "
+        f"{est.scale_se:.1e} Ω·m² (a surface film; eq. 23's ζh) and R_s = {1e3 * est.R_series_ohm:.2f} ± "
+        f"{1e3 * est.R_series_se:.2f} mΩ (± 1 SE; errors: {est.error_rule}"
+        + (f"; {'; '.join(pf.series_notes)}" if pf.series_notes else "")
+        + f"); the clean-metal constriction (Barber, ρ1+ρ2 = {terms.resistivity_sum_ohm_m:.3g} Ω·m, plus the band's "
+        f"macro-constriction {1e3 * float(terms.macro_ohm.mean()):.3f} mΩ) is {lo:.1f}–{hi:.1f} % of the measured "
+        f"mean resistance, {verdict}"
+    )
 
 
 def tab1_statement(config: Any = None, model: str = "greenwood_tripp", curve: Any = None) -> str:
-    """The plain sentence for the Tab. 1 report: fitted σ_f, R_s and the clean-metal fraction (default scene).
+    """The plain sentence for the Tab. 1 report: fitted σ_f, R_s and the clean-metal share (default scene).
 
     ``config`` a :class:`sims.config.SimConfig` (None → the default scene), ``curve`` a measured curve (None →
     seed Tab. 1 via :func:`analysis.measured.load_tab1`).
@@ -289,14 +359,4 @@ def tab1_statement(config: Any = None, model: str = "greenwood_tripp", curve: An
 
         curve = load_tab1()
     terms = rig_resistance_terms(config, model, [float(w) for w in curve.weight_kg])
-    fit = fit_measured(curve, terms)
-    clean = fit.shares["clean_metal"]
-    return (
-        f"With the {model} contact area, Tab. 1 is R = R_s + σ_f/A + clean metal with σ_f = "
-        f"{float(fit.film_ohm_m2):.2e} ± {float(fit.film_se):.1e} Ω·m² (a surface film; eq. 23's ζh) and R_s = "
-        f"{1e3 * float(fit.series_ohm):.2f} ± {1e3 * float(fit.series_se):.2f} mΩ; the clean-metal constriction "
-        f"(Barber, ρ1+ρ2 = {terms.resistivity_sum_ohm_m:.3g} Ω·m, plus the band's macro-constriction "
-        f"{1e3 * float(terms.macro_ohm.mean()):.3f} mΩ) is only {100 * float(clean.min()):.1f}–"
-        f"{100 * float(clean.max()):.1f} % of the measured resistance, so Tab. 1 measures a film (or the circuit), "
-        "not metal-to-metal constriction."
-    )
+    return physical_sentence(fit_measured(curve, terms), model, "Tab. 1")

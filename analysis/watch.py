@@ -1,6 +1,7 @@
 """The live view of a bench session: a figure and a status line that follow the blocks as they land.
 
-Two panels — R against weight with every repeat and the mean ± SD per weight (seed Fig. 9 as it grows), and the
+Two panels — R against weight with every repeat (M1…Mn, colour and marker as in every figure) and the mean ± 1 SEM
+of the repeats per weight (seed Fig. 9 as it grows, the error-bar convention of every figure), and the
 current block's readings against time — and a status line: state, weight, block done/planned, ETA, invalid
 readings, blocks taken in compliance. One :class:`LiveState` feeds both, built either from a session file
 (:func:`state_from_session`, what ``contactrig watch`` reads from another process) or from the acquisition's own
@@ -184,26 +185,39 @@ def _plain(text: str) -> str:
     return escape_terminal(text).replace("$", r"\$")
 
 
+#: Up to this many repeats get a legend entry each (M1…Mn); more share one entry.
+_LEGEND_REPEATS = 12
+
+
 def _draw_weights(ax: Any, state: LiveState) -> None:
+    from analysis.figure_style import MEASURED_COLOUR, repeat_style
+
     ok = [r for r in state.rows if not r.compliance and math.isfinite(r.mean_ohm)]
     k, unit = resistance_unit([r.mean_ohm for r in ok] or [1e-3])
     w = np.array([r.weight_kg for r in ok])
     v = np.array([r.mean_ohm for r in ok]) * k
-    for rep in sorted({r.repeat for r in ok}):
+    repeats = sorted({r.repeat for r in ok})
+    for j, rep in enumerate(repeats):
         sel = np.array([r.repeat == rep for r in ok])
-        ax.plot(w[sel], v[sel], "o-", color="#9a9a9a", lw=0.7, ms=3, label="repeats" if rep == 1 else None)
+        # M1…Mn by position, as Fig. 9 names a session's repeats (analysis.figures.repeat_names)
+        label = f"M{j + 1}" if len(repeats) <= _LEGEND_REPEATS else (f"repeats M1…M{len(repeats)}" if j == 0 else None)
+        ax.plot(w[sel], v[sel], "-", **repeat_style(j), lw=0.8, ms=3, alpha=0.85, label=label)
     weights = sorted(set(w.tolist()))
-    means = [float(np.mean(v[w == x])) for x in weights]
-    sds = [float(np.std(v[w == x], ddof=1)) if np.count_nonzero(w == x) > 1 else 0.0 for x in weights]
+    means, sems = [], []
+    for x in weights:
+        at = v[w == x]
+        means.append(float(np.mean(at)))
+        sems.append(float(np.std(at, ddof=1) / math.sqrt(at.size)) if at.size > 1 else 0.0)
     if weights:
-        ax.errorbar(weights, means, yerr=sds, fmt="s-", color="#222222", capsize=3, label="mean ± SD")
+        ax.errorbar(weights, means, yerr=sems, fmt="s-", color=MEASURED_COLOUR, capsize=3, label="mean ± 1 SEM",
+                    zorder=3)  # fmt: skip
     bad = [r.weight_kg for r in state.rows if r.compliance]
     if bad:
         ax.plot(bad, [0.0] * len(bad), "x", color="#d62728", ms=8, mew=2, label="compliance (excluded)")
     ax.set(xlabel="weight W [kg]", ylabel=f"resistance R [{unit}]", title="R against weight")
     ax.set_ylim(bottom=0)
     if ok or bad:
-        ax.legend(fontsize="small")
+        ax.legend(fontsize=7.5, ncols=2 if len(repeats) > 6 else 1)
 
 
 def _draw_current(ax: Any, state: LiveState) -> None:
@@ -212,10 +226,11 @@ def _draw_current(ax: Any, state: LiveState) -> None:
     if t.size != r.size or valid.size != r.size:  # unknown reading times (or a malformed frame): by index
         t, valid = np.arange(r.size, dtype=float), np.resize(valid, r.size).astype(bool)
     t = np.where(np.isfinite(t), t, np.arange(t.size, dtype=float))
-    ax.plot(t[valid], r[valid] * k, ".-", color="#1f77b4", lw=0.6, ms=4, label="valid")
-    if (~valid).any():
+    some_invalid = bool((~valid).any())
+    ax.plot(t[valid], r[valid] * k, ".-", color="#1f77b4", lw=0.6, ms=4, label="valid" if some_invalid else "_valid")
+    if some_invalid:
         ax.plot(t[~valid], np.zeros(int((~valid).sum())), "x", color="#d62728", label="invalid")
-        ax.legend(fontsize="small")
+        ax.legend(fontsize=7.5)
     last = state.rows[-1] if state.rows else None
     title = f"block {state.blocks_done}: {last.weight_kg:g} kg, repeat {last.repeat}" if last else "no block yet"
     ax.set(xlabel="time t [s]", ylabel=f"resistance R [{unit}]", title=_plain(title))
@@ -228,12 +243,16 @@ def draw_state(fig: Any, state: LiveState, now: float | None = None) -> None:
     left, right = fig.subplots(1, 2)
     _draw_weights(left, state)
     _draw_current(right, state)
-    fig.suptitle(_plain(status_line(state, now)), fontsize="small")
+    fig.suptitle(_plain(status_line(state, now)), fontsize=8.0)
 
 
 def _new_figure() -> Any:
+    import matplotlib
     from matplotlib.figure import Figure
 
+    from analysis.figure_style import RC
+
+    matplotlib.rcParams.update(RC)
     return Figure(figsize=(10.0, 4.2), layout="constrained")
 
 
@@ -263,6 +282,9 @@ class _Window:
                 f"no display for a window (matplotlib backend {matplotlib.get_backend()}): use --png PATH for a "
                 "snapshot file instead"
             )
+        from analysis.figure_style import RC
+
+        matplotlib.rcParams.update(RC)
         self.plt = plt
         self.fig = plt.figure(figsize=(10.0, 4.2), layout="constrained")
         if self.fig.canvas.manager is not None:

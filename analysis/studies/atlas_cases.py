@@ -158,12 +158,22 @@ def asperity_cases() -> list[Case]:
     return cases
 
 
+#: Surface grid of the atlas's database cases for models built from the surface (summits, or the whole surface for
+#: the BEM reference): edge behaviour does not depend on the grid, and at 64² every build is short even on a loaded
+#: machine (the BEM curve on the default scene's 512² took up to the whole time limit on two busy cores).
+ATLAS_SURFACE_N = 64
+
+
 def _database_curve(model: str) -> ContactCurve:
     from contactrig.core.scene import load_scene
     from sims.config import SimConfig
     from sims.database import build_database
+    from sims.models import get_model
 
-    return build_database(SimConfig.from_scene(load_scene()), [model], n_separations=64)[model]
+    scene = load_scene()
+    if get_model(model).needs_surface:
+        scene = _scene_with({"surfaces.liner.n": ATLAS_SURFACE_N, "surfaces.piston.n": ATLAS_SURFACE_N})
+    return build_database(SimConfig.from_scene(scene), [model], n_separations=64)[model]
 
 
 def _curve_far_outside(model: str) -> dict[str, np.ndarray]:

@@ -56,9 +56,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_models_option(common, default="all in the sweep")
     add_max_memory_option(common)
     common.add_argument(
-        "--conversion", choices=("bulk", "holm"), default="bulk",
+        "--conversion", choices=("bulk", "holm", "physical"), default="bulk",
         help="area → resistance: bulk = seed eq. 23 ζh/A (default), holm = Holm single spot ζ√π/(2√A), an upper "
-        "bound on the clean-metal constriction",
+        "bound on the clean-metal constriction, physical = R_s + σ_f/A + Barber + band constriction (the last two "
+        "computed from the scene's resistivities)",
     )  # fmt: skip
     common.add_argument(
         "--weighting", choices=("relative", "repeats", "pooled", "blocks"), default="relative",
@@ -273,12 +274,14 @@ def _print_fit_table(a: Any) -> None:
     best = cmp.best
     boot = best.intervals.bootstrap
     k, unit = resistance_unit(best.points.measured_ohm)
-    print(escape_terminal(f"{a.title}: {cmp.n_weights} weights × {cmp.n_repeats} repeats; simulation: "
+    print(escape_terminal(f"{a.title}: {cmp.n_weights} weights × {cmp.n_repeats} independent repeats; simulation: "
                           f"{a.sim_info.get('source')}"))  # fmt: skip
     print(f"R = R_s + s·x(A), conversion {a.conversion}, weighting {best.weighting}, "
           f"{boot.n_boot} bootstrap resamples ({boot.resampling})")  # fmt: skip
     r_head, rmse_head = f"R_s [{unit}]", f"RMSE [{unit}]"
-    print(f"{'model':<20} {r_head:>18} {'s [Ω·m]':>22} {'χ²/dof':>8} {'AIC':>8} {'ΔAIC':>7} {rmse_head:>10}")
+    d_head = "Δ" + cmp.criterion
+    s_head = "s [Ω·m²]" if best.estimate.scale_units == "ohm*m2" else "s [Ω·m]"
+    print(f"{'model':<20} {r_head:>18} {s_head:>22} {'χ²/dof':>8} {'AIC':>8} {d_head:>7} {rmse_head:>10}")
     for name in cmp.ranking:
         f = cmp.fits[name]
         e, g = f.estimate, f.goodness
@@ -293,6 +296,22 @@ def _print_fit_table(a: Any) -> None:
     print(f"{label}: R_s {round(best.intervals.level * 100)}% t-interval [{t_ci[0] * k:.3g}, "
           f"{t_ci[1] * k:.3g}] {unit}, {boot.method} bootstrap {boot_text}; "
           f"goodness of fit against {best.goodness.reference}")  # fmt: skip
+    print(escape_terminal(f"errors: {best.estimate.error_rule}"))
+    if a.conversion == "physical":
+        _print_shares(best)
+    for note in cmp.series_notes:
+        print(escape_terminal(f"series: {note}"))
+
+
+def _print_shares(fit: Any) -> None:
+    """Each term's share of the measured mean per weight (the physical model's terms), for the best model."""
+    from sims.models import model_label
+
+    names = list(fit.shares)
+    print(escape_terminal(f"{model_label(fit.model)}: share of the measured mean R per weight [%]"))
+    print(f"{'weight [kg]':>11} " + " ".join(f"{n:>9}" for n in names))
+    for i, w in enumerate(fit.points.weight_kg):
+        print(f"{w:11g} " + " ".join(f"{100 * float(fit.shares[n][i]):9.2f}" for n in names))
 
 
 def _print_caveats(a: Any) -> None:

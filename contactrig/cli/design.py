@@ -19,7 +19,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``design`` to ``subparsers``."""
     p = subparsers.add_parser(
         "design",
-        help="find the cheapest bench plan whose fit ranks the true contact model first (ΔAIC >= 10)",
+        help="find the cheapest bench plan whose fit ranks the true contact model first (Δ(Q)AIC >= 10)",
         description=(
             "Simulates many bench sessions per candidate plan (loads, repeats) for every contact model of the "
             "scene, fits each with every model, and reports the probability of ranking the true model first by "
@@ -31,11 +31,35 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--force", action="store_true", help="replace design.md, discrimination.png and plan.toml")
     p.add_argument("--sessions", type=int, default=400, help="simulated sessions per plan and model (400)")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulated sessions")
-    p.add_argument("--repeat-sd", type=float, default=0.15, help="repeat-to-repeat SD of ln f (Tab. 1: 0.15)")
+    p.add_argument(
+        "--repeat-sd", type=float, default=0.15, help="with --noise-from iid: repeat-to-repeat SD of ln f (0.15)"
+    )
+    p.add_argument(
+        "--noise-from", default="tab1", metavar="tab1|iid|SESSION.h5",
+        help="noise model of the simulated sessions: estimated from Tab. 1's independent series (default), from a "
+        "session of your own, or iid re-seating of --repeat-sd (the simulated bench; χ²/ν ≈ 1)",
+    )  # fmt: skip
     add_json_option(p, "the statement, the chosen plan and its probabilities")
     add_quiet_option(p)
     add_max_memory_option(p)
     p.set_defaults(handler=_design)
+
+
+def _noise(source: str, repeat_sd: float, curves: Any) -> Any:
+    """The noise model of ``--noise-from``: Tab. 1, iid re-seating, or a session file's own repeats."""
+    from analysis.design import NoiseModel, estimate_noise
+
+    if source == "iid":
+        return NoiseModel.iid(repeat_sd)
+    if source == "tab1":
+        from analysis.measured import load_tab1
+
+        return estimate_noise(load_tab1(), curves, "seed paper Tab. 1")
+    from analysis.measured import MeasuredCurve
+    from daq import load_session
+
+    curve = MeasuredCurve.from_summary(load_session(source).summary, source=source)
+    return estimate_noise(curve, curves, source)
 
 
 def _design(args: argparse.Namespace) -> int:
@@ -54,6 +78,8 @@ def _design(args: argparse.Namespace) -> int:
     repeat_sd = check_range("--repeat-sd", args.repeat_sd, 0.0, 1.0)
     out = output_folder(args.output)
     paths = refuse_existing([out / "design.md", out / "discrimination.png", out / "plan.toml"], force=args.force)
+    if args.noise_from not in ("tab1", "iid") and not Path(args.noise_from).is_file():  # before the slow build
+        raise FileNotFoundError(f"--noise-from {args.noise_from}: no such session file (or 'tab1', 'iid')")
     scene = load_scene(args.scene)
     config = SimConfig.from_scene(scene)  # the scene parsed once: rig or press, validated
     check_specimen(config, None, [1.0] * 10)  # each model's sweep (10 loads), before the first starts
@@ -61,11 +87,13 @@ def _design(args: argparse.Namespace) -> int:
     block_s = block.count * (block.delay_s + block.nplc / block.line_frequency_hz)
     w_min, w_max = (min(config.weights_kg), max(config.weights_kg)) if config.press is not None else (2.0, 26.0)
     curves = model_curves(scene, np.geomspace(w_min, w_max, 10))
+    noise = _noise(args.noise_from, repeat_sd, curves)
     with progress_bar("design: plans", quiet=args.quiet) as progress:
         result = design(curves, candidate_plans(w_min, w_max, block_s), n_sessions=sessions, seed=args.seed,
-                        repeat_sd=repeat_sd, progress=progress)  # fmt: skip
+                        repeat_sd=repeat_sd, noise=noise, progress=progress)  # fmt: skip
     plan = chosen_plan(result)
-    write_text_atomic(paths[2], plan_scene_text(scene.text, plan), force=args.force)
+    scene_text = plan_scene_text(scene.text, plan, discriminating=result.discriminating)
+    write_text_atomic(paths[2], scene_text, force=args.force)
     draw_map(result, str(paths[1]), force=args.force)
     text = result.statement()
     index = result.plans.index(plan)
@@ -78,7 +106,8 @@ def _design(args: argparse.Namespace) -> int:
     write_text_atomic(
         paths[0],
         f"# Experiment design: {scene.name}\n\n{text}\n\nChosen plan: {len(plan.weights_kg)} loads "
-        f"{list(plan.weights_kg)} kg × {plan.repeats} repeats ({plan.cost_s / 60:.0f} min), written to plan.toml.\n\n"
+        f"{list(plan.weights_kg)} kg × {plan.repeats} repeats ({plan.cost_s / 60:.0f} min), written to plan.toml"
+        f"{'' if result.discriminating else ' (marked NOT A DISCRIMINATING PLAN)'}.\n\n"
         "With this plan, the probability that a session's fit puts the true model ahead of the other by ΔAIC ≥ 10 "
         f"({sessions} simulated sessions each; Monte-Carlo SE ≤ {50 / np.sqrt(sessions):.1f} %):\n\n"
         "| true model | other | P(ΔAIC ≥ 10) |\n|---|---|---|\n" + "\n".join(rows) + "\n\n"
@@ -107,6 +136,7 @@ def _json(result: Any, plan: Any, index: int, sessions: int, scene_name: str, pa
         "target": float(result.target),
         "sessions": sessions,
         "models": list(result.models),
+        "discriminating": bool(result.discriminating),
         "plan": {"weights_kg": [float(w) for w in plan.weights_kg], "repeats": int(plan.repeats),
                  "cost_s": float(plan.cost_s)},
         "probability": [

@@ -64,6 +64,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     e.add_argument("--fit", action="store_true", help="export the fit of SESSION against the models")
     e.add_argument("--sim", default=None, metavar="SIM.h5", help="--fit: simulation sweep file (default: simulate now)")
     e.add_argument("--bootstrap", type=int, default=2000, metavar="N", help="--fit: bootstrap resamples (0: none)")
+    e.add_argument(
+        "--conversion", choices=("bulk", "holm", "physical"), default="bulk", help="--fit: as for `contactrig fit`"
+    )
     add_models_option(e, default="--fit: all in the sweep")
     e.add_argument("--force", action="store_true", help="overwrite existing output files")
     e.set_defaults(handler=export_command)
@@ -107,7 +110,7 @@ def _fit_json(args: argparse.Namespace) -> dict:
             raise ValueError(f"{args.source}: not the JSON of `contactrig fit … --json` ({exc})") from None
     from analysis.pipeline import analyse_session
 
-    a = analyse_session(args.source, args.sim, models=args.models, n_boot=args.bootstrap)
+    a = analyse_session(args.source, args.sim, models=args.models, n_boot=args.bootstrap, conversion=args.conversion)
     if a.comparison is None:
         raise ValueError("; ".join(n for n in a.left_out if n.startswith("no fit")) or "no fit possible")
     d = a.comparison.as_dict()

@@ -57,6 +57,7 @@ __all__ = [
     "rig_elastic_comparison",
     "rig_elastic_equilibrium",
     "solve_layer",
+    "weighted_width_m",
 ]
 
 #: Status codes (SciPy style).
@@ -365,7 +366,9 @@ class RigElastic:
 
     ``weight_kg`` [kg], ``load_n`` [N]; ``x_m`` arc length of the strip centres from the bottom [m];
     ``contact_area_m2`` real area [m²]; ``peak_pressure_pa`` largest nominal pressure [Pa]; ``contact_width_m``
-    width of the band with p > 0 (or, for a law without onset, p > 1e-6 of the peak) [m];
+    width of the band with p > 0 (or, for a law without onset, p > 1e-6 of the peak), its edges interpolated
+    between strips [m]; ``load_weighted_width_m`` the load-weighted RMS width 2√3·σ_x (σ_x² = Σ p (x − x̄)² / Σ p:
+    the width of a uniform band with the same second moment; insensitive to the model-dependent p > 0 tail) [m];
     ``stiffness_n_per_m`` interfacial stiffness summed over the band, ``Σ −P′(h) ΔA`` [N/m] (local normals);
     ``solution`` the layer solve with its diagnostics.
     """
@@ -378,6 +381,41 @@ class RigElastic:
     contact_width_m: float
     stiffness_n_per_m: float
     solution: LayerSolution = field(repr=False)
+    load_weighted_width_m: float = math.nan
+
+
+def weighted_width_m(x_m: ArrayLike, weight: ArrayLike) -> float:
+    """2√3·σ_x [m], σ_x the ``weight``-weighted RMS spread of the positions ``x_m`` [m] (the width of a uniform band
+    with the same second moment: a uniform band of width b gives b). Weights ≥ 0 (load, stiffness, …)."""
+    x = np.asarray(x_m, dtype=float)
+    wt = np.clip(np.asarray(weight, dtype=float), 0.0, None)
+    total = float(np.sum(wt))
+    if total <= 0:
+        return 0.0
+    mean = float(np.sum(wt * x)) / total
+    return 2.0 * math.sqrt(3.0) * math.sqrt(float(np.sum(wt * (x - mean) ** 2)) / total)
+
+
+def _band_width_m(x: np.ndarray, p: np.ndarray, threshold: float) -> float:
+    """Width [m] of the band where p > threshold, each edge interpolated linearly between the last strip inside and
+    the first outside (a strip count would move in steps of one strip: the "+6.5 %" of issue 21 §4)."""
+    inside = np.flatnonzero(p > threshold)
+    if inside.size == 0:
+        return 0.0
+
+    def edge(i: int, j: int) -> float:  # i the last strip inside, j the first outside (off the grid: no edge beyond)
+        if j < 0 or j >= p.size:
+            return float(x[i])
+        k = 2 * i - j  # the strip before i, inside too when the band is wider than one strip
+        if threshold == 0.0 and 0 <= k < p.size and p[k] > p[i]:
+            # compact support: an elastic contact edge goes as √distance, so p² is extrapolated linearly to zero
+            f = float(p[i]) ** 2 / (float(p[k]) ** 2 - float(p[i]) ** 2)
+            return float(x[i] + min(f, 1.0) * (x[j] - x[i]))
+        f = (float(p[i]) - threshold) / (float(p[i]) - float(p[j]))
+        return float(x[i] + f * (x[j] - x[i]))
+
+    lo, hi = int(inside[0]), int(inside[-1])
+    return edge(hi, hi + 1) - edge(lo, lo - 1)
 
 
 def _band_half_angle(law: Any, settings: Any, load_n: float) -> float:
@@ -426,8 +464,8 @@ def rig_elastic_equilibrium(
     length = settings.skirt_length_m
     sol = solve_layer(law, g0, c, dx * length * np.cos(theta), load, tol=tol)
     p = sol.pressure_pa
-    loaded = p > (0.0 if float(np.min(p)) == 0.0 else 1e-6 * float(p.max()))
-    width = dx * float(np.count_nonzero(loaded))
+    x = theta * r_l
+    width = _band_width_m(x, p, 0.0 if float(np.min(p)) == 0.0 else 1e-6 * float(p.max()))
     return RigElastic(
         weight_kg=float(weight_kg),
         load_n=load,
@@ -437,6 +475,7 @@ def rig_elastic_equilibrium(
         contact_width_m=width,
         stiffness_n_per_m=float(np.sum(sol.stiffness_pa_per_m) * dx * length),
         solution=sol,
+        load_weighted_width_m=weighted_width_m(x, p * np.cos(theta)),
     )
 
 
@@ -445,8 +484,10 @@ class ElasticRigComparison:
     """Rigid against elastic rig at every weight (same strips, same law): the effect of bulk elasticity.
 
     Arrays per weight: ``weight_kg``; ``area_rigid_m2``, ``area_elastic_m2`` [m²]; ``peak_rigid_pa``,
-    ``peak_elastic_pa`` [Pa]; ``width_rigid_m``, ``width_elastic_m`` [m]; ``stiffness_rigid_n_per_m``,
-    ``stiffness_elastic_n_per_m`` [N/m]; ``nit`` Newton iterations of the elastic solves; ``success``.
+    ``peak_elastic_pa`` [Pa]; ``width_rigid_m``, ``width_elastic_m`` [m] (p > 0 band, edges interpolated);
+    ``lw_width_rigid_m``, ``lw_width_elastic_m`` [m] the load-weighted RMS widths (:func:`weighted_width_m`);
+    ``stiffness_rigid_n_per_m``, ``stiffness_elastic_n_per_m`` [N/m]; ``nit`` Newton iterations of the elastic
+    solves; ``success``.
     """
 
     weight_kg: np.ndarray
@@ -460,6 +501,8 @@ class ElasticRigComparison:
     stiffness_elastic_n_per_m: np.ndarray
     nit: np.ndarray
     success: np.ndarray
+    lw_width_rigid_m: np.ndarray = field(default_factory=lambda: np.array([]))
+    lw_width_elastic_m: np.ndarray = field(default_factory=lambda: np.array([]))
 
     @property
     def area_change(self) -> np.ndarray:
@@ -476,13 +519,21 @@ class ElasticRigComparison:
         """Relative change of the band width by bulk elasticity [-]."""
         return self.width_elastic_m / self.width_rigid_m - 1.0
 
+    @property
+    def lw_width_change(self) -> np.ndarray:
+        """Relative change of the load-weighted RMS width by bulk elasticity [-]."""
+        return self.lw_width_elastic_m / self.lw_width_rigid_m - 1.0
+
     def sentences(self, name: str = "") -> list[str]:
         """One line per weight: the computed effect (replaces the rigid model's roughness-parameter warning)."""
         who = f"{name}: " if name else ""
         return [
             f"{who}weight {w:g} kg: bulk elasticity changes the real area by {100 * da:+.2f} % and the peak nominal "
-            f"pressure by {100 * dp:+.1f} % (band width {100 * db:+.1f} %)"
-            for w, da, dp, db in zip(self.weight_kg, self.area_change, self.peak_change, self.width_change, strict=True)
+            f"pressure by {100 * dp:+.1f} % (band width {100 * db:+.1f} %, load-weighted width {100 * dl:+.1f} %)"
+            for w, da, dp, db, dl in zip(
+                self.weight_kg, self.area_change, self.peak_change, self.width_change, self.lw_width_change,
+                strict=True,
+            )
         ]
 
 
@@ -507,6 +558,8 @@ def rig_elastic_comparison(
         peak_elastic_pa=col(lambda r, e: e.peak_pressure_pa),
         width_rigid_m=col(lambda r, e: r.contact_width_m),
         width_elastic_m=col(lambda r, e: e.contact_width_m),
+        lw_width_rigid_m=col(lambda r, e: r.load_weighted_width_m),
+        lw_width_elastic_m=col(lambda r, e: e.load_weighted_width_m),
         stiffness_rigid_n_per_m=col(lambda r, e: r.stiffness_n_per_m),
         stiffness_elastic_n_per_m=col(lambda r, e: e.stiffness_n_per_m),
         nit=col(lambda r, e: e.solution.nit),
@@ -526,8 +579,9 @@ def apply_bulk_elasticity(
 
     For every model's :class:`~sims.rig.sweep.ModelSweep` the relative changes of the real area and of the peak
     nominal pressure computed by :func:`rig_elastic_comparison` (same strips, rigid against elastic, so the
-    discretisation cancels) are applied to the rigid sweep's mesh-converged values, the band width is the elastic
-    one; the roughness-parameter warnings are replaced by the computed effect (one line per weight, in
+    discretisation cancels) are applied to the rigid sweep's mesh-converged values, and so is the relative change of
+    the band width (the strips' own width is coarser than the converged one); the load-weighted widths go to the
+    provenance; the roughness-parameter warnings are replaced by the computed effect (one line per weight, in
     ``provenance["bulk_elasticity"]``). Returns the corrected models (new objects; ``models`` is not changed).
     """
     from dataclasses import replace
@@ -540,13 +594,15 @@ def apply_bulk_elasticity(
             m,
             contact_area_m2=m.contact_area_m2 * (1.0 + comp.area_change),
             peak_pressure_pa=m.peak_pressure_pa * (1.0 + comp.peak_change),
-            contact_width_m=comp.width_elastic_m,
+            contact_width_m=np.asarray(m.contact_width_m) * (1.0 + comp.width_change),
             converged=np.asarray(m.converged, dtype=bool) & comp.success,
         )
         record[name] = {
             "area_change": comp.area_change.tolist(),
             "peak_pressure_change": comp.peak_change.tolist(),
             "width_change": comp.width_change.tolist(),
+            "load_weighted_width_m": comp.lw_width_elastic_m.tolist(),
+            "load_weighted_width_change": comp.lw_width_change.tolist(),
             "newton_iterations": comp.nit.tolist(),
             "effect": comp.sentences(name),
         }

@@ -120,8 +120,9 @@ def test_the_tab1_report_states_sigma_f_rs_and_the_clean_metal_fraction(tmp_path
     a = with_report_extras(analyse_tab1(n_boot=0))
     md = write_report([a], tmp_path / "rep").read_text(encoding="utf-8")
     sentence = next(line for line in md.splitlines() if "Tab. 1 is R = R_s + σ_f/A + clean metal" in line)
-    assert "σ_f = " in sentence and "R_s = " in sentence and "% of the measured resistance" in sentence
-    share = re.search(r"only ([0-9.]+)–([0-9.]+) %", sentence)
+    assert "σ_f = " in sentence and "R_s = " in sentence and "% of the measured mean resistance" in sentence
+    assert "errors: " in sentence and "M4, M5, M6 counted once" in sentence
+    share = re.search(r"is ([0-9.]+)–([0-9.]+) % of the measured mean", sentence)
     assert share is not None and 0 < float(share.group(1)) <= float(share.group(2)) < 100
 
 

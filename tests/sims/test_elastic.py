@@ -136,3 +136,35 @@ def test_rig_bulk_elasticity_effect_at_the_heaviest_weight() -> None:
     integral = quad(integrand, -0.5, 0.5, epsabs=0, epsrel=1e-12)[0]
     peak = s.load_n(25.966) / (s.skirt_length_m * s.liner_radius_m * integral)
     assert comp.peak_rigid_pa[0] == pytest.approx(peak, rel=2e-3)
+
+
+def test_weighted_width_of_known_distributions() -> None:
+    from sims.rig.elastic import weighted_width_m
+
+    x = np.linspace(-1.0, 1.0, 200_001)
+    assert weighted_width_m(x, np.ones_like(x)) == pytest.approx(2.0, rel=1e-4)  # uniform band: its width
+    a = 0.7  # Hertz line contact: p ∝ √(1 − x²/a²), σ² = a²/4, so 2√3·σ = √3·a
+    assert weighted_width_m(x, np.sqrt(np.clip(1 - (x / a) ** 2, 0, None))) == pytest.approx(math.sqrt(3) * a, rel=1e-4)
+
+
+def test_band_width_is_not_a_strip_count() -> None:
+    """Edges interpolated between strips: a Hertz band's width within 1 % of a strip on any grid, and the elastic
+    rig's width change does not jump with the strip count (it did by several % with a strip count)."""
+    from sims.rig.elastic import _band_width_m
+
+    a = 0.37
+    for n in (41, 101, 257):
+        x = np.linspace(-1.0, 1.0, n)
+        p = np.sqrt(np.clip(1 - (x / a) ** 2, 0, None))
+        dx = x[1] - x[0]
+        assert abs(_band_width_m(x, p, 0.0) - 2 * a) < 0.3 * dx  # linear interpolation of a √ edge
+    s = RigSettings()
+    law = ExponentialLayer(1e9, 0.1e-6)
+    law.h_max = 6e-6  # type: ignore[attr-defined]
+    law.h_min = -1e-6  # type: ignore[attr-defined]
+    changes = [rig_elastic_comparison(law, s, [25.966], 49.1e9, n_strips=n) for n in (151, 201, 301)]
+    widths = [c.width_change[0] for c in changes]
+    lw = [c.lw_width_change[0] for c in changes]
+    assert max(widths) - min(widths) < 0.005, widths
+    assert max(lw) - min(lw) < 0.002 and all(v > 0 for v in lw), lw
+    assert "load-weighted width" in changes[0].sentences()[0]
