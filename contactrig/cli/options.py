@@ -148,6 +148,7 @@ OPTION_VOCABULARY: dict[str, tuple[str, str]] = {
     "--p-min": ("pressure", "lowest mean pressure: Pa, or with a unit suffix"),
     "--p-max": ("pressure", "highest mean pressure: Pa, or with a unit suffix"),
     "--plot": ("path", "also draw the figure to this file"),
+    "--database": ("path", "DB.h5 from `contactrig database -o`, an input: the specimen is simulated now on it"),
     "--sessions": ("integer", "simulated sessions"),
     "--area": ("choice|number", "circuit: A_R in m²; compare-models: BEM area corrected|counted"),
     "--elastic": ("flag", "include elasticity"),
