@@ -42,7 +42,7 @@ from __future__ import annotations
 import math
 import time
 import warnings
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
@@ -571,8 +571,10 @@ def build_database(
     *,
     n_separations: int | None = None,
     gt_heights: str | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> ContactDatabase:
-    """Build the curves of ``models`` (registered keys; default: the scene's ``[database] models``).
+    """Build the curves of ``models`` (registered keys; default: the scene's ``[database] models``);
+    ``progress(done, total)`` after each model (the command draws it; nothing is printed here).
 
     Only the models asked for are built (each by its registered ``build``); surfaces are generated only when a
     model that needs one is asked for, or a surface is a measured map. ``n_separations`` and ``gt_heights``
@@ -612,7 +614,11 @@ def build_database(
     ctx = BuildContext(settings, mats, g)
     if need_surface:
         ctx.summits = _composite_summits(config, heights, g["sigma_m"], prov)
-    curves = {spec.key: spec.build(ctx) for spec in specs}
+    curves = {}
+    for i, spec in enumerate(specs):
+        curves[spec.key] = spec.build(ctx)
+        if progress is not None:
+            progress(i + 1, len(specs))
     if ctx.warnings:
         prov["warnings"] = list(ctx.warnings)
     prov["build_time_s"] = time.perf_counter() - t_start
