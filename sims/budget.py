@@ -55,7 +55,8 @@ _BEM_POINT_S = 2.0e-6  # BEM: seconds per refined point and pressure (order of m
 def _grid(spec: SurfaceSpec) -> tuple[int, str]:
     """Points of a surface's grid and the scene key that sets it."""
     if spec.kind == "file" and spec.measured is not None:
-        shape = spec.measured.shape
+        mirrored = (spec.conditioning or {}).get("edges") == "mirror"  # 2× each side
+        shape = tuple(2 * k for k in spec.measured.shape) if mirrored else spec.measured.shape
         return math.prod(shape), f"[{spec.section}] path = {spec.path!r} ({' × '.join(map(str, shape))})"
     n = int(spec.n or 0)
     return n * n, f"[{spec.section}] n = {n}"

@@ -45,12 +45,14 @@ __all__ = [
     "expected_spectral_moments",
     "finite_difference_moments",
     "gaussian",
+    "kurtosis",
     "level_height_map",
     "mccool",
     "radius_of_curvature",
     "rms_roughness",
     "rms_slope",
     "self_affine",
+    "skewness",
     "spectral_moments",
     "statistics_of",
     "summit_data",
@@ -220,10 +222,11 @@ class Conditioning:
     lambda_s_m: float | None = None
     lambda_c_m: float | None = None
     max_missing_fraction: float = 0.05
+    edges: str = "mirror"
 
     @classmethod
     def from_table(cls, table: Mapping[str, Any]) -> Conditioning:
-        from sims.surface_filter import FORMS
+        from sims.surface_filter import EDGES, FORMS
 
         def length(key: str) -> float | None:
             value = table.get(key)
@@ -236,6 +239,7 @@ class Conditioning:
             lambda_s_m=length("lambda_s_m"),
             lambda_c_m=length("lambda_c_m"),
             max_missing_fraction=check_range("max_missing_fraction", table.get("max_missing_fraction", 0.05), 0.0, 0.5),
+            edges=check_choice("edges", table.get("edges", "mirror"), EDGES),
         )
         if out.lambda_s_m is not None and out.lambda_c_m is not None and not out.lambda_s_m < out.lambda_c_m:
             raise SettingError("lambda_s_m", out.lambda_s_m, f"expected < lambda_c_m = {out.lambda_c_m:g} m")
@@ -331,6 +335,20 @@ def rms_roughness(z: ArrayLike) -> float:
     """Sq: RMS of heights about their mean, m."""
     z = np.asarray(z, dtype=float)
     return float(np.sqrt(np.mean((z - z.mean()) ** 2)))
+
+
+def skewness(z: ArrayLike) -> float:
+    """Ssk = ⟨(z − z̄)³⟩ / Sq³ (ISO 25178-2), −."""
+    a = np.asarray(z, dtype=float)
+    a = a - a.mean()
+    return float(np.mean(a**3) / np.mean(a * a) ** 1.5)
+
+
+def kurtosis(z: ArrayLike) -> float:
+    """Sku = ⟨(z − z̄)⁴⟩ / Sq⁴ (ISO 25178-2; 3 for a Gaussian height distribution), −."""
+    a = np.asarray(z, dtype=float)
+    a = a - a.mean()
+    return float(np.mean(a**4) / np.mean(a * a) ** 2)
 
 
 def rms_slope(z: ArrayLike, pixel_m: float, *, periodic: bool = True) -> float:
@@ -572,6 +590,7 @@ _KIND_KEYS = {
         "lambda_s_m",
         "lambda_c_m",
         "max_missing_fraction",
+        "edges",
     ),
 }
 _REQUIRED = {
@@ -653,7 +672,9 @@ class SurfaceSpec:
     :mod:`sims.surface_filter`): ``form`` (``"plane"`` default | ``"cylinder"`` | ``"polynomial"``),
     ``form_degree`` (polynomial, default 2), ``bore_axis`` (``"x"`` default: the bore's axis runs along the map's
     columns | ``"y"``), ``lambda_s_m`` and ``lambda_c_m`` (ISO 16610-61 S- and L-filter nesting indices, m;
-    default: no filter), ``max_missing_fraction`` (default 0.05).
+    default: no filter), ``max_missing_fraction`` (default 0.05), ``edges`` (``"mirror"`` default | ``"window"``: how
+    the summation models and BEM use the non-periodic map, :data:`sims.surface_filter.EDGES`; statistics use the map
+    itself).
 
     Every surface must have an RMS slope ≤ :data:`MAX_RMS_SLOPE` (a larger one is a unit slip, reported on ``sq_m``
     or ``height_unit_m``). For ``file``, ``measured`` holds the levelled heights in metres (read-only; not part of
@@ -748,6 +769,7 @@ class SurfaceSpec:
         )
         z.setflags(write=False)
         record.update({k: v for k, v in meta.items() if k in ("instrument", "file_format") and v is not None})
+        record["edges"] = conditioning.edges
         record["pixel_m_from"] = "scene" if "pixel_m" in table else "file"
         record["height_unit_m_from"] = "scene" if "height_unit_m" in table else "file"
         return cls(
@@ -801,7 +823,8 @@ class SurfaceSpec:
         return self.kind != "file"
 
     def heights(self) -> NDArray[np.float64]:
-        """The height map, m (generated, or the measured one levelled; a fresh array either way)."""
+        """The height map, m (generated, or the measured one conditioned and its edges treated as ``edges`` says; a
+        fresh array either way). A measured line profile has none (an error saying so)."""
         if self.kind == "gaussian":
             lam = self._value("correlation_m")
             return gaussian(self.n, pixel_m=self.pixel_m, sq_m=self.sq_m, correlation_m=lam, seed=self.seed)
@@ -824,7 +847,9 @@ class SurfaceSpec:
                 "is a line profile (stylus trace): the summation models and BEM need an areal height map; "
                 "statistics-only models (greenwood_tripp) accept a profile",
             )
-        return self.measured.copy()
+        from sims.surface_filter import treat_edges
+
+        return treat_edges(self.measured, (self.conditioning or {}).get("edges", "mirror"))
 
     @property
     def is_profile(self) -> bool:

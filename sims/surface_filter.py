@@ -28,6 +28,7 @@ from contactrig.core.validation import SettingError
 
 __all__ = [
     "ALPHA",
+    "EDGES",
     "FORMS",
     "FilterResult",
     "fit_cylinder",
@@ -35,6 +36,7 @@ __all__ = [
     "gaussian_transmission",
     "remove_form",
     "s_l_surface",
+    "treat_edges",
 ]
 
 #: ISO 16610-61 constant α = √(ln 2/π) ≈ 0.4697 (50 % transmission at the cut-off).
@@ -43,6 +45,35 @@ ALPHA = math.sqrt(math.log(2.0) / math.pi)
 #: F-operators: ``plane`` (least-squares mean plane), ``cylinder`` (a bore: circle across the axis, straight along
 #: it), ``polynomial`` (total degree ``form_degree``).
 FORMS = ("plane", "cylinder", "polynomial")
+
+
+#: How a non-periodic measured map is made fit for the periodic FFT-BEM and the summation models, never by
+#: wrapping its edge step: ``window`` (a cosine taper of the outer :data:`TAPER_FRACTION` of each side to the mean
+#: plane: same grid, the border band loses its roughness) or ``mirror`` (even reflection to twice the size in each
+#: direction: every measured height kept, continuous across the seams, 4× the points).
+EDGES = ("window", "mirror")
+
+#: Fraction of each side tapered by ``edges = "window"``.
+TAPER_FRACTION = 0.1
+
+
+def _taper(n: int) -> NDArray[np.float64]:
+    w = np.ones(n)
+    k = max(1, int(TAPER_FRACTION * n))
+    ramp = 0.5 * (1 - np.cos(np.pi * (np.arange(k) + 0.5) / k))
+    w[:k] = ramp
+    w[n - k :] = ramp[::-1]
+    return w
+
+
+def treat_edges(z: NDArray[np.float64], how: str) -> NDArray[np.float64]:
+    """``z`` (m, zero mean) made periodic without an edge step (see :data:`EDGES`), m."""
+    if how == "window":
+        return np.asarray(z * _taper(z.shape[0])[:, None] * _taper(z.shape[1])[None, :], dtype=np.float64)
+    if how == "mirror":
+        top = np.concatenate([z, z[:, ::-1]], axis=1)
+        return np.concatenate([top, top[::-1, :]], axis=0)
+    raise SettingError("edges", how, "expected one of " + ", ".join(EDGES))
 
 
 def gaussian_transmission(wavelength_m: float | NDArray[np.float64], cutoff_m: float) -> Any:

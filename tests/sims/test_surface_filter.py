@@ -9,7 +9,7 @@ import pytest
 
 from contactrig.core.validation import SettingError
 from sims import surface_filter as sf
-from sims.surface import Conditioning, condition_height_map, gaussian
+from sims.surface import Conditioning, condition_height_map, gaussian, self_affine
 from tests import surface_maker as mk
 
 
@@ -98,3 +98,26 @@ def test_nesting_indices_are_checked():
         Conditioning.from_table({"lambda_s_m": 1e-4, "lambda_c_m": 1e-5})
     with pytest.raises(SettingError, match="form"):
         Conditioning.from_table({"form": "sphere"})
+
+
+@pytest.mark.parametrize("how", sf.EDGES)
+def test_edges_are_never_wrapped_into_a_cliff(how):
+    """A measured map's edge step (a window of a larger self-affine surface, mean plane removed) wraps into a cliff
+    in a periodic solver: the RMS jump across the periodic boundary is several times the RMS step between
+    neighbours inside the map;
+    after ``treat_edges`` it is no larger than that."""
+
+    def rms(a):
+        return float(np.sqrt(np.mean(np.square(a))))
+
+    def wrap_jump(a):
+        return max(rms(a[0] - a[-1]), rms(a[:, 0] - a[:, -1]))
+
+    measured = self_affine(512, pixel_m=8e-6, sq_m=1e-6, hurst=0.8, seed=2)[:100, :100]  # a window of a larger one
+    z = condition_height_map(measured, pixel_m=8e-6, height_unit_m=1.0)[0]
+    inner = max(rms(np.diff(z, axis=0)), rms(np.diff(z, axis=1)))
+    assert wrap_jump(z) > 3 * inner  # the untreated map would have a cliff
+    t = sf.treat_edges(z, how)
+    assert wrap_jump(t) <= inner
+    if how == "mirror":
+        assert t.shape == (200, 200) and np.std(t) == pytest.approx(np.std(z), rel=1e-12)
