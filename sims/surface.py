@@ -778,6 +778,7 @@ class SurfaceSpec:
             pixel_m=pixel_m,
             path=source,
             height_unit_m=unit,
+            sq_m=math.sqrt(finite_difference_moments(z, pixel_m).m0),  # as the database computes it
             measured=z,
             conditioning=record,
         )

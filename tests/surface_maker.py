@@ -65,3 +65,21 @@ def write(path: Path, z_m: NDArray[np.float64], pixel_m: float, unit: str = "um"
     writer = {".x3p": t.to_x3p, ".gwy": t.to_gwy, ".nc": t.to_netcdf}[path.suffix]
     writer(str(path))
     return path
+
+
+def piston(n: int = 128, pixel_m: float = 8e-6, radius_m: float = 0.04245, sq_m: float = 0.3e-6) -> NDArray[np.float64]:
+    """A measured piston skirt: Gaussian roughness (λ = 64 µm) on a convex cylinder section, no dropouts."""
+    from sims.surface import gaussian
+
+    rough = gaussian(n, pixel_m=pixel_m, sq_m=sq_m, correlation_m=64e-6, seed=11)
+    return -bore(n, n, pixel_m, radius_m) + rough
+
+
+#: The packaged example (contactrig/scenes/measured.toml): 128 × 128 points at 8 µm (1.02 mm square), X3P in m.
+EXAMPLE = {"liner.x3p": lambda: liner(n=128), "piston.x3p": piston}
+EXAMPLE_PIXEL_M = 8e-6
+
+
+def write_example(folder: Path) -> list[Path]:
+    """Write the example scene's two X3P files into ``folder`` (how contactrig/scenes/measured/ was made)."""
+    return [write(folder / name, make(), EXAMPLE_PIXEL_M, "m") for name, make in EXAMPLE.items()]

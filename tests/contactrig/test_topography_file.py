@@ -6,6 +6,8 @@ Files are written by the library's own writers (X3P, GWY, NetCDF) and NumPy (NPY
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -112,3 +114,22 @@ def test_a_line_profile_serves_statistics_models_and_is_refused_by_summation_mod
     config, models = _profile_scene(tmp_path, ["greenwood_tripp", "hertz"])
     with pytest.raises(SettingError, match=r"\[surfaces\.liner\] path .*line profile.*need an areal height map"):
         build_database(config, models)
+
+
+def test_the_packaged_example_is_the_generators_and_a_database_builds_on_it():
+    """contactrig/scenes/measured/*.x3p hold exactly what tests/surface_maker.py makes (NaN dropouts at the same
+    points), and the scene's database builds with the form removal and filters recorded in its provenance."""
+    import contactrig
+
+    folder = Path(contactrig.__file__).parent / "scenes"
+    for name, make in mk.EXAMPLE.items():
+        m = read_measured_map(folder / "measured" / name, key=name)
+        expected = make()
+        assert m.pixel_m == pytest.approx(mk.EXAMPLE_PIXEL_M, rel=1e-12)
+        np.testing.assert_array_equal(np.isnan(m.heights), np.isnan(expected))
+        np.testing.assert_allclose(m.heights * m.height_unit_m, expected, rtol=1e-12, atol=1e-18)
+    config = SimConfig.from_scene(load_scene(folder / "measured.toml"))
+    db = build_database(config, ["greenwood_tripp", "hertz"])
+    rec = db.provenance["surfaces"]["liner"]["conditioning"]
+    assert rec["form"] == "cylinder" and rec["lambda_c_m"] == 250e-6 and rec["missing_points"] > 0
+    assert rec["cylinder_radius_m"] == pytest.approx(0.0425, rel=0.05)
