@@ -133,3 +133,20 @@ def test_the_packaged_example_is_the_generators_and_a_database_builds_on_it():
     rec = db.provenance["surfaces"]["liner"]["conditioning"]
     assert rec["form"] == "cylinder" and rec["lambda_c_m"] == 250e-6 and rec["missing_points"] > 0
     assert rec["cylinder_radius_m"] == pytest.approx(0.0425, rel=0.05)
+
+
+def test_a_report_finds_the_recorded_scenes_height_maps_only_when_the_scene_file_is_unchanged(tmp_path):
+    """analysis.pipeline: a session's recorded scene names maps relative to the scene it was started from; they are
+    read from there when that file still holds the recorded text, and not at all otherwise."""
+    from types import SimpleNamespace
+
+    from analysis.pipeline import _scene_for
+
+    mk.write(tmp_path / "liner.x3p", mk.liner(n=64), 8e-6)
+    text = '[surfaces.liner]\nkind = "file"\npath = "liner.x3p"\n'
+    scene_file = tmp_path / "scene.toml"
+    scene_file.write_text(text)
+    session = SimpleNamespace(scene_text=text, path=str(tmp_path / "s.h5"), start={"scene_source": str(scene_file)})
+    assert list(_scene_for(session).height_maps) == ["surfaces.liner"]
+    scene_file.write_text(text + "# edited\n")
+    assert not _scene_for(session).height_maps

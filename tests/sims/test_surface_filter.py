@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from contactrig.core.validation import SettingError
 from sims import surface_filter as sf
@@ -121,3 +123,23 @@ def test_edges_are_never_wrapped_into_a_cliff(how):
     assert wrap_jump(t) <= inner
     if how == "mirror":
         assert t.shape == (200, 200) and np.std(t) == pytest.approx(np.std(z), rel=1e-12)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    shape=st.tuples(st.integers(8, 40), st.integers(8, 40)),
+    fraction=st.floats(0.0, 0.05),
+    form=st.sampled_from(sf.FORMS),
+    lambda_c=st.one_of(st.none(), st.floats(3e-6, 200e-6)),
+    seed=st.integers(0, 2**16),
+)
+def test_any_map_within_the_dropout_limit_comes_out_complete(shape, fraction, form, lambda_c, seed):
+    """Whatever the grid, dropout pattern (≤ the limit), form and cut-off: a finite surface, the dropouts counted."""
+    rng = np.random.default_rng(seed)
+    z = rng.normal(0, 1e-7, shape) + mk.bore(*shape, 1e-6, 0.01)
+    holes = np.zeros(shape, dtype=bool)
+    holes.flat[rng.permutation(holes.size)[: int(fraction * holes.size)]] = True
+    z[holes] = np.nan
+    out = sf.s_l_surface(z, 1e-6, form=form, lambda_c_m=lambda_c)
+    assert np.isfinite(out.z).all() and out.z.shape == shape
+    assert out.record["missing_points"] == int(holes.sum())
