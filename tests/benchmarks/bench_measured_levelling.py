@@ -3,7 +3,8 @@
 Run: ``.venv/bin/python tests/benchmarks/bench_measured_levelling.py`` (needs the extra 'surfaces'; ~20 s).
 Prints, per model and weight, the real contact area with the scene as shipped (cylinder form removed, λs = 25 µm,
 λc = 250 µm; the baseline) and with ``form = "plane"`` and no filters (what contactrig did before), and their ratio;
-then the same for the edge treatment (``edges = "window"`` against the shipped ``"mirror"``).
+then the same for the edge treatment (``edges = "window"`` against the shipped ``"mirror"``), in the rig and in the
+BEM reference itself (real-area fraction at 1–30 MPa, hardness-capped).
 """
 
 from __future__ import annotations
@@ -42,6 +43,25 @@ def _compare(title: str, base: dict, other: dict, labels: tuple[str, str]) -> No
             print(f"{model:18s} {w:7.2f} {a0 * 1e6:22.4f} {a1 * 1e6:22.4f} {a1 / a0:7.3f}")
 
 
+def _bem_edges(window: Path) -> None:
+    from contactrig.core.scene import load_scene
+    from sims.bem import solve_contact
+    from sims.bem_database import composite_from_config
+    from sims.config import SimConfig
+
+    pressures = (1e6, 3e6, 10e6, 30e6)
+    print(f"\nBEM real-area fraction at {[f'{p / 1e6:g}' for p in pressures]} MPa")
+    out = {}
+    for name, scene in (("mirror", SCENE), ("window", window)):
+        cfg = SimConfig.from_scene(load_scene(scene))
+        z, px = composite_from_config(cfg)
+        t = time.perf_counter()
+        m = cfg.materials
+        out[name] = [solve_contact(z, px, m.E_star, p, hardness=m.H).area_fraction for p in pressures]
+        print(f"{name:7s} {z.shape[0]}² {time.perf_counter() - t:5.1f} s  " + "  ".join(f"{a:.4f}" for a in out[name]))
+    print("window/mirror  " + "  ".join(f"{w / r:.3f}" for w, r in zip(out["window"], out["mirror"], strict=True)))
+
+
 def main() -> None:
     text = SCENE.read_text(encoding="utf-8")
     plane = _variant(text, "plane", {'form = "cylinder"': 'form = "plane"', "lambda_s_m = 25e-6\n": "",
@@ -49,6 +69,7 @@ def main() -> None:
     window = _variant(text, "window", {'edges = "mirror"': 'edges = "window"'})
     try:
         (base, t0), (lev, t1), (win, t2) = _areas(SCENE), _areas(plane), _areas(window)
+        _bem_edges(window)
     finally:
         plane.unlink()
         window.unlink()
