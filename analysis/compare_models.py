@@ -33,6 +33,7 @@ __all__ = [
     "DEFAULT_PRESSURES_PA",
     "ModelVerdict",
     "compare_models",
+    "comparison_dict",
     "comparison_table",
     "favoured",
     "figure_compare_models",
@@ -187,27 +188,107 @@ def report_lines(cmp: Comparison) -> list[str]:
     return [head, favoured(cmp), *verdicts(cmp)]
 
 
-def comparison_table(cmp: Comparison) -> str:
-    """A text table: per pressure, BEM's A/A₀, ū, K and spots, then each model's ratios (realisation means)."""
+#: Width of the text table (:func:`comparison_table`): it fits a 100-column terminal whatever the number of models.
+TABLE_WIDTH = 100
+_P_COLUMN = 8  # "p [MPa]" column
+_CELL = 17  # one model's column: its label (registered labels have ≤ 17 characters), or a number and its flag
+
+
+def comparison_table(cmp: Comparison, width: int = TABLE_WIDTH) -> str:
+    """The numbers as text, at most ``width`` columns wide: BEM's A/A₀, ū, K and spots per pressure, then one block
+    per quantity (A/A_BEM, (h − ū_BEM)/ū_BEM in %, K/K_BEM) with a row per pressure and a column per model
+    (realisation means; ``*`` beyond the model's curve). More models than fit are continued in a further block.
+    Full precision: ``contactrig compare-models --json`` (:func:`comparison_dict`)."""
     ref_a = cmp.quantity(BEM, "area_fraction").mean(axis=0)
     ref_g = cmp.quantity(BEM, "mean_gap_m").mean(axis=0)
     ref_k = cmp.quantity(BEM, "stiffness_pa_per_m").mean(axis=0)
     spots = _bem_spots(cmp)
-    head = f"{'p (MPa)':>8} {'A/A0 BEM':>9} {'ū BEM µm':>9} {'K BEM Pa/m':>11} {'spots':>6}"
-    rs = {m: ratios(cmp, m) for m in cmp.models}
-    for m in cmp.models:
-        head += f" | {m[:14]:>14} A  ū%    K"
-    lines = [head]
+    lines = ["BEM reference (realisation means):",
+             f"{'p [MPa]':>{_P_COLUMN}} {'A/A0':>10} {'ū [µm]':>10} {'K [Pa/m]':>11} {'spots':>7}"]  # fmt: skip
     for j, p in enumerate(cmp.pressures_pa):
-        row = f"{p / 1e6:8.3g} {ref_a[j]:9.4g} {ref_g[j] * 1e6:9.4g} {ref_k[j]:11.4g} {spots[j]:6.0f}"
-        for m in cmp.models:
-            r = rs[m]
-            flag = " " if r["mask"][:, j].all() else "*"
-            a, g, k = r["area"][:, j].mean(), 100 * r["gap"][:, j].mean(), r["stiffness"][:, j].mean()
-            row += f" | {a:15.3f}{flag}{g:+4.0f} {k:5.2f}"
-        lines.append(row)
-    lines.append("model columns: A = A/A_BEM, ū% = (h − ū_BEM)/ū_BEM, K = K/K_BEM; * beyond the model's curve")
-    return "\n".join(lines)
+        lines.append(f"{p / 1e6:{_P_COLUMN}.3g} {ref_a[j]:10.4g} {ref_g[j] * 1e6:10.4g} {ref_k[j]:11.4g} "
+                     f"{spots[j]:7.0f}")  # fmt: skip
+    rs = {m: ratios(cmp, m) for m in cmp.models}
+    per_block = max(1, (width - _P_COLUMN) // (_CELL + 1))
+    quantities = (("area", "A/A_BEM: real area against BEM", "{:.3f}", 1.0),
+                  ("gap", "(h − ū_BEM)/ū_BEM [%]: mean gap against BEM", "{:+.1f}", 100.0),
+                  ("stiffness", "K/K_BEM: interfacial stiffness against BEM", "{:.3f}", 1.0))  # fmt: skip
+    for key, title, fmt, scale in quantities:
+        for first in range(0, len(cmp.models), per_block):
+            models = cmp.models[first : first + per_block]
+            lines += ["", title]
+            lines.append(f"{'p [MPa]':>{_P_COLUMN}}" + "".join(" " + _short(m) for m in models))
+            for j, p in enumerate(cmp.pressures_pa):
+                row = f"{p / 1e6:{_P_COLUMN}.3g}"
+                for m in models:
+                    r = rs[m]
+                    flag = " " if r["mask"][:, j].all() else "*"
+                    row += " " + f"{fmt.format(scale * r[key][:, j].mean())}{flag}".rjust(_CELL)
+                lines.append(row)
+    lines.append("* beyond the model's tabulated curve; full precision: --json")
+    return "\n".join(line.rstrip() for line in lines)
+
+
+#: Units of the numbers in :func:`comparison_dict` (also in each key's suffix; "1": a dimensionless ratio).
+JSON_UNITS = {"pressure": "Pa", "mean_gap": "m", "stiffness": "Pa/m", "area_fraction": "1", "area_ratio": "1",
+              "mean_gap_deviation": "1", "stiffness_ratio": "1", "time": "s"}  # fmt: skip
+
+
+def _floats(a: Any) -> list[float | None]:
+    """JSON numbers at full precision (JSON has no NaN: null)."""
+    return [float(x) if math.isfinite(float(x)) else None for x in np.asarray(a, dtype=float).ravel()]
+
+
+def comparison_dict(cmp: Comparison) -> dict[str, Any]:
+    """Everything :func:`comparison_table` and :func:`report_lines` show, at full precision, with units
+    (``contactrig compare-models --json``; schema ``contactrig/schemas/compare-models.json``). Per model, arrays
+    over the pressures are realisation means of A/A_BEM, (h − ū_BEM)/ū_BEM and K/K_BEM, null where a
+    realisation is beyond the model's curve."""
+    st = cmp.settings
+    spots = _bem_spots(cmp)
+    models: dict[str, Any] = {}
+    for m in cmp.models:
+        r = ratios(cmp, m)
+        inside = [bool(v) for v in np.asarray(r["mask"]).all(axis=0).ravel()]
+        models[m] = {
+            "label": _label(m),
+            "in_range": inside,
+            **{name: [v if ok else None for v, ok in zip(_floats(r[key].mean(axis=0)), inside, strict=True)]
+               for key, name in (("area", "area_ratio"), ("gap", "mean_gap_deviation"),
+                                 ("stiffness", "stiffness_ratio"))},
+        }  # fmt: skip
+    verdict = [
+        {"model": v.model, "label": v.label, "area_deviation": _floats([v.area_dev])[0],
+         "area_deviation_sd": _floats([v.area_sd])[0], "mean_gap_deviation": _floats([v.gap_dev])[0],
+         "stiffness_ratio_low_high": _floats(v.stiffness_lo_hi), "rms_log_area": _floats([v.rms_log_area])[0],
+         "pressures_used": v.n_in_range, "pressures_compared": v.n_points, "line": v.line()}
+        for v in model_verdicts(cmp)
+    ]  # fmt: skip
+    prov = {k: v for k, v in cmp.provenance.items() if isinstance(v, (str, int, float, bool, type(None)))}
+    return {
+        "units": dict(JSON_UNITS),
+        "scene": str(cmp.provenance.get("scene_name", "")),
+        "settings": {"pressures_pa": _floats(st.pressures_pa), "models": list(st.models),
+                     "realisations": st.realisations, "plastic": st.plastic, "area": st.area, "refine": st.refine},
+        "reference": {"model": BEM, "area_fraction": _floats(cmp.quantity(BEM, "area_fraction").mean(axis=0)),
+                      "mean_gap_m": _floats(cmp.quantity(BEM, "mean_gap_m").mean(axis=0)),
+                      "stiffness_pa_per_m": _floats(cmp.quantity(BEM, "stiffness_pa_per_m").mean(axis=0)),
+                      "spots": _floats(spots)},
+        "models": models,
+        "verdicts": verdict,
+        "favoured": favoured(cmp),
+        "provenance": prov,
+    }  # fmt: skip
+
+
+def _short(key: str) -> str:
+    """A model's column header: its label, at most one cell wide."""
+    from sims.models import model_label
+
+    label = model_label(key)
+    if len(label) >= _CELL:  # over the flag column
+        return label[:_CELL] if len(label) == _CELL else label[: _CELL - 1] + "…"
+    return label.rjust(_CELL - 1) + " "
 
 
 def _bem_spots(cmp: Comparison) -> NDArray[np.float64]:
@@ -235,10 +316,12 @@ def compare_models(
     refine: int = 1,
     scheduler: str | None = None,
     jobs: int | None = None,
+    progress: Any = None,
 ) -> Comparison:
     """Compare ``models`` (registered keys; default: the scene's ``[database] models``) with BEM on ``scene`` (a
     :class:`~contactrig.core.scene.Scene`, a :class:`~sims.config.SimConfig`, a path, or None for the packaged
-    default) at ``pressures_pa`` (Pa; default :data:`DEFAULT_PRESSURES_PA`)."""
+    default) at ``pressures_pa`` (Pa; default :data:`DEFAULT_PRESSURES_PA`). ``progress(done, total)``: called as
+    the tasks finish (:func:`sims.ensemble.run_comparison`)."""
     from sims.config import SimConfig
     from sims.database import check_models
 
@@ -252,7 +335,7 @@ def compare_models(
         area=area,
         refine=refine,
     )
-    return run_comparison(config, settings, scheduler=scheduler, jobs=jobs)
+    return run_comparison(config, settings, scheduler=scheduler, jobs=jobs, progress=progress)
 
 
 def _config(scene: Any) -> Any:

@@ -65,9 +65,11 @@ def run_demo(
     stream: TextIO | None = None,
     force: bool = False,
     compare: bool = True,
+    progress: Any = None,
 ) -> DemoResult:
     """Run the demo into ``directory`` (created when missing; files of an earlier demo in it are refused unless
-    ``force``). Progress goes to ``stream`` (None: stdout). ``compare``: run the boundary-element comparison."""
+    ``force``). Progress goes to ``stream`` (None: stdout). ``compare``: run the boundary-element comparison;
+    ``progress(done, total)``: called as its tasks finish (the command draws the bar: contactrig.cli.progress)."""
     import warnings
 
     from analysis.measured import MeasuredCurve
@@ -140,7 +142,7 @@ def run_demo(
     step("fit session and Tab. 1", t0)
 
     t0 = time.perf_counter()
-    analyses, ranking = _extras(analyses, scene, list(sweep_result.models), compare)
+    analyses, ranking = _extras(analyses, scene, list(sweep_result.models), compare, progress)
     step("BEM reference and resistance model" if compare else "resistance model", t0)
 
     t0 = time.perf_counter()
@@ -166,13 +168,15 @@ def run_demo(
     )
 
 
-def _extras(analyses: list[Any], scene: Any, models: list[str], compare: bool) -> tuple[list[Any], Any]:
+def _extras(
+    analyses: list[Any], scene: Any, models: list[str], compare: bool, progress: Any = None
+) -> tuple[list[Any], Any]:
     """The report's extras: the resistance model's sentence for every analysis and, with ``compare``, the
     boundary-element comparison of the scene's surface (one run: every analysis has the same scene) shown in the
     first analysis's section."""
     from analysis.pipeline import rank_against_bem, with_report_extras
 
-    ranking = rank_against_bem(scene, models) if compare else None
+    ranking = rank_against_bem(scene, models, progress=progress) if compare else None
     note = "" if compare else "not run (--no-compare-models)"
     out = [with_report_extras(analyses[0], ranking=ranking, ranking_note=note)]
     out += [with_report_extras(a) for a in analyses[1:]]

@@ -314,8 +314,10 @@ def design(
     target: float = 0.9,
     seed: int = 0,
     noise: NoiseModel | None = None,
+    progress: Any = None,
 ) -> DesignResult:
-    """Probability of discrimination for every plan and model pair (module docstring), vectorised per plan."""
+    """Probability of discrimination for every plan and model pair (module docstring), vectorised per plan;
+    ``progress(done, total)`` after each plan (the command draws it; nothing is printed here)."""
     rng = np.random.default_rng(seed)
     models = list(curves.area_m2)
     prob = {(t, m): np.zeros(len(plans)) for t in models for m in models if t != m}
@@ -330,6 +332,8 @@ def design(
             for m in models:
                 if m != t:
                     prob[(t, m)][i] = float(np.mean((chi2[m] - chi2[t]) / scale >= DELTA_AIC))
+        if progress is not None:
+            progress(i + 1, len(plans))
     pair_score: dict[tuple[str, str], np.ndarray] = {}
     cheapest: dict[tuple[str, str], int | None] = {}
     for j, a in enumerate(models):

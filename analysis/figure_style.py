@@ -76,3 +76,16 @@ def wrap_title(text: str, width_in: float, fontsize_pt: float = 10.0) -> str:
     0.55 em wide), so a long title stays on the canvas."""
     chars = max(int(width_in * 72.0 / (0.55 * fontsize_pt)), 20)
     return "\n".join(textwrap.wrap(text, chars, break_on_hyphens=False)) if len(text) > chars else text
+
+
+#: Symbols written with an underscore in terminal text and their mathtext form for figures.
+_SUBSCRIPTS = {"σ_f": "σ$_f$", "R_s": "R$_s$", "R_T": "R$_T$", "R_Barber": "R$_\\mathrm{Barber}$",
+               "R_macro": "R$_\\mathrm{macro}$"}  # fmt: skip
+
+
+def mathtext(text: str) -> str:
+    """``text`` with the symbols of :data:`_SUBSCRIPTS` (``σ_f``, ``R_s`` …) as mathtext subscripts, for a figure."""
+    for plain, math in _SUBSCRIPTS.items():
+        text = text.replace(plain, math)
+    return text
+

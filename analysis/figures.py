@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from analysis.figure_style import DIMENSIONLESS, MEASURED_COLOUR, RC, repeat_style, wrap_title
+from analysis.figure_style import DIMENSIONLESS, MEASURED_COLOUR, RC, mathtext, repeat_style, wrap_title
 from analysis.fit import regressor_label
 from analysis.measured import MeasuredCurve
 from analysis.resistance import resistance_unit
@@ -731,7 +731,8 @@ def _draw_fit(a: Any) -> Any:
         return None
     sem = a.fit_curve.sem_ohm if a.fit_curve is not None else None
     return figure_fit(
-        a.comparison, title=f"{_legend_text(a.title)}: R = R$_s$ + s·x(A), x = {regressor_label(a.conversion)}",
+        a.comparison,
+        title=f"{_legend_text(a.title)}: R = R$_s$ + s·x(A), x = {mathtext(regressor_label(a.conversion))}",
         sem_ohm=sem,
     )  # fmt: skip
 
@@ -804,11 +805,11 @@ def _draw_physical_terms(a: Any) -> Any:
     terms.update({name: share * pts.measured_ohm for name, share in f.shares.items() if name not in ("series", "film")})
     fig, axes = _figure(size=(6.0, 4.0))
     ax = axes[0, 0]
-    ax.stackplot(pts.weight_kg, *[v * k_unit for v in terms.values()], labels=list(terms), alpha=0.8)
+    ax.stackplot(pts.weight_kg, *[v * k_unit for v in terms.values()], labels=[mathtext(t) for t in terms], alpha=0.8)
     ax.plot(pts.weight_kg, pts.measured_ohm * k_unit, "s", color=MEASURED_COLOUR, label="measured mean")
     ax.set(
         xlabel="weight W [kg]", ylabel=f"resistance R [{unit}]",
-        title=f"{_legend_text(a.title)}: R = R_s + σ_f/A + Barber + band ({model_label(f.model)})",
+        title=f"{_legend_text(a.title)}: R = R$_s$ + σ$_f$/A + Barber + band ({model_label(f.model)})",
     )  # fmt: skip
     ax.legend(fontsize=7)
     return fig

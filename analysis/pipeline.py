@@ -330,11 +330,42 @@ def _scene_for(session: Any) -> Any:
 
     text = getattr(session, "scene_text", "") or ""
     if text.strip():
-        return parse_scene(text, f"{session.path} (recorded scene)")
+        label = f"{session.path} (recorded scene)"
+        return parse_scene(text, label, base_dir=_height_map_folder(session, text))
     return load_scene(None)
 
 
-def _load_sim(sim_path: str | Path | None, scene: Any, weights: np.ndarray, models: list[str] | None):
+def _height_map_folder(session: Any, text: str) -> Path | None:
+    """Where the recorded scene's measured height maps are (``kind = "file"`` paths are relative to the scene file):
+    the folder of the scene file the session was started from, if that file still holds exactly the recorded text;
+    else None (the maps are not read: the fingerprint then compares the tables as written)."""
+    from contactrig.core.inputs import read_text_file
+    from contactrig.core.validation import SettingError
+
+    if 'kind = "file"' not in text and "kind = 'file'" not in text:
+        return None
+    source = (getattr(session, "start", None) or {}).get("scene_source")
+    if not isinstance(source, str) or not source or source.startswith("<"):
+        return None
+    try:
+        if read_text_file("scene", source) != text:
+            return None
+    except SettingError:
+        return None
+    return Path(source).resolve().parent
+
+
+def _load_sim(
+    sim_path: str | Path | None,
+    scene: Any,
+    weights: np.ndarray,
+    models: list[str] | None,
+    database_path: str | Path | None = None,
+) -> tuple[Any, Any, dict[str, Any]]:
+    if sim_path is not None and database_path is not None:
+        raise ValueError("give a rig sweep (--sim SIM.h5) or a contact database (--database DB.h5), not both")
+    if database_path is not None:
+        return _sweep_on_database(database_path, scene, _simulated_weights(weights), models)
     if sim_path is not None:
         from daq.sweep_file import load_sweep
 
@@ -373,14 +404,41 @@ def _simulated_weights(weights: np.ndarray) -> np.ndarray:
     return grid
 
 
+def _sweep_on_database(
+    path: str | Path, scene: Any, weights: np.ndarray, models: list[str] | None
+) -> tuple[Any, Any, dict[str, Any]]:
+    """The scene's specimen (rig or press) loaded at ``weights`` on the contact database file at ``path`` (written
+    by ``contactrig database -o``) instead of a database built now. The sweep's fingerprint is the database's scene
+    (materials, surfaces, database) with the rig of ``scene``, so :func:`check_same_scene` refuses a database made
+    for other surfaces unless the mismatch is allowed."""
+    from daq.database_file import load_database
+    from sims.config import SimConfig
+
+    database = load_database(path)
+    if models:
+        missing = [m for m in models if m not in database]
+        if missing:
+            raise ValueError(f"{path} has no models {missing}; it has {list(database)}")
+    names = list(models) if models else list(database)
+    result = specimen_sweep(SimConfig.from_scene(scene), names, [float(w) for w in weights], database=database)
+    info = {
+        "source": f"{path} (contact database; the specimen of scene {scene.name!r} simulated now on it)",
+        "warnings": list(result.warnings),
+        "provenance": result.provenance,
+    }
+    return result, database, info
+
+
 def analyse_session(
     session_path: str | Path,
     sim_path: str | Path | None = None,
     *,
     models: list[str] | None = None,
+    database_path: str | Path | None = None,
     **kw: Any,
 ) -> Analysis:
-    """Load a session file (``daq.load_session``) and the simulation (``sim_path`` or simulated now), analyse.
+    """Load a session file (``daq.load_session``) and the simulation (``sim_path``; or the specimen simulated now on
+    the contact database file ``database_path``; or everything simulated now), analyse.
 
     ``kw`` goes to :func:`analyse` (conversion, weighting, n_boot, seed, ci_level, boot_interval, title).
     """
@@ -395,7 +453,7 @@ def analyse_session(
         raise ValueError(f"{session_path}: no measurement block on disk ({state}); nothing to analyse")
     curve = MeasuredCurve.from_summary(session.summary, source=str(session_path))
     scene = _scene_for(session)
-    sweep_result, database, sim_info = _load_sim(sim_path, scene, curve.weight_kg, models)
+    sweep_result, database, sim_info = _load_sim(sim_path, scene, curve.weight_kg, models, database_path)
     measured_info = {
         "kind": "session",
         "path": str(session_path),
@@ -421,10 +479,12 @@ def analyse_tab1(
     database: Any = None,
     sim_info: dict[str, Any] | None = None,
     sim_path: str | Path | None = None,
+    database_path: str | Path | None = None,
     **kw: Any,
 ) -> Analysis:
     """The seed paper's Tab. 1 against the simulated models: ``sweep_result``, else the sweep file ``sim_path``,
-    else simulated now with ``scene`` (the packaged default scene when None).
+    else the rig simulated now on the contact database file ``database_path``, else everything simulated now with
+    ``scene`` (the packaged default scene when None).
 
     ``series`` selects columns (e.g. ``["M1", "M2", "M3"]``, the ones that are not copies of others).
     """
@@ -443,7 +503,7 @@ def analyse_tab1(
         )  # fmt: skip
     scene = scene if scene is not None else load_scene(None)
     if sweep_result is None:
-        sweep_result, database, sim_info = _load_sim(sim_path, scene, curve.weight_kg, models)
+        sweep_result, database, sim_info = _load_sim(sim_path, scene, curve.weight_kg, models, database_path)
     measured_info = {
         "kind": "table",
         "path": "daq/data/tab1.csv",
@@ -506,10 +566,13 @@ def compare_models_by_default(a: Analysis) -> tuple[bool, str]:
     return True, ""
 
 
-def rank_against_bem(scene: Any, models: Any = None, *, pressures_pa: Any = RANKING_PRESSURES_PA, jobs: int = 1) -> Any:
+def rank_against_bem(
+    scene: Any, models: Any = None, *, pressures_pa: Any = RANKING_PRESSURES_PA, jobs: int = 1, progress: Any = None
+) -> Any:
     """The boundary-element comparison of ``scene``'s composite surface (:func:`analysis.compare_models.
     compare_models`, one realisation, hardness-capped, at ``pressures_pa``) for the registered ``models`` among
-    ``models`` (None: the scene's), in this process (``jobs`` 1: every core as FFT threads)."""
+    ``models`` (None: the scene's), in this process (``jobs`` 1: every core as FFT threads); ``progress(done,
+    total)`` as its tasks finish."""
     from analysis.compare_models import compare_models
     from sims.ensemble import BEM
     from sims.models import model_names
@@ -517,7 +580,7 @@ def rank_against_bem(scene: Any, models: Any = None, *, pressures_pa: Any = RANK
     names = None if models is None else [m for m in models if m in model_names() and m != BEM]
     if names is not None and not names:
         raise ValueError("no registered contact model to compare with the boundary-element reference")
-    return compare_models(scene, names, pressures_pa=pressures_pa, jobs=jobs)
+    return compare_models(scene, names, pressures_pa=pressures_pa, jobs=jobs, progress=progress)
 
 
 def with_report_extras(a: Analysis, *, ranking: Any = None, ranking_note: str = "", statement: bool = True) -> Analysis:

@@ -4,10 +4,14 @@ A session gives two tables:
 
 - **summary** — Tab. 1-style: one row per weight (in the order the weights were placed), one column per repeat
   (``M1_mohm`` … ``Mk_mohm``: the block means, with the unit in the header, the unit the data call for — ohm, mohm
-  or uohm). It is exactly what ``contactrig import`` reads: importing it gives back the same numbers (the values
-  are written with 17 significant digits). A repeat without a value (a block taken in compliance, a skipped or
-  not yet measured block) is an empty cell, so importing such a table needs ``--allow-missing``. In CSV, ``#``
-  lines before the header say where the table came from (the import skips them).
+  or uohm), then per weight ``mean_<unit>``, ``sd_<unit>`` (n − 1), ``sem_<unit>`` and ``n`` of its repeats. It is
+  exactly what ``contactrig import`` reads: importing it gives back the same doubles (each value is the shortest
+  text that the import converts back to the stored double, :func:`shortest_text`; the statistics columns are left
+  out by the import). A repeat without a value (a block taken in compliance, a skipped or not yet measured block)
+  is an empty cell, so importing such a table needs ``--allow-missing``. In CSV, ``#`` lines before the header say
+  where the table came from — source, status, start, sample, operator, notes, scene name — and ``contactrig
+  import`` takes sample, operator, notes and scene name back into the imported session
+  (:mod:`daq.table_provenance`).
 - **readings** — every reading: block, weight_kg, repeat, index, time_s, reading (in the instruments' unit, named
   in the header), resistance_ohm, valid.
 
@@ -19,9 +23,9 @@ CSV: one file per table, the first at the output path, the others beside it (``o
 Numbers are unquoted (negative ones too: they stay numbers); every text field is quoted, and one that a spreadsheet
 would run as a formula (leading ``= + - @``, tab or CR) starts with ``'`` (:func:`csv_field`); the ``#`` lines are
 ``# key:,"value"`` records, so no string from a file can split into cells or become a formula.
-Excel (``.xlsx``, one sheet per table plus ``about``) needs the optional ``excel`` extra (openpyxl); without it,
-:class:`ExcelUnavailable` says so in one line. Every file is written atomically and none is replaced without
-``force`` (:mod:`contactrig.core.files`); every output is checked before anything is written.
+Excel (``.xlsx``, one sheet per table plus ``about``) uses openpyxl (in the base install); should it be missing,
+:class:`ExcelUnavailable` says so in one line naming the pip install. Every file is written atomically and none
+is replaced without ``force`` (:mod:`contactrig.core.files`); every output is checked before anything is written.
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from decimal import Decimal
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +42,8 @@ import numpy as np
 from contactrig.core.files import atomic_write, refuse_existing
 from contactrig.core.text import escape_terminal
 from contactrig.core.validation import SettingError, check_choice
+from daq.table_import import DIGITS_PER_OHM
+from daq.table_provenance import EXPORTED_BY, provenance_mapping, statistics_headers
 
 __all__ = [
     "FORMATS",
@@ -56,11 +63,12 @@ __all__ = [
 #: Output formats.
 FORMATS = ("csv", "xlsx")
 _UNIT_FACTORS = (("ohm", 1.0), ("mohm", 1e3), ("uohm", 1e6))
-_INSTALL = "pip install 'contactrig[excel]'"
+#: openpyxl is in the base install (pyproject): this is for an environment where it was removed or broken.
+_INSTALL = "pip install 'openpyxl>=3.1'"
 
 
 class ExcelUnavailable(RuntimeError):
-    """``--to xlsx`` without the ``excel`` extra (openpyxl) installed."""
+    """``--to xlsx`` without openpyxl installed (it is in the base install; a damaged environment)."""
 
 
 @dataclass(frozen=True)
@@ -93,27 +101,63 @@ def _number(x: Any) -> float | None:
     return v if math.isfinite(v) else None
 
 
+def shortest_text(value_ohm: float, digits: int) -> Decimal:
+    """The shortest decimal text, in a unit ``digits`` decimal digits below the ohm (mΩ: 3), that ``contactrig
+    import`` reads back to ``value_ohm`` exactly: ``7.8427035773`` mΩ, not ``7.842703577299999`` (the repr of
+    value × 1e3, which carries the rounding of the multiplication).
+
+    Guaranteed for every finite double: the import shifts the cell's decimal text by ``digits`` and rounds once
+    (:data:`daq.table_import.DIGITS_PER_OHM`), and a decimal shift changes no significant digit, so the shortest
+    decimal that rounds to ``value_ohm`` — Python's ``repr``, shortest and round-trip by the language's guarantee —
+    shifted by ``digits`` is the answer."""
+    return Decimal(repr(float(value_ohm))).scaleb(digits)
+
+
+def _weight_statistics(values_ohm: list[float], digits: int) -> list[Any]:
+    """mean, SD (n − 1), SEM = SD/√n (in the table's unit, shortest round-trip text of the double) and n of a
+    weight's repeats; SD and SEM empty for one repeat, everything empty for none."""
+    x = np.asarray([v for v in values_ohm if math.isfinite(v)], dtype=float)
+    if x.size == 0:
+        return [None, None, None, 0]
+    mean = float(np.mean(x))
+    if x.size == 1:
+        return [shortest_text(mean, digits), None, None, 1]
+    sd = float(np.std(x, ddof=1))
+    return [shortest_text(mean, digits), shortest_text(sd, digits), shortest_text(sd / math.sqrt(x.size), digits),
+            int(x.size)]  # fmt: skip
+
+
 def summary_table(summary: Any) -> Table:
-    """Tab. 1-style: weight × repeat block means (``summary``: a session's summary DataFrame)."""
+    """Tab. 1-style: weight × repeat block means (``summary``: a session's summary DataFrame), each written in the
+    table's unit as the shortest text that ``contactrig import`` reads back to the stored double
+    (:func:`shortest_text`), then per weight the mean, SD, SEM and n of its repeats
+    (:func:`daq.table_provenance.statistics_headers`; ``contactrig import`` leaves them out again)."""
     means = summary["mean_ohm"].to_numpy(dtype=float)
-    unit, factor = _summary_unit(means)
+    unit, _ = _summary_unit(means)
+    digits = DIGITS_PER_OHM[unit]
     weights: list[float] = []
     for w in summary["weight_kg"].to_numpy(dtype=float):
         if w not in weights:
             weights.append(float(w))
     repeats = sorted({int(r) for r in summary["repeat"]})
-    cells: dict[tuple[float, int], float | None] = {}
+    stored: dict[tuple[float, int], float] = {}
     notes = []
     for w, r, m, comp, b in zip(
         summary["weight_kg"], summary["repeat"], means, summary["compliance"], summary["block"], strict=True
     ):
-        cells[(float(w), int(r))] = _number(m * factor)
+        if not bool(comp) and math.isfinite(float(m)):
+            stored[(float(w), int(r))] = float(m)
         if bool(comp):
             notes.append(f"block {int(b)} ({float(w):g} kg, repeat {int(r)}) was taken in compliance: left empty")
-    rows = [[w, *(cells.get((w, r)) for r in repeats)] for w in weights]
-    if any(v is None for row in rows for v in row[1:]):
+    rows = []
+    for w in weights:
+        cells = [stored.get((w, r)) for r in repeats]
+        texts = [None if v is None else shortest_text(v, digits) for v in cells]
+        rows.append([w, *texts, *_weight_statistics([v for v in cells if v is not None], digits)])
+    if any(v is None for row in rows for v in row[1 : 1 + len(repeats)]):
         notes.append("empty cells are missing repeats: import with --allow-missing")
-    return Table("summary", ("weight_kg", *(f"M{r}_{unit}" for r in repeats)), rows, tuple(notes))
+    columns = ("weight_kg", *(f"M{r}_{unit}" for r in repeats), *statistics_headers(unit))
+    return Table("summary", columns, rows, tuple(notes))
 
 
 def readings_table(readings: Any, reading_unit: str) -> Table:
@@ -144,17 +188,16 @@ def _reading_unit(start: Mapping[str, Any]) -> str:
 
 def _about(session: Any) -> list[tuple[str, str]]:
     start = session.start if isinstance(session.start, Mapping) else {}
-    planned = _get(start, "plan", "session")
-    sample = start.get("sample", planned.get("sample", "") if isinstance(planned, Mapping) else "")
+    # sample, operator, notes, scene: `contactrig import` reads them back (daq.table_provenance)
+    meta = provenance_mapping(start, str(getattr(session, "scene_text", "") or ""))
     return [
         ("source", str(session.path)),
         ("status", str(session.status)),
         ("started", str(start.get("started", ""))),
-        ("sample", str(sample)),
-        ("operator", str(start.get("operator", ""))),
+        *meta.items(),
         ("kind", "imported" if session.imported else ("simulated" if start.get("sim") else "real")),
         ("blocks", str(len(session.summary))),
-        ("exported by", "contactrig export"),
+        ("exported by", EXPORTED_BY),
     ]
 
 
@@ -272,6 +315,8 @@ def csv_field(v: Any) -> str:
         return "1" if v else "0"
     if isinstance(v, (int, np.integer)):
         return str(int(v))
+    if isinstance(v, Decimal):  # an exact text chosen for its round trip (shortest_text)
+        return format(v, "f") if -7 <= v.adjusted() < 16 else str(v)
     if isinstance(v, (float, np.floating)) and math.isfinite(v):
         return repr(float(v))  # shortest text that reads back as the same float
     return '"' + neutral_text(str(v)).replace('"', '""') + '"'
@@ -298,7 +343,7 @@ def _openpyxl() -> Any:
     try:
         openpyxl = importlib.import_module("openpyxl")
     except ImportError:
-        raise ExcelUnavailable(f"--to xlsx needs the optional 'excel' extra (openpyxl): {_INSTALL}") from None
+        raise ExcelUnavailable(f"--to xlsx needs openpyxl, which is not installed: {_INSTALL}") from None
     return openpyxl
 
 
@@ -317,7 +362,7 @@ def _xlsx(tables: Sequence[Table], about: Sequence[tuple[str, str]], path: Path)
         ws = wb.create_sheet(t.name)
         ws.append([text(ws, c) for c in t.columns])
         for row in t.rows:
-            ws.append([text(ws, v) if isinstance(v, str) else v for v in row])
+            ws.append([text(ws, v) if isinstance(v, str) else float(v) if isinstance(v, Decimal) else v for v in row])
     ws = wb.create_sheet("about")
     for key, value in [*about, *(("note", n) for t in tables for n in t.notes)]:
         ws.append([text(ws, key), text(ws, value)])

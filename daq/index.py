@@ -36,7 +36,7 @@ class SessionEntry:
     """One session file: ``status`` is the session's (success, aborted, failed, running, incomplete) or, for a file
     that cannot be read, ``corrupt`` / ``newer`` (written by a newer contactrig) / ``other`` (an HDF5 file that is
     not a session); ``kind`` is ``simulated``, ``real`` or ``imported`` (empty when unreadable); ``note`` the
-    reader's reason for an unreadable file."""
+    reader's reason for an unreadable file; ``notes`` the session's notes and ``scene`` its scene name (JSON only)."""
 
     path: str
     status: str
@@ -48,6 +48,8 @@ class SessionEntry:
     kind: str = ""
     compliant_blocks: int = 0
     note: str = ""
+    notes: str = ""
+    scene: str = ""
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -67,6 +69,12 @@ def _planned(start: dict[str, Any], stop: dict[str, Any] | None) -> int | None:
         if isinstance(value, float) and math.isfinite(value):
             return int(value)
     return None
+
+
+def scene_name(start: dict[str, Any], scene_text: str) -> str:
+    from daq.table_provenance import scene_name as name
+
+    return name(start, scene_text)
 
 
 def _text(value: Any) -> str:
@@ -95,6 +103,8 @@ def session_entry(path: str | Path, *, timeout: float | None = None) -> SessionE
         start_time=_text(start.get("started", "")),
         sample=_text(start.get("sample", session_plan.get("sample", ""))),
         operator=_text(start.get("operator", "")),
+        notes=_text(start.get("notes", session_plan.get("notes", ""))),
+        scene=scene_name(start, _text(getattr(s, "scene_text", ""))),
         blocks_done=len(s.summary),
         blocks_planned=_planned(start, s.stop),
         kind=_kind(start, s.imported),

@@ -15,7 +15,10 @@ file and in a spreadsheet (the header is normally row 1).
   ``load`` without a unit is refused (N or kg?).
 - **Every further column: one repeat/series** (M1 … Mk). Its unit is the header's (``M1_mohm``, ``R [mΩ]``,
   ``R (ohm)``; spellings ohm/Ω, mohm/mΩ, uohm/µohm/μΩ, case-insensitive) or else the ``unit`` argument
-  (``--unit``). A header unit that differs from ``unit`` is an error, so is a column with neither.
+  (``--unit``). A header unit that differs from ``unit`` is an error, so is a column with neither. A value is
+  converted to Ω exactly (its decimal text shifted by 3 or 6 digits, then rounded once: :data:`DIGITS_PER_OHM`).
+- **A table written by** ``contactrig export``: its ``#`` lines give the imported session its sample, operator,
+  notes and scene name, and its per-weight statistics columns are left out (:mod:`daq.table_provenance`).
 - **Separators**: ``,`` ``;`` or tab, detected from the header row; the decimal mark ``.`` or ``,`` (only with
   ``;`` or tab separators), detected from the cells. ``delimiter`` / ``decimal`` force them (``--delimiter``,
   ``--decimal``). Spreadsheet exports in UTF-16 or Windows-1252 are decoded too (the notes say so).
@@ -62,6 +65,7 @@ import math
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
+from decimal import Decimal
 from pathlib import Path
 from typing import Any
 
@@ -69,10 +73,12 @@ import numpy as np
 
 from contactrig.core.validation import SettingError, check_choice
 from daq.errors import MissingFileError
+from daq.table_provenance import session_metadata, without_statistics
 
 __all__ = [
     "DECIMALS",
     "DELIMITERS",
+    "DIGITS_PER_OHM",
     "RESISTANCE_BOUNDS_OHM",
     "STANDARD_GRAVITY",
     "UNITS_OHM",
@@ -88,6 +94,11 @@ __all__ = [
 
 #: Accepted ``--unit`` values and their size in Ω.
 UNITS_OHM = {"ohm": 1.0, "mohm": 1e-3, "uohm": 1e-6}
+#: Decimal digits from ohm to the unit (1 mΩ = 10⁻³ Ω). A cell is converted exactly — its decimal text shifted by
+#: these digits, then rounded once to the nearest double (2.1 mΩ is the double nearest 0.0021 Ω, which 2.1 × 1e-3
+#: misses by one ulp) — so every stored double has a text that reads back to it, and ``contactrig export`` writes
+#: the shortest (:func:`daq.export.shortest_text`).
+DIGITS_PER_OHM = {"ohm": 0, "mohm": 3, "uohm": 6}
 #: Standard gravity [m/s²], converts a ``load_N`` column to kg.
 STANDARD_GRAVITY = 9.80665
 #: Units of the weight column and their size in kg.
@@ -268,7 +279,7 @@ def parse_table(
     if decimal is not None:
         check_choice("--decimal", decimal, DECIMALS)
     delim = _delimiter(text, delimiter)
-    rows = _csv_rows(text, delim, source)
+    rows = without_statistics(_csv_rows(text, delim, source), text)  # an exported summary's mean/SD/SEM/n columns
     if len(rows) < 2:
         raise TableError(source, None, None, "<file>", "expected a header row and at least one row of values")
     weight_col, columns = _parse_header(rows[0], source, unit)
@@ -510,7 +521,8 @@ def _resistance(cell: str, col: _Column, line: int, dec: str, source: str) -> fl
     if x <= 0:
         raise TableError(source, line, col.header, cell, "a resistance > 0")
     lo, hi = RESISTANCE_BOUNDS_OHM
-    r = x * factor
+    plain = cell.replace("\u2212", "-")
+    r = float(Decimal(plain.replace(",", ".") if dec == "," else plain).scaleb(-DIGITS_PER_OHM[col.unit]))
     if not lo <= r <= hi:
         raise TableError(
             source, line, col.header, cell,
@@ -552,6 +564,7 @@ def import_table(
     from daq.session_file import SCHEMA_VERSION, SessionFile, software_versions
 
     table = read_table(path, unit, delimiter=delimiter, decimal=decimal, allow_missing=allow_missing)
+    meta = session_metadata(table.text)  # sample, operator, notes, scene_name of an exported session (# lines)
     n = int(np.isfinite(table.resistance_ohm).sum())
     started = now_iso()
     start = {
@@ -559,8 +572,9 @@ def import_table(
         "schema_version": SCHEMA_VERSION,
         "software": software_versions(),
         "started": started,
-        "operator": operator or login_name(),
-        "operator_source": "--operator" if operator else "login",
+        **meta,
+        "operator": operator or meta.get("operator") or login_name(),
+        "operator_source": "--operator" if operator else ("table" if meta.get("operator") else "login"),
         "host": host_name(),
         "imported": True,
         "sim": False,

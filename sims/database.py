@@ -42,7 +42,7 @@ from __future__ import annotations
 import math
 import time
 import warnings
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
@@ -507,11 +507,11 @@ class BuildContext:
 
 def _surface_statistics(config: SimConfig, heights: dict[str, NDArray[np.float64]], prov: dict[str, Any]) -> Any:
     """McCool statistics of each surface (from the generated map when there is one) → GT parameters."""
-    from sims.surface import mccool, spectral_moments
+    from sims.surface import mccool
 
     sq, stats = {}, {}
     for body, spec in (("liner", config.liner), ("piston", config.piston)):
-        mom = spectral_moments(heights[body], spec.pixel_m) if spec.kind == "file" else spec.moments()
+        mom = spec.moments()  # a measured map's (or profile's) from finite differences: it is not periodic
         st = mccool(mom)
         sq[body], stats[body] = math.sqrt(mom.m0), st
         prov["surfaces"][body].update(mccool=st.as_dict(), sq_m=sq[body])
@@ -571,8 +571,10 @@ def build_database(
     *,
     n_separations: int | None = None,
     gt_heights: str | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> ContactDatabase:
-    """Build the curves of ``models`` (registered keys; default: the scene's ``[database] models``).
+    """Build the curves of ``models`` (registered keys; default: the scene's ``[database] models``);
+    ``progress(done, total)`` after each model (the command draws it; nothing is printed here).
 
     Only the models asked for are built (each by its registered ``build``); surfaces are generated only when a
     model that needs one is asked for, or a surface is a measured map. ``n_separations`` and ``gt_heights``
@@ -603,7 +605,7 @@ def build_database(
     specs = [get_model(m) for m in settings.models]
     need_surface = any(s.needs_surface for s in specs)
     heights: dict[str, NDArray[np.float64]] = {}
-    if need_surface or config.liner.kind == "file" or config.piston.kind == "file":
+    if need_surface:  # a measured map is already held (a profile has no map: its statistics are enough)
         heights = {"liner": config.liner.heights(), "piston": config.piston.heights()}
     g = _surface_statistics(config, heights, prov)
     prov["greenwood_tripp"] = g
@@ -612,7 +614,11 @@ def build_database(
     ctx = BuildContext(settings, mats, g)
     if need_surface:
         ctx.summits = _composite_summits(config, heights, g["sigma_m"], prov)
-    curves = {spec.key: spec.build(ctx) for spec in specs}
+    curves = {}
+    for i, spec in enumerate(specs):
+        curves[spec.key] = spec.build(ctx)
+        if progress is not None:
+            progress(i + 1, len(specs))
     if ctx.warnings:
         prov["warnings"] = list(ctx.warnings)
     prov["build_time_s"] = time.perf_counter() - t_start

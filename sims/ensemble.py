@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from functools import partial
@@ -41,6 +41,9 @@ from scipy import optimize
 
 from contactrig.core.validation import SettingError, check_choice, check_int, check_range
 from sims.budget import check_comparison
+
+#: ``progress(done, total)`` of long work (the command draws it: contactrig.cli.progress); library code never prints.
+Progress = Callable[[int, int], None]
 
 if TYPE_CHECKING:
     from sims.config import SimConfig
@@ -289,9 +292,21 @@ def run_task(config: SimConfig, settings: CompareSettings, task: Task, workers: 
 # Executors.
 
 
-def _run_local(fn: Callable[[Task], TaskResult], tasks: Sequence[Task], jobs: int) -> list[TaskResult]:
+def _counted(results: Iterable[TaskResult], total: int, progress: Progress | None) -> list[TaskResult]:
+    """The results, ``progress(done, total)`` called as each arrives."""
+    out = []
+    for r in results:
+        out.append(r)
+        if progress is not None:
+            progress(len(out), total)
+    return out
+
+
+def _run_local(
+    fn: Callable[[Task], TaskResult], tasks: Sequence[Task], jobs: int, progress: Progress | None = None
+) -> list[TaskResult]:
     if jobs == 1:
-        return [fn(t) for t in tasks]
+        return _counted((fn(t) for t in tasks), len(tasks), progress)
     import multiprocessing
 
     from contactrig.core.budget import set_process_limit
@@ -299,7 +314,7 @@ def _run_local(fn: Callable[[Task], TaskResult], tasks: Sequence[Task], jobs: in
     # run_comparison checked the memory of all workers together: a worker's own check must not count its siblings
     context = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(jobs, mp_context=context, initializer=set_process_limit, initargs=(math.inf,)) as pool:
-        return list(pool.map(fn, tasks))
+        return _counted(pool.map(fn, tasks), len(tasks), progress)
 
 
 def _run_dask(
@@ -323,12 +338,14 @@ def run_comparison(
     scheduler: str | None = None,
     jobs: int | None = None,
     timeout_s: float | None = None,
+    progress: Progress | None = None,
 ) -> Comparison:
     """Run every task of ``settings`` on ``config`` and gather them (see the module doc).
 
     ``scheduler``: address of a Dask scheduler (``"tcp://127.0.0.1:8786"``); None: local. ``jobs``: local processes
     (default ``os.cpu_count()``; 1 runs in this process with every core as FFT threads). Local processes and Dask
-    tasks use one FFT thread each.
+    tasks use one FFT thread each. ``progress(done, total)``: called as tasks finish (local runs; a Dask run
+    reports once, when gathered).
     """
     cores = os.cpu_count() or 1
     jobs = cores if jobs is None else check_int("--jobs", jobs, 1, 1024)
@@ -340,10 +357,10 @@ def run_comparison(
     fn = partial(run_task, config, settings, workers=workers)
     t0 = time.perf_counter()
     if scheduler is not None:
-        results = _run_dask(fn, tasks, scheduler, timeout_s)
+        results = _counted(_run_dask(fn, tasks, scheduler, timeout_s), len(tasks), progress)
         executor = f"dask {scheduler}"
     else:
-        results = _run_local(fn, tasks, jobs)
+        results = _run_local(fn, tasks, jobs, progress)
         executor = "this process" if jobs == 1 else f"{jobs} local processes"
     prov = {
         "executor": executor,

@@ -161,6 +161,7 @@ _PLACEHOLDER = re.compile(r"[A-Z]|…|\.\.\.|^<")
 def _tokens(command: str) -> list[str]:
     """The words of one written command: cut at a comment or a shell operator; brackets and ``|`` alternatives
     (``[--to csv|xlsx]``, ``--compare-models|--no-compare-models``) are split into their words."""
+    command = re.sub(r"\[[^\[\]]*\]", lambda m: m.group(0).replace(" | ", " "), command)  # [--sim F | --database D]
     command = re.split(r"\s#|\s&&\s|\s\|\s|;", command, maxsplit=1)[0]
     command = re.sub(r"[\[\]{}()]", " ", command)
     return command.split()
@@ -265,6 +266,7 @@ def _join_continuations(lines: list[str]) -> Iterator[str]:
         ("export s.h5 [--to csv|ods]", "'ods' is not one of"),
         ("report s.h5 [--compare-models|--no-compare-model]", "no option --no-compare-model"),
         ("fit s.h5 --conversion=bulkk", "'bulkk' is not one of"),
+        ("fit s.h5 [--sim sim.h5 | --databse db.h5]", "no option --databse"),
     ],
 )
 def test_the_command_check_finds_stale_names(command, problem):
@@ -396,7 +398,7 @@ def _scene_keys() -> dict[str, set[str]]:
 
 def _key_sections() -> list[tuple[set[str], str]]:
     """(tables, section text) for each ``### `[table]`…`` section of the Scenes page."""
-    text = (DOCS / "scenes.md").read_text(encoding="utf-8")
+    text = (DOCS / "scenes.md").read_text(encoding="utf-8").split("\n## Keys\n", 1)[1].split("\n## ", 1)[0]
     sections = re.split(r"^### ", text, flags=re.M)[1:]
     return [(set(re.findall(r"`\[(\w+)", s.splitlines()[0])), s) for s in sections]
 

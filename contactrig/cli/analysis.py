@@ -12,6 +12,7 @@ import sys
 from typing import Any
 
 from contactrig.cli.options import add_max_memory_option, add_models_option
+from contactrig.cli.progress import add_quiet_option, progress_bar
 from contactrig.core.text import escape_terminal
 
 _TAB1 = "tab1"
@@ -47,6 +48,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("session", metavar="SESSION.h5", help=f"session file, or '{_TAB1}' for the seed paper's Tab. 1")
     common.add_argument("--sim", metavar="SIM.h5", help="rig sweep file (default: simulate the session's scene now)")
+    common.add_argument(
+        "--database", metavar="DB.h5", default=None,
+        help="contact database file from `contactrig database -o`: the rig (or press) is simulated now on it instead "
+        "of building the database again; refused when made for other surfaces or materials (see --allow-mismatch)",
+    )  # fmt: skip
     add_models_option(common, default="all in the sweep")
     add_max_memory_option(common)
     common.add_argument(
@@ -101,10 +107,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     r.add_argument("--force", action="store_true", help="overwrite an existing report and its figures")
     r.add_argument(
         "--compare-models", action=argparse.BooleanOptionalAction, default=None,
-        help="ask the boundary-element reference which contact model it favours on the scene's surface (a short "
-        "run, ~5-10 s). Default: on when the simulation's surfaces are the scene's (its fingerprint records them "
-        "and they match), off otherwise",
+        help="ask the boundary-element reference which contact model it favours on the scene's surface "
+        "(5–10 s on two cores, measured). Default: on when the simulation's surfaces are the scene's (its "
+        "fingerprint records them and they match), off otherwise",
     )  # fmt: skip
+    add_quiet_option(r)
     r.set_defaults(handler=_report)
 
     d = subparsers.add_parser(
@@ -118,6 +125,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--compare-models", action=argparse.BooleanOptionalAction, default=True,
         help="ask the boundary-element reference which contact model it favours (default: on)",
     )  # fmt: skip
+    add_quiet_option(d)
     add_max_memory_option(d)
     d.set_defaults(handler=_demo)
 
@@ -139,7 +147,9 @@ def _circuit(args: argparse.Namespace) -> int:
     )
     d = settings.design(current_a=args.current)
     if args.json:
-        print(json.dumps({"inputs": settings.__dict__, "result": d.as_dict()}, indent=2))
+        from contactrig.cli.options import json_units
+
+        print(json.dumps({"units": json_units(), "inputs": settings.__dict__, "result": d.as_dict()}, indent=2))
         return 0
     s = settings
     if args.current:
@@ -216,6 +226,7 @@ def _analysis(args: argparse.Namespace) -> Any:
         "seed": args.seed,
         "boot_interval": args.interval,
         "allow_mismatch": args.allow_mismatch,
+        "database_path": args.database,
     }
     if args.session == _TAB1:
         from analysis.pipeline import analyse_tab1
@@ -232,7 +243,10 @@ def _fit(args: argparse.Namespace) -> int:
     if cmp is None:
         raise ValueError("; ".join(n for n in a.left_out if n.startswith("no fit")))
     if args.json:
-        d = cmp.as_dict()
+        from contactrig.cli.options import json_units
+
+        d = {"units": json_units(scale="Ω·m (s of R = R_s + s·x(A))", R_series_se="Ω", scale_se="Ω·m"),
+             **cmp.as_dict()}  # fmt: skip
         d["measured"] = {k: v for k, v in a.measured_info.items() if k in ("path", "kind", "complete", "status")}
         d["simulation"] = a.sim_info.get("source")
         d["warnings"] = list(a.warnings)
@@ -347,7 +361,10 @@ def _report(args: argparse.Namespace) -> int:
     refuse_existing(report_outputs(out, [])[:2], force=args.force)  # report.md, report.html: before any work
     a = _analysis(args)
     compare, why_not = compare_models_by_default(a) if args.compare_models is None else (args.compare_models, "")
-    ranking = rank_against_bem(a.scene, list(a.areas_m2)) if compare else None
+    ranking = None
+    if compare:
+        with progress_bar("report: BEM reference", quiet=args.quiet) as progress:
+            ranking = rank_against_bem(a.scene, list(a.areas_m2), progress=progress)
     note = "" if compare else (why_not or "not run (--no-compare-models)")
     a = with_report_extras(a, ranking=ranking, ranking_note=note)
     path = write_report([a], out, force=args.force)
@@ -365,8 +382,8 @@ def _report(args: argparse.Namespace) -> int:
 def _demo(args: argparse.Namespace) -> int:
     from analysis.demo import run_demo
 
-    result = run_demo(
-        args.output, n_boot=args.bootstrap, stream=sys.stdout, force=args.force, compare=args.compare_models
-    )
+    with progress_bar("demo: BEM reference", quiet=args.quiet) as progress:
+        result = run_demo(args.output, n_boot=args.bootstrap, stream=sys.stdout, force=args.force,
+                          compare=args.compare_models, progress=progress)  # fmt: skip
     print(escape_terminal(f"report: {result.report} and {result.report.with_suffix('.html')}"))
     return 0

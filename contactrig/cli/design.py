@@ -9,7 +9,8 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from contactrig.cli.options import add_max_memory_option
+from contactrig.cli.options import add_json_option, add_max_memory_option, json_units
+from contactrig.cli.progress import add_quiet_option, progress_bar
 
 __all__ = ["register"]
 
@@ -38,6 +39,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="noise model of the simulated sessions: estimated from Tab. 1's independent series (default), from a "
         "session of your own, or iid re-seating of --repeat-sd (the simulated bench; χ²/ν ≈ 1)",
     )  # fmt: skip
+    add_json_option(p, "the statement, the chosen plan and its probabilities")
+    add_quiet_option(p)
     add_max_memory_option(p)
     p.set_defaults(handler=_design)
 
@@ -85,8 +88,9 @@ def _design(args: argparse.Namespace) -> int:
     w_min, w_max = (min(config.weights_kg), max(config.weights_kg)) if config.press is not None else (2.0, 26.0)
     curves = model_curves(scene, np.geomspace(w_min, w_max, 10))
     noise = _noise(args.noise_from, repeat_sd, curves)
-    result = design(curves, candidate_plans(w_min, w_max, block_s), n_sessions=sessions, seed=args.seed,
-                    repeat_sd=repeat_sd, noise=noise)  # fmt: skip
+    with progress_bar("design: plans", quiet=args.quiet) as progress:
+        result = design(curves, candidate_plans(w_min, w_max, block_s), n_sessions=sessions, seed=args.seed,
+                        repeat_sd=repeat_sd, noise=noise, progress=progress)  # fmt: skip
     plan = chosen_plan(result)
     scene_text = plan_scene_text(scene.text, plan, discriminating=result.discriminating)
     write_text_atomic(paths[2], scene_text, force=args.force)
@@ -110,6 +114,40 @@ def _design(args: argparse.Namespace) -> int:
         "![discrimination map](discrimination.png)\n",
         force=args.force,
     )
+    if args.json:
+        import json
+
+        print(json.dumps(_json(result, plan, index, sessions, scene.name, paths), indent=1))
+        return 0
     print(text)
     print(f"plan: {paths[2]}; report: {paths[0]}")
     return 0
+
+
+def _json(result: Any, plan: Any, index: int, sessions: int, scene_name: str, paths: list[Path]) -> dict[str, Any]:
+    """``design --json`` (schema contactrig/schemas/design.json): probabilities are fractions (0…1)."""
+    from analysis.design import DELTA_AIC
+
+    return {
+        "units": json_units(probability="1 (a fraction)", delta_aic="1", target="1 (a fraction)"),
+        "scene": scene_name,
+        "statement": result.statement(),
+        "delta_aic": DELTA_AIC,
+        "target": float(result.target),
+        "sessions": sessions,
+        "models": list(result.models),
+        "discriminating": bool(result.discriminating),
+        "plan": {"weights_kg": [float(w) for w in plan.weights_kg], "repeats": int(plan.repeats),
+                 "cost_s": float(plan.cost_s)},
+        "probability": [
+            {"true_model": t, "other_model": m, "probability": float(result.probability[(t, m)][index])}
+            for t in result.models for m in result.models if t != m
+        ],
+        "cheapest": [
+            {"models": [a, b], "plan": None if i is None else {
+                "weights_kg": [float(w) for w in result.plans[i].weights_kg], "repeats": int(result.plans[i].repeats),
+                "cost_s": float(result.plans[i].cost_s)}}
+            for (a, b), i in result.cheapest.items()
+        ],
+        "files": {"report": str(paths[0]), "map": str(paths[1]), "plan": str(paths[2])},
+    }  # fmt: skip

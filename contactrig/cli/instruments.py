@@ -15,6 +15,8 @@ import math
 import sys
 from typing import TYPE_CHECKING
 
+from contactrig.cli.options import add_deprecated_alias, add_json_option
+
 if TYPE_CHECKING:
     from instruments.block import Block
     from instruments.pairs import InstrumentPair, PairDriver
@@ -35,6 +37,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     ident = sub.add_parser("identify", help="*IDN? of the 6221 and (relayed) the 2182A, or of another pair")
     _common(ident)
     ident.add_argument("--pair", default=None, help="registered instrument pair (default: the 6221/2182A)")
+    add_json_option(ident, "the two identities")
     ident.set_defaults(handler=identify_command)
 
     delta = sub.add_parser("delta", help="run one Delta block and print its statistics")
@@ -61,7 +64,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     _common(ver)
     ver.add_argument("--current", type=float, default=1e-4, metavar="A", help="test current (default 1e-4 A)")
-    ver.add_argument("--out", default="verify-report", metavar="DIR", help="report directory (default verify-report)")
+    ver.add_argument(
+        "-o", "--output", default="verify-report", metavar="DIR", help="report directory (default verify-report)"
+    )
+    add_deprecated_alias(ver, "--out", "-o/--output", "output")
     ver.set_defaults(handler=verify_command)
 
     serve = sub.add_parser(
@@ -78,13 +84,26 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     serve.add_argument("--seed", type=int, default=0, help="noise seed of the simulated bench")
     serve.add_argument("--resistance", type=float, default=5e-3, metavar="OHM", help="sample resistance (5e-3)")
     serve.add_argument(
-        "--time-scale",
-        type=float,
-        default=1.0,
-        metavar="X",
-        help="real s per instrument s (1 = real pace, 0 = instant)",
-    )
+        "--sim-speed", type=_speed, default=1.0, metavar="X",
+        help="simulated instrument time runs X times faster than real (1 = real pace, inf = no waiting; default 1), "
+        "as acquire --sim-speed",
+    )  # fmt: skip
+    add_deprecated_alias(serve, "--time-scale", "--sim-speed X (X = 1/time-scale)", "sim_speed", _inverse_scale)
     serve.set_defaults(handler=serve_sim_command)
+
+
+def _speed(text: str) -> float:
+    from contactrig.cli.sessions import _speed as speed
+
+    return speed(text)
+
+
+def _inverse_scale(text: str) -> float:
+    """Deprecated ``--time-scale S`` (real s per instrument s; 0 = instant) as a ``--sim-speed``: 1/S."""
+    s = float(text)
+    if not s >= 0 or s == math.inf:
+        raise ValueError("expected real seconds per instrument second >= 0")
+    return math.inf if s == 0 else 1.0 / s
 
 
 def _help(parser: argparse.ArgumentParser) -> int:
@@ -144,6 +163,9 @@ def identify_command(args: argparse.Namespace) -> int:
 
     with _open(args, get_pair(args.pair or DEFAULT_PAIR)) as k:
         ident = k.identify()
+    if args.json:
+        print(json.dumps({"source": ident.source, "voltmeter": ident.voltmeter}))
+        return 0
     print(f"source:    {escape_terminal(ident.source)}")  # replies are data: no control character reaches the terminal
     print(f"voltmeter: {escape_terminal(ident.voltmeter)}")
     return 0
@@ -189,7 +211,7 @@ def verify_command(args: argparse.Namespace) -> int:
     transport = driver.transport  # type: ignore[attr-defined]
     report = verify(transport, args.address or SIM_DEFAULT_ADDRESS, current_a=current)
     driver._closed = True  # type: ignore[attr-defined]  # verify closed the transport after its last SOUR:SWE:ABOR
-    js, md = write_report(report, Path(args.out))
+    js, md = write_report(report, Path(args.output))
     print(escape_terminal(report.markdown(), keep_newlines=True))  # it quotes instrument replies
     print(f"written: {js} and {md}")
     if report.passed:
@@ -207,7 +229,8 @@ def serve_sim_command(args: argparse.Namespace) -> int:
     from instruments.simulated import SimulatedBench
 
     check_int("--seed", args.seed, 0, 2**63 - 1)
-    scale = check_range("--time-scale", args.time_scale, 0.0)
+    speed = args.sim_speed  # > 0 or inf, checked by _speed
+    scale = 0.0 if math.isinf(speed) else check_range("--sim-speed", 1.0 / speed, 0.0)  # real s per instrument s
     bench = SimulatedBench(resistance_ohm=args.resistance, seed=args.seed, time_scale=scale)
     server = SimServer(args.host, args.port, bench=bench, allow_remote=args.allow_remote).start()
     print(f"serving the simulated 6221/2182A at {server.address} (Ctrl-C stops)", flush=True)
@@ -239,8 +262,11 @@ def format_block(block: Block, as_json: bool = False) -> str:
 
     st = block_statistics(block.readings, block.valid)
     if as_json:
+        from contactrig.cli.options import json_units
+
         return json.dumps(
             {
+                "units": json_units(readings=block.unit, mean=block.unit, sd=block.unit, sem=block.unit),
                 "readings": [_num(x) for x in block.readings.tolist()],
                 "mean": _num(st.mean),
                 "sd": _num(st.sd),

@@ -55,7 +55,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "import` reads it back to the same numbers) and every reading. A fit: give a saved `contactrig fit … "
             "--json` output (FIT.json), or SESSION.h5 with --fit (fitted now, like `contactrig fit`, against --sim "
             "or the rig simulated now). CSV writes one file per table (PATH and PATH-<table>.csv beside it); xlsx "
-            "one workbook (needs the 'excel' extra: pip install 'contactrig[excel]')."
+            "one workbook (openpyxl, in the base install)."
         ),
     )
     e.add_argument("source", help="session file (HDF5), or a fit saved from `contactrig fit … --json`")

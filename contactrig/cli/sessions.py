@@ -158,7 +158,9 @@ def replay_command(args: argparse.Namespace) -> int:
 
     report = replay_session(args.session, pace=args.pace)
     if args.json:
-        print(json.dumps(report.as_dict(), indent=2))  # JSON escapes control characters itself
+        from contactrig.cli.options import json_units
+
+        print(json.dumps({"units": json_units(), **report.as_dict()}, indent=2))  # JSON escapes control characters
     else:
         verdict = "identical" if report.identical else "DIFFERENT"
         print(

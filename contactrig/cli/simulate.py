@@ -89,7 +89,10 @@ def _simulate(args: argparse.Namespace) -> int:
         path = save_sweep(result, args.output, force=args.force)
         print(f"wrote {path}", file=sys.stderr if args.json else sys.stdout)
     if args.json:
-        print(json.dumps({**result.to_json_dict(), "warnings": warnings, "bulk_elasticity": effects}))
+        from contactrig.cli.options import json_units
+
+        print(json.dumps({"units": json_units(), **result.to_json_dict(), "warnings": warnings,
+                          "bulk_elasticity": effects}))  # fmt: skip
         return 0
     _print_table(result)
     for line in effects:

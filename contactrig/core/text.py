@@ -132,13 +132,26 @@ def quote(value: object, limit: int = QUOTE_LIMIT) -> str:
     if len(text) <= limit or is_path_like(value):
         return text
     if isinstance(value, (str, bytes)):
-        n = limit
-        while n > 1 and (size := len(repr(value[:n]))) > limit - 2:  # escapes make the repr longer than the slice
-            n = min(n - 1, n * (limit - 4) // size)
-        head = repr(value[:n])
+        head = _repr_head(text, limit - 2)
         what = "characters" if isinstance(value, str) else "bytes"
-        return f"{head[:-1]}…{head[-1]} ({len(value)} {what})"
+        return f"{head}…{text[-1]} ({len(value)} {what})"
     return shorten(text, limit)
+
+
+# One character of a repr body: an escape sequence (kept whole) or a plain character.
+_REPR_TOKEN = re.compile(r"\\(?:x[0-9a-fA-F]{2}|u[0-9a-fA-F]{4}|U[0-9a-fA-F]{8}|.)|.", re.DOTALL)
+
+
+def _repr_head(text: str, limit: int) -> str:
+    """The start of the repr ``text`` (prefix and opening quote included) in at most ``limit`` characters, never cut
+    inside an escape sequence: a true prefix of ``text`` in the same quoting style."""
+    start = text.index(text[-1]) + 1  # after b' / ' / "
+    end = start
+    for m in _REPR_TOKEN.finditer(text, start, len(text) - 1):
+        if m.end() > limit:
+            break
+        end = m.end()
+    return text[:end]
 
 
 def shorten(text: str, limit: int = QUOTE_LIMIT) -> str:

@@ -69,8 +69,10 @@ def test_realisation_band():
 def test_table_and_figure():
     cmp = _comparison(realisations=2)
     table = cm.comparison_table(cmp)
-    assert len(table.splitlines()) == 2 + len(P)
+    # BEM block (title, header, a row per pressure), then per quantity: blank, title, header, rows; then the footnote
+    assert len(table.splitlines()) == (2 + len(P)) + 3 * (3 + len(P)) + 1
     assert re.search(r"0\.500\*", table)  # GT at 10 MPa, beyond its curve
+    assert re.search(r"\n\s+10\s+0\.710\s+0\.500\*", table)  # Hertz A/A_BEM 0.7 + 0.01 (mean of 2 realisations)
     fig = cm.figure_compare_models(cmp)
     assert len(fig.axes) == 4  # area, gap, stiffness against BEM; area against a reference model
     from analysis.figures import get_figure
@@ -78,6 +80,33 @@ def test_table_and_figure():
     spec = get_figure("model_ranking")
     assert spec.draw(object()) is None
     assert spec.draw(type("A", (), {"model_ranking": cmp})()) is not None
+
+
+def test_table_fits_100_columns_with_every_model_and_json_keeps_full_precision():
+    """Issue 20 item 7: the text table fits 100 columns (all registered models and 12 pressures), however many
+    models (a further block), and --json carries the unrounded ratios."""
+    from sims.models import model_names
+
+    names = tuple(m for m in model_names() if m != "bem") * 2  # more models than one block holds
+    pressures = cm.DEFAULT_PRESSURES_PA
+    st = CompareSettings(pressures_pa=pressures, models=tuple(dict.fromkeys(names)), realisations=1)
+    n = len(pressures)
+    arr = np.asarray
+    res = [TaskResult(0, "bem", arr(pressures), arr([1e-6] * n), arr([1e-6] * n), arr([0.3] * n),
+                      arr([1e12] * n), arr([True] * n), {"n_spots": [1] * n})]  # fmt: skip
+    for m in st.models:
+        res.append(TaskResult(0, m, arr(pressures), arr([1e-6] * n), arr([1e-6] * n), arr([0.1] * n),
+                              arr([1e12] * n), arr([True] * n), {}))  # fmt: skip
+    cmp = Comparison(st, tuple(res), {"scene_name": "toy"})
+    table = cm.comparison_table(cmp)
+    assert max(len(line) for line in table.splitlines()) <= 100
+    for m in st.models:
+        from sims.models import model_label
+
+        assert model_label(m) in table
+    d = cm.comparison_dict(cmp)
+    assert d["models"][st.models[0]]["area_ratio"][0] == 0.1 / 0.3  # not the 3 digits of the table
+    assert d["units"]["pressure"] == "Pa" and d["settings"]["pressures_pa"] == list(pressures)
 
 
 def test_cli_on_a_small_scene(tmp_path, capsys):

@@ -41,14 +41,15 @@ def test_csv_summary_round_trips_through_contactrig_import(session_path, tmp_pat
     assert main(["export", str(session_path), "--to", "csv", "-o", str(out)]) == 0
     text = out.read_text(encoding="utf-8")
     header = next(ln for ln in text.splitlines() if not ln.startswith("#"))
-    assert header == '"weight_kg","M1_mohm","M2_mohm"'  # Tab. 1 layout, unit in the headers
+    # Tab. 1 layout, unit in the headers, then per weight the statistics of the repeats
+    assert header == '"weight_kg","M1_mohm","M2_mohm","mean_mohm","sd_mohm","sem_mohm","n"'
     back = tmp_path / "back.h5"
     assert main(["import", str(out), "-o", str(back)]) == 0
     original, imported = load_quietly(session_path), load_quietly(back)
     a, b = _means(original), _means(imported)
     assert a.keys() == b.keys() and len(a) == 6
     for key in a:
-        assert math.isclose(a[key], b[key], rel_tol=1e-15, abs_tol=0), key
+        assert a[key] == b[key], key  # the stored double itself (shortest_text), not a neighbour
     # the order the weights were placed is kept
     assert list(imported.summary["weight_kg"].unique()) == list(original.summary["weight_kg"].unique())
 
@@ -87,11 +88,16 @@ def test_missing_and_compliant_repeats_are_empty_cells_that_import_with_allow_mi
         }
     )
     t = summary_table(summary.iloc[:2])  # the second weight not measured yet: no row for it
-    assert t.rows == [[5.0, 2.0, 2.1]] and t.columns == ("weight_kg", "M1_mohm", "M2_mohm")
+    sd = float(np.std([2.0, 2.1], ddof=1))  # numpy of the mΩ values; the table's from the Ω doubles
+    assert t.rows[0][0] == 5.0 and [str(v) for v in t.rows[0][1:3]] == ["2", "2.1"]
+    assert float(t.rows[0][3]) == pytest.approx(2.05, rel=1e-15) and float(t.rows[0][4]) == pytest.approx(sd, rel=1e-12)
+    assert float(t.rows[0][5]) == pytest.approx(sd / math.sqrt(2), rel=1e-12) and t.rows[0][6] == 2
+    assert t.columns == ("weight_kg", "M1_mohm", "M2_mohm", "mean_mohm", "sd_mohm", "sem_mohm", "n")
     t = summary_table(summary)
     assert t.rows[1][1] is None and any("compliance" in n for n in t.notes)
+    assert t.rows[1][3:] == [t.rows[1][2], None, None, 1]  # one repeat: its mean, no SD
     text = "weight_kg,M1_mohm,M2_mohm\n" + "\n".join(
-        ",".join("" if v is None else repr(v) for v in row) for row in t.rows
+        ",".join("" if v is None else str(v) for v in row[:3]) for row in t.rows
     )
     table = parse_table(text, allow_missing=True)
     assert math.isnan(table.resistance_ohm[1, 0]) and table.resistance_ohm[1, 1] == pytest.approx(1.1e-3, rel=1e-15)
@@ -104,11 +110,11 @@ def test_xlsx_workbook_keeps_numbers_and_strings_as_text(session_path, tmp_path)
     wb = openpyxl.load_workbook(out)
     assert wb.sheetnames == ["summary", "readings", "about"]
     rows = list(wb["summary"].iter_rows(values_only=True))
-    assert rows[0] == ("weight_kg", "M1_mohm", "M2_mohm")
+    assert rows[0] == ("weight_kg", "M1_mohm", "M2_mohm", "mean_mohm", "sd_mohm", "sem_mohm", "n")
     s = load_quietly(session_path)
     means = _means(s)
     for w, *values in rows[1:]:
-        for r, v in enumerate(values, start=1):
+        for r, v in enumerate(values[:2], start=1):
             assert v == pytest.approx(means[(w, r)] * 1e3, rel=1e-14)  # openpyxl writes 15 digits
     about = dict(wb["about"].iter_rows(values_only=True))
     assert about["sample"] == '=HYPERLINK("http://x")'  # a string from the file, not a formula
@@ -117,11 +123,11 @@ def test_xlsx_workbook_keeps_numbers_and_strings_as_text(session_path, tmp_path)
 
 def test_xlsx_without_the_extra_is_one_line_naming_it(session_path, tmp_path, monkeypatch, capsys):
     monkeypatch.setitem(sys.modules, "openpyxl", None)  # import openpyxl → ImportError
-    with pytest.raises(ExcelUnavailable, match=r"'excel' extra .*pip install 'contactrig\[excel\]'"):
+    with pytest.raises(ExcelUnavailable, match=r"needs openpyxl.*: pip install 'openpyxl>=3.1'"):
         export_session(session_path, "xlsx", tmp_path / "s.xlsx")
     assert main(["export", str(session_path), "--to", "xlsx", "-o", str(tmp_path / "s.xlsx")]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "contactrig[excel]" in err
+    assert len(err.splitlines()) == 1 and "pip install 'openpyxl>=3.1'" in err
     assert not (tmp_path / "s.xlsx").exists()
 
 

@@ -108,7 +108,7 @@ def _free_port():
 def test_serve_sim_command_serves_and_stops_cleanly_on_ctrl_c():
     port = _free_port()
     proc = subprocess.Popen(
-        [sys.executable, "-m", "contactrig", "instruments", "serve-sim", "--port", str(port), "--time-scale", "0"],
+        [sys.executable, "-m", "contactrig", "instruments", "serve-sim", "--port", str(port), "--sim-speed", "inf"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

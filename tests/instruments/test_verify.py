@@ -88,5 +88,5 @@ def test_unsafe_current_refused_before_anything_is_sent():
 
 
 def test_cli_verify_sim_writes_report(tmp_path, capsys):
-    assert main(["instruments", "verify", "--sim", "--out", str(tmp_path)]) == 0
+    assert main(["instruments", "verify", "--sim", "-o", str(tmp_path)]) == 0
     assert (tmp_path / "verify.json").exists() and "compliance abort" in (tmp_path / "verify.md").read_text()

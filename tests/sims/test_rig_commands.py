@@ -17,7 +17,7 @@ def test_simulate_json_with_weights_and_output(tmp_path, capsys):
     assert rc == 0
     captured = capsys.readouterr()
     data = json.loads(captured.out)
-    assert set(data) == {"models", "warnings", "bulk_elasticity"}
+    assert set(data) == {"units", "models", "warnings", "bulk_elasticity"}
     assert data["bulk_elasticity"] == []  # the rigid model unless --elastic
     gt = data["models"]["greenwood_tripp"]
     assert gt["weight_kg"] == [0.0, 5.44, 25.966]
