@@ -145,21 +145,22 @@ def area_at_weights(weight_sim_kg: np.ndarray, area_sim_m2: np.ndarray, weight_k
     if np.any(np.diff(ws) <= 0):
         raise SettingError("weight_kg", ws.tolist(), "expected distinct simulated weights")
     out = np.empty(w.shape)
-    interpolate: Any = None
-    for i, wi in enumerate(w):
-        hit = np.flatnonzero(np.abs(ws - wi) <= 1e-9 * max(abs(wi), 1e-12))
-        if hit.size:
-            out[i] = a[hit[0]]
-            continue
-        if wi < ws[0] or wi > ws[-1] or ws.size < 2 or wi <= 0 or ws[0] <= 0:
-            raise SettingError(
-                "weight_kg", float(wi), f"measured weight outside the simulated range [{ws[0]:g}, {ws[-1]:g}] kg"
-            )
-        if interpolate is None:  # built once: 10 000 weights would build it 10 000 times
-            from scipy.interpolate import PchipInterpolator
+    # the simulated weight within 1e-9 of each measured one (the lower if two are): ws sorted, so a neighbour
+    j = np.clip(np.searchsorted(ws, w), 1, max(ws.size - 1, 1)) - 1
+    tol = 1e-9 * np.maximum(np.abs(w), 1e-12)
+    j = np.where(np.abs(ws[j] - w) <= tol, j, np.minimum(j + 1, ws.size - 1))
+    hit = np.abs(ws[j] - w) <= tol
+    out[hit] = a[j[hit]]
+    bad = ~hit & ((w < ws[0]) | (w > ws[-1]) | (ws.size < 2) | (w <= 0) | (ws[0] <= 0))
+    if np.any(bad):
+        wi = float(w[np.argmax(bad)])
+        raise SettingError("weight_kg", wi, f"measured weight outside the simulated range [{ws[0]:g}, {ws[-1]:g}] kg")
+    if not np.all(hit):  # one PCHIP, evaluated at every other weight in one call (was a call per weight: ~1 s)
+        from scipy.interpolate import PchipInterpolator
 
-            interpolate = PchipInterpolator(np.log(ws), np.log(a))
-        out[i] = math.exp(float(interpolate(math.log(wi))))
+        interpolate = PchipInterpolator(np.log(ws), np.log(a))
+        log_a = interpolate(np.array([math.log(wi) for wi in w[~hit]]))
+        out[~hit] = [math.exp(v) for v in log_a.tolist()]
     return out
 
 

@@ -2,6 +2,7 @@
 size (the same random stream consumed in the same order), each block checked against an independent definition, and
 memory that no longer grows with resamples × weights."""
 
+import math
 import tracemalloc
 
 import numpy as np
@@ -10,6 +11,7 @@ import pytest
 from analysis import fit
 from analysis.fit import compare_models
 from analysis.measured import MeasuredCurve
+from contactrig.core.validation import SettingError
 
 W = np.linspace(5.0, 26.0, 40)
 H = 5e-3
@@ -105,3 +107,24 @@ def test_each_row_is_computed_on_its_own():
     for rows in (slice(0, 1), slice(3, 10), slice(64, 128), slice(300, 301)):
         assert np.array_equal(fit._chi2_rows(means[rows], p[rows], x, sigma, x * 1e-6), chi2[rows])
         assert np.array_equal(fit._refit_chi2(x, means[rows], sigma), refit[rows])
+
+
+def test_areas_at_many_weights_in_one_call_match_one_weight_at_a_time():
+    """area_at_weights evaluates one PCHIP at every weight at once: the same bits as a call per weight (the former
+    loop, written out here with SciPy), exact simulated values where the weights coincide, a bad weight named."""
+    from scipy.interpolate import PchipInterpolator
+
+    rng = np.random.default_rng(7)
+    ws = np.sort(rng.uniform(2.0, 30.0, 60))
+    a = 1e-7 * ws**0.8 * (1 + 0.01 * rng.random(60))
+    w = np.concatenate([rng.uniform(ws[0], ws[-1], 500), ws[::7], ws[::9] * (1 + 1e-10)])
+    rng.shuffle(w)
+    pchip = PchipInterpolator(np.log(ws), np.log(a))
+    one_by_one = [
+        a[np.flatnonzero(np.abs(ws - x) <= 1e-9 * x)[0]] if np.any(np.abs(ws - x) <= 1e-9 * x)
+        else math.exp(float(pchip(math.log(x))))
+        for x in w
+    ]  # fmt: skip
+    assert np.array_equal(fit.area_at_weights(ws, a, w), one_by_one)
+    with pytest.raises(SettingError, match="31"):
+        fit.area_at_weights(ws, a, np.array([10.0, 31.0, 1.0]))
