@@ -17,6 +17,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import daq
+from contactrig.core.validation import SettingError
 from daq import session_file
 from daq.errors import (
     ChecksumError,
@@ -286,8 +287,9 @@ def test_existing_file_is_never_overwritten_without_force(session_path):
 
 
 def test_unwritable_paths(tmp_path):
-    with pytest.raises(SessionWriteError, match="does not exist"):
-        SessionFile.create(tmp_path / "no" / "such" / "dir" / "s.h5")
+    (tmp_path / "afile").write_bytes(b"")
+    with pytest.raises(SettingError, match="expected a folder; a file of that name exists"):
+        SessionFile.create(tmp_path / "afile" / "s.h5")
     with pytest.raises(SessionWriteError, match="folder, not a file"):
         SessionFile.create(tmp_path, force=True)
     if os.path.isdir("/sys/kernel"):
