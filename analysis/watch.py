@@ -38,6 +38,7 @@ import numpy as np
 
 from analysis.resistance import resistance_unit
 from contactrig.core.text import escape_terminal
+from daq.records import block_number
 
 __all__ = [
     "BlockRow",
@@ -93,7 +94,8 @@ class LiveState:
 
     @property
     def compliant_blocks(self) -> list[int]:
-        return [r.block for r in self.rows if r.compliance]
+        """The numbers (1-based, :func:`daq.records.block_number`) of the blocks taken in compliance."""
+        return [block_number(r.block) for r in self.rows if r.compliance]
 
     @property
     def n_invalid(self) -> int:
@@ -130,7 +132,11 @@ def status_line(state: LiveState, now: float | None = None) -> str:
     if state.rows:
         last = state.rows[-1]
         parts.append(f"{last.weight_kg:g} kg repeat {last.repeat}")
-    parts.append(f"block {state.blocks_done}/{planned}")
+        number = block_number(last.block)  # the last block's number, as the live line and the exports call it
+        taken = f" ({state.blocks_done} taken)" if state.blocks_done != number else ""
+        parts.append(f"block {number}/{planned}{taken}")
+    else:
+        parts.append(f"no block yet/{planned}")
     eta = state.eta_s(now)
     if state.status == "running":
         parts.append(f"ETA {_clock(eta)}" if eta is not None else "ETA –")
@@ -232,7 +238,7 @@ def _draw_current(ax: Any, state: LiveState) -> None:
         ax.plot(t[~valid], np.zeros(int((~valid).sum())), "x", color="#d62728", label="invalid")
         ax.legend(fontsize=7.5)
     last = state.rows[-1] if state.rows else None
-    title = f"block {state.blocks_done}: {last.weight_kg:g} kg, repeat {last.repeat}" if last else "no block yet"
+    title = f"block {block_number(last.block)}: {last.weight_kg:g} kg, repeat {last.repeat}" if last else "no block yet"
     ax.set(xlabel="time t [s]", ylabel=f"resistance R [{unit}]", title=_plain(title))
     ax.ticklabel_format(axis="y", useOffset=False)
 

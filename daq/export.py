@@ -37,6 +37,7 @@ import numpy as np
 from contactrig.core.files import atomic_write, refuse_existing
 from contactrig.core.text import escape_terminal
 from contactrig.core.validation import SettingError, check_choice
+from daq.records import block_number
 
 __all__ = [
     "FORMATS",
@@ -109,7 +110,8 @@ def summary_table(summary: Any) -> Table:
     ):
         cells[(float(w), int(r))] = _number(m * factor)
         if bool(comp):
-            notes.append(f"block {int(b)} ({float(w):g} kg, repeat {int(r)}) was taken in compliance: left empty")
+            where = f"block {block_number(b)} ({float(w):g} kg, repeat {int(r)})"
+            notes.append(f"{where} was taken in compliance: left empty")
     rows = [[w, *(cells.get((w, r)) for r in repeats)] for w in weights]
     if any(v is None for row in rows for v in row[1:]):
         notes.append("empty cells are missing repeats: import with --allow-missing")
@@ -121,7 +123,7 @@ def readings_table(readings: Any, reading_unit: str) -> Table:
     unit = reading_unit or "as_returned"
     cols = ("block", "weight_kg", "repeat", "index", "time_s", f"reading_{unit}", "resistance_ohm", "valid")
     data = [
-        readings["block"].to_numpy(dtype=np.int64).tolist(),
+        [block_number(b) for b in readings["block"].to_numpy(dtype=np.int64)],  # 1-based, as every output
         readings["weight_kg"].to_numpy(dtype=float).tolist(),
         readings["repeat"].to_numpy(dtype=np.int64).tolist(),
         readings["index"].to_numpy(dtype=np.int64).tolist(),

@@ -341,7 +341,7 @@ def test_status_line_eta_invalid_and_compliance():
     state = LiveState("s.h5", "running", rows, blocks_planned=6)
     assert state.eta_s(now=1025.0) == pytest.approx(3 * 10.0 - 5.0)
     line = status_line(state, now=1025.0)
-    assert line == "s.h5: RUNNING  10 kg repeat 1  block 3/6  ETA 0:25  2 invalid  COMPLIANCE in block(s) 2 (excluded)"
+    assert line == "s.h5: RUNNING  10 kg repeat 1  block 3/6  ETA 0:25  2 invalid  COMPLIANCE in block(s) 3 (excluded)"
     done = status_line(LiveState("s.h5", "success", rows[:2], blocks_planned=2))
     assert "ETA" not in done and "compliance: none" in done and "block 2/2" in done
     assert "ETA –" in status_line(LiveState("s.h5", "running", rows[:1], blocks_planned=6))

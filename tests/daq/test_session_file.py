@@ -147,7 +147,7 @@ def test_corrupted_values_fail_the_checksum(session_path, target):
     with h5py.File(session_path, "a") as h5:
         ds = h5[target]
         ds[1] = 0 if ds.dtype.kind == "u" else ds[1] * 1.0000001 + 1e-12
-    with pytest.raises(ChecksumError, match=r"SHA-256 mismatch in block [01] "):
+    with pytest.raises(ChecksumError, match=r"SHA-256 mismatch in block [12] "):
         load_session(session_path)
 
 
@@ -269,7 +269,7 @@ def test_compliant_block_is_flagged_excluded_and_checksummed(tmp_path):
     # clearing the flag on disk (to slip the block back in) breaks its checksum
     with h5py.File(path, "a") as h5:
         h5["entry/summary/compliance"][1] = 0
-    with pytest.raises(ChecksumError, match="block 1"):
+    with pytest.raises(ChecksumError, match="block 2 "):
         load_session(path)
 
 
@@ -384,7 +384,7 @@ def test_full_disk_keeps_written_blocks_and_rescues_the_failing_one(tmp_path):
 
 def _rescue_file(path):
 
-    return path.parent / f"{path.stem}.block2.rescue.npz"
+    return path.parent / f"{path.stem}.block3.rescue.npz"
 
 
 def test_stop_record_counts(tmp_path):
