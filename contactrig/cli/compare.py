@@ -54,7 +54,10 @@ def _pressures(args: argparse.Namespace) -> tuple[float, ...]:
 def run_compare(args: argparse.Namespace) -> int:
     """Handler of ``contactrig compare-models``."""
     from analysis.compare_models import compare_models, comparison_table, report_lines
+    from contactrig.core.files import refuse_existing
 
+    if args.plot:  # refused (or its folder created) before the comparison runs, as every command's outputs
+        refuse_existing([args.plot])
     cmp = compare_models(
         args.scene,
         args.models,
