@@ -205,10 +205,11 @@ def check_bench(overrides: Mapping[str, Any], *, simulated: bool) -> None:
 def describe_runs(runs: list[Any]) -> list[str]:
     """What ``scene show`` prints after a session's scene text, as TOML comments (so the output stays a scene): the
     overrides of each run (start records ``runs``) and the effective value of every overridable key in the latest run
-    (from its recorded plan), with where it came from."""
+    (from its recorded plan), with where it came from. Nothing for a session without overrides records (imported,
+    or older)."""
     records = [r for r in runs if isinstance(r, dict)]
-    if not records:
-        return []
+    if not any("overrides" in r for r in records):
+        return []  # imported, or recorded before overrides existed
     lines = ["# overrides (acquire options; the scene text above is the file as it was, unchanged):"]
     for i, record in enumerate(records):
         given = _dict(record.get("overrides"))
