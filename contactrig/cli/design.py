@@ -42,21 +42,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=_design)
 
 
-def _noise(source: str, repeat_sd: float, curves: Any) -> Any:
+def _noise(source: str, repeat_sd: float) -> Any:
     """The noise model of ``--noise-from``: Tab. 1, iid re-seating, or a session file's own repeats."""
-    from analysis.design import NoiseModel, estimate_noise
+    from analysis.noise_model import NOISE_MODELS, estimate_noise, noise_model
 
-    if source == "iid":
-        return NoiseModel.iid(repeat_sd)
-    if source == "tab1":
-        from analysis.measured import load_tab1
-
-        return estimate_noise(load_tab1(), curves, "seed paper Tab. 1")
+    if source in NOISE_MODELS:  # "tab1" (default, the simulated bench's too) or "iid"
+        return noise_model(source, repeat_sd)
     from analysis.measured import MeasuredCurve
     from daq import load_session
 
     curve = MeasuredCurve.from_summary(load_session(source).summary, source=source)
-    return estimate_noise(curve, curves, source)
+    return estimate_noise(curve, None, source)  # lack of fit about a power law, as for Tab. 1
 
 
 def _design(args: argparse.Namespace) -> int:
@@ -75,7 +71,9 @@ def _design(args: argparse.Namespace) -> int:
     repeat_sd = check_range("--repeat-sd", args.repeat_sd, 0.0, 1.0)
     out = output_folder(args.output)
     paths = refuse_existing([out / "design.md", out / "discrimination.png", out / "plan.toml"], force=args.force)
-    if args.noise_from not in ("tab1", "iid") and not Path(args.noise_from).is_file():  # before the slow build
+    from analysis.noise_model import NOISE_MODELS
+
+    if args.noise_from not in NOISE_MODELS and not Path(args.noise_from).is_file():  # before the slow build
         raise FileNotFoundError(f"--noise-from {args.noise_from}: no such session file (or 'tab1', 'iid')")
     scene = load_scene(args.scene)
     config = SimConfig.from_scene(scene)  # the scene parsed once: rig or press, validated
@@ -84,7 +82,7 @@ def _design(args: argparse.Namespace) -> int:
     block_s = block.count * (block.delay_s + block.nplc / block.line_frequency_hz)
     w_min, w_max = (min(config.weights_kg), max(config.weights_kg)) if config.press is not None else (2.0, 26.0)
     curves = model_curves(scene, np.geomspace(w_min, w_max, 10))
-    noise = _noise(args.noise_from, repeat_sd, curves)
+    noise = _noise(args.noise_from, repeat_sd)
     result = design(curves, candidate_plans(w_min, w_max, block_s), n_sessions=sessions, seed=args.seed,
                     repeat_sd=repeat_sd, noise=noise)  # fmt: skip
     plan = chosen_plan(result)

@@ -43,29 +43,6 @@ def test_load_independent_data_are_not_a_contact_area_measurement():
     assert "discriminate between" not in cmp.statement
 
 
-def test_physical_fit_recovers_film_and_series_within_honest_intervals():
-    """200 simulated sessions (the bench's noise: log-normal re-seating, 15 %, every weight and repeat), the clean
-    terms known: the t-intervals of σ_f and R_s contain the truth in ≥ 90 % of them (stated level 95 %)."""
-    area = 2e-7 * (W / W[0]) ** 0.9
-    barber, macro = 5e-5 * (W[0] / W) ** 0.9, np.full(W.size, 1.5e-5)
-    r_s, film = 2e-4, 1.2e-9
-    truth = r_s + film / area + barber + macro
-    rng = np.random.default_rng(11)
-    hits = np.zeros(2)
-    n = 200
-    for _ in range(n):
-        f = rng.lognormal(-0.5 * 0.15**2, 0.15, (W.size, 6))
-        curve = MeasuredCurve(W, truth[:, None] * f, paired=True)
-        fit = compare_models(
-            curve, {"m": area}, height_m=1.0, conversion="physical", n_boot=0,
-            offset_terms={"m": {"barber": barber, "macro": macro}},
-        ).fits["m"]  # fmt: skip
-        t = fit.intervals.t
-        hits += [t.scale[0] <= film <= t.scale[1], t.R_series_ohm[0] <= r_s <= t.R_series_ohm[1]]
-    assert fit.estimate.scale_units == "ohm*m2" and set(fit.shares) == {"series", "film", "barber", "macro"}
-    assert np.all(hits / n >= 0.90), hits / n
-
-
 def test_fit_tab1_physical_json_has_the_shares(capsys):
     from contactrig.cli.main import main
 
