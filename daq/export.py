@@ -258,7 +258,7 @@ def fit_tables(fit_json: Mapping[str, Any], source: str = "") -> tuple[list[Tabl
         ("exported by", "contactrig export"),
     ]  # fmt: skip
     tables = [Table("fits", _FIT_COLUMNS, fits), Table("points", _POINT_COLUMNS, points)]
-    return tables + [Table("shares", _SHARE_COLUMNS, shares)], about
+    return [*tables, Table("shares", _SHARE_COLUMNS, shares)], about
 
 
 # ---- writing -------------------------------------------------------------------------------------------------------
