@@ -113,3 +113,14 @@ def test_fit_figure_of_tab1_uses_the_fits_series_and_criterion():
     half = np.array([abs(seg[1, 1] - seg[0, 1]) / 2 for seg in bars.get_segments()])
     m13 = load_tab1().values_ohm[:, :3]
     np.testing.assert_allclose(half, 1e3 * m13.std(axis=1, ddof=1) / math.sqrt(3), rtol=1e-9)
+
+
+def test_tab1_integrity_notes_are_the_series_detectors():
+    """One implementation: the report's Tab. 1 notes are the detector's findings and name what the fit counts."""
+    from analysis.pipeline import tab1_integrity_notes
+
+    curve = load_tab1()
+    notes = tab1_integrity_notes(curve)
+    dep = find_dependence(curve.values_ohm, curve.repeat_labels)
+    assert [n.rstrip(".") for n in notes[: len(dep.notes)]] == list(dep.notes)
+    assert "M4, M5, M6 are not independent repeats" in notes[-1] and "3 independent series (M1, M2, M3)" in notes[-1]
