@@ -19,10 +19,13 @@ real rig. By default the simulated sessions carry Tab. 1's structure, ln f_ik = 
 SD 9.6 %, per-weight re-seating 13.2 %, lack of fit common to every series 14.5 % (:func:`tab1_noise`), or the
 estimates from a user's own session (``design --noise-from SESSION.h5``), or iid re-seating (``--noise-from iid``).
 
-**Decision rule — the same as** :mod:`analysis.fit`: ĉ = the smallest χ²/ν over the models of each simulated
-session; when ĉ > 1.5 the models are compared by QAIC (Δχ²/ĉ), else by AIC (Δχ²). For a pair (t, m) the probability
-of discrimination is P(Δ ≥ 10 | t true), and the pair is told apart by a plan when both directions reach ``target``
-(90 %). The scene must give both bodies' resistivities (the clean-metal terms need them): a ``SettingError`` says so.
+**Decision rule — the same as** :mod:`analysis.fit` (:func:`told_apart`): ĉ = the smallest χ²/ν over the physical
+fits of each simulated session; when ĉ > 1.5 the models are compared by QAIC (Δχ²/ĉ), else by AIC (Δχ²); a fit that
+is unphysical (R_s significantly < 0, σ_f significantly ≤ 0) or load-independent is ranked after the others whatever
+its (Q)AIC, with the fit's t-intervals (its one error rule, per session: :class:`SessionFits`). For a pair (t, m) the
+probability of discrimination is P(t ranked first by Δ ≥ 10 | t true), and the pair is told apart by a plan when
+both directions reach ``target`` (90 %). The scene must give both bodies' resistivities (the clean-metal terms need
+them): a ``SettingError`` says so.
 Cost of a plan: loads × (placing time + repeats × block time)
 [s]. The cheapest plan reaching the target for a pair is reported, or "none". Monte-Carlo error of a probability
 p from N sessions: √(p(1−p)/N).
@@ -53,12 +56,14 @@ __all__ = [
     "ModelCurves",
     "NoiseModel",
     "Plan",
+    "SessionFits",
     "design",
     "estimate_noise",
     "model_curves",
     "plan_scene_text",
     "simulate_plan",
     "tab1_noise",
+    "told_apart",
 ]
 
 DELTA_AIC = 10.0
@@ -167,6 +172,42 @@ class DesignResult:
         return "\n".join(lines)
 
 
+@dataclass(frozen=True)
+class SessionFits:
+    """One model's fits of many simulated sessions, judged by :mod:`analysis.fit`'s rules: ``chi2`` [-],
+    ``unphysical`` (R_s significantly < 0 or σ_f significantly ≤ 0, :func:`analysis.fit.unphysical_limits`) and
+    ``load_independent`` (σ_f's t-interval reaches 0, :func:`analysis.fit.load_independent_slope`) per session, the
+    t-intervals from the fit's one error rule (paired-series covariance, or χ²-scaled when over-dispersed and larger:
+    :func:`analysis.fit.scaled_errors`) at the 95 % level."""
+
+    chi2: np.ndarray
+    unphysical: np.ndarray
+    load_independent: np.ndarray
+
+
+def _session_fits(values: np.ndarray, sigma: np.ndarray, area: np.ndarray, clean: np.ndarray) -> SessionFits:
+    """The fits of sessions ``values`` (n, m, r) [Ω] with weights from ``sigma`` (n, m): the mean curve, and each
+    series alone (the weighted estimator is linear, so the fit is the mean of the series' fits and the paired-series
+    covariance their scatter / r, as in :func:`analysis.fit._parameter_covariance`)."""
+    from analysis.fit import _t_quantile, load_independent_slope, scaled_errors, unphysical_limits
+
+    _, m, r = values.shape
+    fit = fit_film_series(values.mean(-1), sigma, area, clean)
+    per = fit_film_series(np.swapaxes(values, -1, -2), sigma[:, None, :], area, clean)  # (n, r) per series
+    rep_r, rep_s = per.series_ohm.var(-1, ddof=1) / r, per.film_ohm_m2.var(-1, ddof=1) / r
+    dof = m - 2
+    c_hat = fit.chi2 / dof
+    scaled = scaled_errors(c_hat, dof, fit.film_se**2, rep_s)
+    se_r = np.where(scaled, fit.series_se * np.sqrt(c_hat), np.sqrt(rep_r))
+    se_s = np.where(scaled, fit.film_se * np.sqrt(c_hat), np.sqrt(rep_s))
+    t = np.where(scaled, _t_quantile(0.95, dof), _t_quantile(0.95, r - 1))
+    return SessionFits(
+        chi2=fit.chi2,
+        unphysical=unphysical_limits(fit.series_ohm + t * se_r, fit.film_ohm_m2 + t * se_s),
+        load_independent=load_independent_slope(fit.film_ohm_m2 - t * se_s),
+    )
+
+
 def simulate_plan(
     curves: ModelCurves,
     plan: Plan,
@@ -178,20 +219,31 @@ def simulate_plan(
     repeat_sd: float,
     block_sd_ohm: float,
     noise: NoiseModel | None = None,
-) -> dict[str, np.ndarray]:
-    """χ² of every model for ``n_sessions`` simulated sessions of ``plan`` with model ``truth`` true (``noise``:
+) -> dict[str, SessionFits]:
+    """Every model's fits of ``n_sessions`` simulated sessions of ``plan`` with model ``truth`` true (``noise``:
     the session's scatter; None: iid re-seating of SD ``repeat_sd``)."""
     w = np.asarray(plan.weights_kg)
     a_t, c_t = curves.at(truth, w)
     f = (noise or NoiseModel.iid(repeat_sd)).factors(rng, (n_sessions, w.size, plan.repeats))
     values = bench_resistance_ohm(series, film, a_t, c_t, f) + block_sd_ohm * rng.standard_normal(f.shape)
-    mean = values.mean(-1)
     sigma = relative_sigma_ohm(values)
-    out = {}
-    for m in curves.area_m2:
-        a_m, c_m = curves.at(m, w)
-        out[m] = fit_film_series(mean, sigma, a_m, c_m).chi2
-    return out
+    return {m: _session_fits(values, sigma, *curves.at(m, w)) for m in curves.area_m2}
+
+
+def told_apart(fits: dict[str, SessionFits], truth: str, other: str, dof: int) -> np.ndarray:
+    """Per session: does the fit put ``truth`` ahead of ``other`` by Δ(Q)AIC ≥ :data:`DELTA_AIC`, as
+    :func:`analysis.fit.compare_models` ranks — ĉ = the smallest χ²/ν of the physical fits (of all when none is
+    physical), QAIC when ĉ > 1.5; a physical fit ranked before an unphysical one, a load-dependent one before a
+    load-independent one, whatever their (Q)AIC."""
+    chi2 = np.vstack([f.chi2 for f in fits.values()]) / max(dof, 1)
+    physical = ~np.vstack([f.unphysical for f in fits.values()])
+    c_phys = np.min(np.where(physical, chi2, np.inf), axis=0)
+    c_hat = np.where(np.isfinite(c_phys), c_phys, np.min(chi2, axis=0))
+    scale = np.where(c_hat > OVERDISPERSION, c_hat, 1.0)  # QAIC when over-dispersed, as in fit
+    t, o = fits[truth], fits[other]
+    same = t.unphysical == o.unphysical
+    first = (t.unphysical < o.unphysical) | (same & (t.load_independent <= o.load_independent))
+    return np.asarray(((o.chi2 - t.chi2) / scale >= DELTA_AIC) & first)
 
 
 def candidate_plans(
@@ -232,14 +284,12 @@ def design(
     for i, plan in enumerate(plans):
         dof = max(len(plan.weights_kg) - 2, 1)
         for t in models:
-            chi2 = simulate_plan(
+            fits = simulate_plan(
                 curves, plan, t, film_ohm_m2, series_ohm, rng, n_sessions, repeat_sd, block_sd_ohm, noise
             )
-            c_hat = np.min(np.vstack(list(chi2.values())), axis=0) / dof
-            scale = np.where(c_hat > OVERDISPERSION, c_hat, 1.0)  # QAIC when over-dispersed, as in fit
             for m in models:
                 if m != t:
-                    prob[(t, m)][i] = float(np.mean((chi2[m] - chi2[t]) / scale >= DELTA_AIC))
+                    prob[(t, m)][i] = float(np.mean(told_apart(fits, t, m, dof)))
     pair_score: dict[tuple[str, str], np.ndarray] = {}
     cheapest: dict[tuple[str, str], int | None] = {}
     for j, a in enumerate(models):
