@@ -365,7 +365,7 @@ def draw_map(result: DesignResult, path: str, *, force: bool = False) -> None:
     ax.set_xticks(range(len(pairs)), [f"{a}\nvs {b}" for a, b in pairs], fontsize=6, rotation=90)
     labels = [f"{len(p.weights_kg)}×{p.repeats} {p.weights_kg[0]:g}–{p.weights_kg[-1]:g} kg" for p in result.plans]
     ax.set_yticks(range(len(labels)), labels, fontsize=5)
-    ax.set_title(f"{result.geometry}: P(ΔAIC ≥ {DELTA_AIC:g}, both ways)", fontsize=8)
+    ax.set_title(f"{result.geometry}: P(Δ(Q)AIC ≥ {DELTA_AIC:g}, both ways)", fontsize=8)
     fig.colorbar(im, ax=ax)
     fig.tight_layout()
     from analysis.figures import save_figure_file

@@ -22,7 +22,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description=(
             "Simulates many bench sessions per candidate plan (loads, repeats) for every contact model of the "
             "scene, fits each with every model, and reports the probability of ranking the true model first by "
-            "ΔAIC >= 10; writes the report, the discrimination map and the chosen plan as a scene."
+            "Δ(Q)AIC >= 10 (QAIC when over-dispersed, as in fit); writes the report, the discrimination map and "
+            "the chosen plan as a scene."
         ),
     )
     p.add_argument("scene", nargs="?", default=None, help="scene TOML file (rig or press; default: the paper scene)")
@@ -102,9 +103,9 @@ def _design(args: argparse.Namespace) -> int:
         f"# Experiment design: {scene.name}\n\n{text}\n\nChosen plan: {len(plan.weights_kg)} loads "
         f"{list(plan.weights_kg)} kg × {plan.repeats} repeats ({plan.cost_s / 60:.0f} min), written to plan.toml"
         f"{'' if result.discriminating else ' (marked NOT A DISCRIMINATING PLAN)'}.\n\n"
-        "With this plan, the probability that a session's fit puts the true model ahead of the other by ΔAIC ≥ 10 "
+        "With this plan, the probability that a session's fit puts the true model ahead of the other by Δ(Q)AIC ≥ 10 "
         f"({sessions} simulated sessions each; Monte-Carlo SE ≤ {50 / np.sqrt(sessions):.1f} %):\n\n"
-        "| true model | other | P(ΔAIC ≥ 10) |\n|---|---|---|\n" + "\n".join(rows) + "\n\n"
+        "| true model | other | P(Δ(Q)AIC ≥ 10) |\n|---|---|---|\n" + "\n".join(rows) + "\n\n"
         "![discrimination map](discrimination.png)\n",
         force=args.force,
     )
