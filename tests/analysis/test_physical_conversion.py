@@ -60,3 +60,34 @@ def test_fit_tab1_physical_json_has_the_shares(capsys):
     fitted, measured = np.array(fit["points"]["fitted_ohm"]), np.array(fit["points"]["measured_ohm"])
     assert np.allclose(total, fitted / measured, rtol=1e-9)  # shares of the measured mean add up to fitted/measured
     assert 0.003 < min(shares["barber"]) and max(shares["barber"]) < 0.03
+
+
+def test_fit_of_a_simulated_session_file_brackets_the_simulated_film_and_series(tmp_path, capsys):
+    """End to end: ``acquire --sim`` (default scene, Tab. 1 noise, R_s = 0.2 mΩ) then ``fit --conversion physical``:
+    the bench's clean-metal terms are the ones the fit subtracts, so the 95 % t-intervals bracket the simulated σ_f
+    and R_s (before, the bench had no clean-metal terms and the physical fit of a simulated session found R_s ≈ −0.23
+    mΩ). One seeded session; the coverage over many is tests/analysis/test_simulated_session.py."""
+    import re
+
+    from contactrig.cli.main import main
+    from contactrig.core.scene import default_scene_text
+
+    text = re.sub(r"(?m)^count = .*$", "count = 8", default_scene_text())
+    text = re.sub(r"(?m)^series_resistance_ohm = .*$", "series_resistance_ohm = 2e-4", text)
+    scene = tmp_path / "scene.toml"
+    scene.write_text(text)
+    session = tmp_path / "s.h5"
+    assert main(["acquire", str(scene), "--sim", "--yes", "--sim-speed", "inf", "-o", str(session)]) == 0
+    capsys.readouterr()
+    argv = ["fit", str(session), "--conversion", "physical", "--bootstrap", "0", "--models", "greenwood_tripp"]
+    assert main([*argv, "--json"]) == 0
+    fit = json.loads(capsys.readouterr().out)["models"]["greenwood_tripp"]
+    t = fit["intervals"]["t"]
+    from daq import load_session
+
+    circuit = load_session(session).start["simulation"]["circuit"]
+    film = circuit["resistivity_ohm_m"] * circuit["contact_height_m"]  # ζ·h of the scene's [circuit]
+    assert circuit["series_resistance_ohm"] == 2e-4
+    assert t["scale"][0] <= film <= t["scale"][1], (t["scale"], film)
+    assert t["R_series_ohm"][0] <= 2e-4 <= t["R_series_ohm"][1], t["R_series_ohm"]
+    assert fit["goodness"]["reduced_chi2"] > 1.5  # Tab. 1's over-dispersion, not iid scatter
