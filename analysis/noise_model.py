@@ -23,8 +23,8 @@ by σ_b² + σ_e²/r, a common σ_a absorbed in the film)::
 independent series M1–M3 (M4 is their mean and M5, M6 offset copies of M4: :mod:`analysis.series_dependence`), a
 two-way analysis of ln R (8 weights × 3 series): re-seating σ_e = 0.132 (residual mean square, 14 dof), series offset
 σ_a = 0.096 (column mean square beyond the residual), lack of fit σ_b = 0.145 (relative misfit of the mean curve to a
-power law R = c·W^β beyond σ_e²/3, 6 dof). E[ĉ] ≈ 3.0 for Tab. 1's r = 3 (its M1–M3 physical fit gives 3.1), ≈ 5.4 for six
-repeats. ``iid``: re-seating only (the old simulator; χ²/ν ≈ 1).
+power law R = c·W^β beyond σ_e²/3, 6 dof). E[ĉ] ≈ 3.0 for Tab. 1's r = 3 (its M1–M3 physical fit gives 3.1), ≈ 5.4
+for six repeats. ``iid``: re-seating only (the old simulator; χ²/ν ≈ 1).
 """
 
 from __future__ import annotations
