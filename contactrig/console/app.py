@@ -17,6 +17,7 @@ import secrets
 import subprocess
 import sys
 import threading
+import warnings
 from collections.abc import AsyncIterator, Awaitable, Callable, MutableMapping
 from dataclasses import dataclass, field
 from http.cookies import SimpleCookie
@@ -324,7 +325,9 @@ def _recorded_address(path: Path) -> str:
     from daq.session_file import load_session
 
     try:
-        session = load_session(path, timeout=30)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the notes of an unfinished session: resuming is the point
+            session = load_session(path, timeout=30)
     except Exception as exc:
         raise BadRequest(f"{path.name}: {exc}") from None
     return str((session.start.get("instrument") or {}).get("address", ""))
@@ -430,16 +433,18 @@ def _session_file(console: Console, relative: object) -> Path:
 def _details(path: Path) -> dict[str, Any]:
     from daq.session_file import load_session
 
-    s = load_session(path, timeout=60)
+    with warnings.catch_warnings(record=True) as notes:
+        warnings.simplefilter("always")
+        s = load_session(path, timeout=60)
     summary = s.summary
     cols = [c for c in ("block", "run", "weight_kg", "repeat", "mean_ohm", "sem_ohm", "n", "n_invalid", "compliance")
             if c in summary.columns]  # fmt: skip
     blocks = json.loads(summary[cols].to_json(orient="records"))
     runs = [r for r in s.runs if isinstance(r, dict)] if isinstance(s.runs, list) else []
-    history = [{"run": r.get("run", i), "started": (r.get("start") or {}).get("started"), "stop": r.get("stop")}
-               for i, r in enumerate(runs)]  # fmt: skip
+    history = [{"run": r.get("run", i), "started": r.get("started"), "command": r.get("command"),
+                "resumed_from": r.get("resumed_from"), "stop": r.get("stop")} for i, r in enumerate(runs)]  # fmt: skip
     return {"status": s.status, "stop": s.stop, "history": history, "blocks": blocks, "sample": s.start.get("sample"),
-            "operator": s.start.get("operator"), "warnings": list(s.warnings)}  # fmt: skip
+            "operator": s.start.get("operator"), "warnings": [*s.warnings, *(str(n.message) for n in notes)]}  # fmt: skip
 
 
 async def session_details(request: Request) -> Response:

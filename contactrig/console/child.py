@@ -159,6 +159,7 @@ def main() -> int:
     """Read the request (first line of stdin) and run it; events go to the real stdout only."""
     out = sys.stdout
     sys.stdout = sys.stderr  # nothing else may write into the event pipe
+    sys.argv = ["contactrig console"]  # the start record's "command": where the session was started from
     channel = _Channel(out, sys.stdin)
     request = json.loads(sys.stdin.readline())
     return run(request, channel)

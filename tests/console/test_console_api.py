@@ -1,0 +1,185 @@
+"""The console's server without a browser: its guards, its files policy, and sessions run through it.
+
+A session run from the console must be the session ``acquire`` writes: the same block checksums as one run
+without the console (the simulated bench is seeded), sealed, with the stop record of a Ctrl-C when stopped.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+import time
+from pathlib import Path
+
+import pytest
+
+from tests.console.conftest import HOSTILE, Client, scene_text
+
+
+def test_every_request_needs_the_token(client: Client):
+    http = client.http
+    for url in ("/", "/api/sessions", "/static/app.js", "/files/small.toml", "/api/runs"):
+        assert http.get(url).status_code == 403, url
+        assert http.get(url, headers={"x-contactrig-token": "wrong"}).status_code == 403, url
+        assert http.get(url, headers={"x-contactrig-token": client.console.token[:-1]}).status_code == 403, url
+    assert http.post("/api/runs", json={}).status_code == 403
+    assert client.get("/").status_code == 200
+
+
+def test_token_in_the_url_becomes_a_cookie_and_leaves_the_url(client: Client):
+    r = client.http.get(f"/?token={client.console.token}", follow_redirects=False)
+    assert r.status_code == 303 and r.headers["location"] == "/"
+    cookie = r.headers["set-cookie"]
+    assert "HttpOnly" in cookie and "SameSite=strict" in cookie.replace("Strict", "strict")
+    assert client.http.get("/", headers={"cookie": f"contactrig_console={client.console.token}"}).status_code == 200
+    client.http.cookies.clear()
+    assert client.http.get("/?token=nope", follow_redirects=False).status_code == 403
+    assert client.http.get("/", headers={"cookie": "contactrig_console=nope"}).status_code == 403
+
+
+def test_foreign_host_and_foreign_origin_are_refused(client: Client):
+    assert client.get("/", headers={"host": "evil.example:8765"}).status_code == 403  # DNS rebinding
+    body = {"scene": "small.toml", "sim": True}
+    assert client.post("/api/plan", body, headers={"origin": "http://evil.example"}).status_code == 403
+    assert client.post("/api/plan", body, headers={"origin": "null"}).status_code == 403
+    headers = {"x-contactrig-token": client.console.token}  # no Origin at all
+    assert client.http.post("/api/plan", json=body, headers=headers).status_code == 403
+    assert client.post("/api/plan", body).status_code == 200
+
+
+def test_pages_forbid_inline_script(client: Client):
+    r = client.get("/")
+    csp = r.headers["content-security-policy"]
+    assert "script-src 'self'" in csp and "unsafe-inline" not in csp.split("script-src", 1)[1].split(";")[0]
+    assert r.headers["x-content-type-options"] == "nosniff"
+    assert "<script>" not in r.text.replace('<script src="/static/app.js" defer></script>', "")
+
+
+def test_only_regular_files_under_the_folder_are_served(client: Client, folder: Path, tmp_path: Path):
+    (folder / "report").mkdir()
+    (folder / "report" / "report.html").write_text("<p>report</p>", encoding="utf-8")
+    secret = tmp_path / "secret.txt"
+    secret.write_text("secret", encoding="utf-8")
+    os.symlink(secret, folder / "out.html")
+    os.symlink(folder / "report", folder / "inside")
+    (folder / ".hidden.html").write_text("x", encoding="utf-8")
+    ok = client.get("/files/report/report.html")
+    assert ok.status_code == 200 and ok.text == "<p>report</p>"
+    assert ok.headers["content-security-policy"].startswith("sandbox")  # no script runs in a served file
+    for bad in ("../secret.txt", "report/../../secret.txt", "%2E%2E/secret.txt", str(secret), "/" + str(secret),
+                "out.html", "inside/report.html", ".hidden.html", "report", "nothing.html", "report%00.html",
+                "..%2Fsecret.txt"):  # fmt: skip
+        r = client.get(f"/files/{bad}")
+        assert r.status_code == 404, bad
+        assert "secret" not in r.text
+
+
+def test_the_token_is_stored_private(tmp_path: Path):
+    from contactrig.console.security import check_token, new_token, store_token
+
+    token = new_token()
+    path = store_token(token, tmp_path / "state")
+    assert stat.S_IMODE(path.stat().st_mode) == 0o600
+    assert path.read_text().strip() == token
+    assert check_token(token, token) and not check_token("", token) and not check_token(None, token)
+
+
+def test_sessions_index_is_the_shared_index(client: Client, folder: Path):
+    """The page's rows are ``daq.index.index_sessions``'s; a hostile sample comes back as the same string (JSON
+    escapes it; the page puts it in the DOM as text, see the browser tests)."""
+    from daq.index import index_sessions
+
+    hostile = "".join(HOSTILE.values()) + "x" * 100_000
+    (folder / "hostile.toml").write_text(scene_text(sample=hostile, weights="[5.44]", repeats=1), encoding="utf-8")
+    run = client.start("hostile.h5", scene="hostile.toml")
+    assert client.drive(run)["stop"]["status"] == "success"
+    rows = client.get("/api/sessions").json()["sessions"]
+    expected = index_sessions(folder)
+    assert [r["path"] for r in rows] == [Path(e.path).relative_to(folder).as_posix() for e in expected]
+    assert rows[0]["sample"] == hostile
+
+
+@pytest.mark.slow
+def test_console_session_equals_a_session_without_it(client: Client, folder: Path, tmp_path: Path):
+    """Same scene, same seed: the console's file and acquire's own have the same block checksums; both sealed."""
+    from analysis.simulated_session import SimulatedRigBench
+    from daq.acquire import acquire
+    from daq.session_file import load_session
+
+    run = client.start("console.h5")
+    state = client.drive(run)
+    assert state["stop"]["status"] == "success" and len(state["blocks"]) == 4
+    plain = tmp_path / "plain.h5"
+    acquire(folder / "small.toml", plain, bench=SimulatedRigBench(float("inf")), yes=True, quiet=True)
+    a, b = load_session(folder / "console.h5"), load_session(plain)
+    assert a.sealed and b.sealed and a.status == b.status == "success"
+    assert list(a.summary["sha256"]) == list(b.summary["sha256"])
+
+
+@pytest.mark.slow
+def test_stop_after_block_then_resume(client: Client, folder: Path):
+    """Stop after this block = one SIGINT to acquire (as Ctrl-C): stop record written, blocks kept; the sessions
+    page offers resume, which completes the file."""
+    from daq.session_file import load_session
+
+    (folder / "slow.toml").write_text(scene_text(count=60, repeats=3), encoding="utf-8")
+    run = client.start("stopped.h5", scene="slow.toml", speed="20")  # a block takes ≈ 0.1 s
+    stopped = {"done": False}
+
+    def decide(s):
+        if s["prompt"]["event"] == "prompt" and not stopped["done"]:
+            client.post(f"/api/runs/{run}/answer", {"decision": "go"})
+            deadline = time.monotonic() + 30
+            while not client.get(f"/api/runs/{run}").json()["blocks"] and time.monotonic() < deadline:
+                time.sleep(0.01)
+            stopped["done"] = True
+            assert client.post(f"/api/runs/{run}/stop", {"client": "tester"}).json()["stop_requests"] == 1
+            return {}
+        return None
+
+    state = client.drive(run, decide)
+    stop = state["stop"]
+    assert stop["status"] == "aborted" and "stopped after the block" in stop["reason"], stop
+    assert 1 <= stop["blocks_done"] < 6
+    s = load_session(folder / "stopped.h5")
+    assert s.status == "aborted" and len(s.summary) == stop["blocks_done"]
+    again = client.post("/api/runs", {"resume": True, "output": "stopped.h5", "sim": True, "sim_speed": "inf",
+                                      "client": "tester"}).json()  # fmt: skip
+    assert client.drive(again["id"])["stop"]["status"] == "success"
+    done = load_session(folder / "stopped.h5")
+    assert done.status == "success" and done.sealed and len(done.summary) == 6
+
+
+@pytest.mark.slow
+def test_one_session_per_bench_and_a_foreign_stop_asks_first(client: Client, folder: Path):
+    from daq.session_file import load_session
+
+    run = client.start("first.h5")
+    deadline = time.monotonic() + 60
+    while client.get(f"/api/runs/{run}").json()["prompt"] is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    second = client.post("/api/runs", {"scene": "small.toml", "sim": True, "output": "second.h5", "client": "other"})
+    assert second.status_code == 409 and "running on" in second.json()["error"]
+    assert not (folder / "second.h5").exists()
+    foreign = client.post(f"/api/runs/{run}/stop", {"client": "other"})
+    assert foreign.status_code == 409 and "confirm" in foreign.json()
+    assert client.get(f"/api/runs/{run}").json()["stop_requests"] == 0
+    assert client.post(f"/api/runs/{run}/stop", {"client": "other", "confirm": True}).status_code == 200
+    state = client.drive(run)
+    assert state["stop"]["status"] == "aborted"  # stopped at the prompt: nothing measured, the stop record written
+    assert load_session(folder / "first.h5").status == "aborted"
+
+
+def test_bad_form_values_are_one_line_errors(client: Client, folder: Path):
+    for body, needle in (
+        ({"output": "../x.h5"}, "file name"),
+        ({"output": "x.txt"}, "file name"),
+        ({"output": "small.toml"}, "file name"),
+        ({"output": "x.h5", "scene": "../etc/passwd"}, "scene"),
+        ({"output": "x.h5", "sim_speed": "-1", "sim": True}, "sim_speed"),
+        ({"resume": True, "output": "/etc/passwd"}, "resume"),
+    ):
+        r = client.post("/api/runs", body)
+        assert r.status_code == 400 and needle in r.json()["error"], (body, r.text)
+        assert "\n" not in r.json()["error"]
+    assert not list(folder.glob("*.h5"))
