@@ -443,8 +443,9 @@ def _details(path: Path) -> dict[str, Any]:
     runs = [r for r in s.runs if isinstance(r, dict)] if isinstance(s.runs, list) else []
     history = [{"run": r.get("run", i), "started": r.get("started"), "command": r.get("command"),
                 "resumed_from": r.get("resumed_from"), "stop": r.get("stop")} for i, r in enumerate(runs)]  # fmt: skip
+    said = [*s.warnings, *(str(n.message) for n in notes)]
     return {"status": s.status, "stop": s.stop, "history": history, "blocks": blocks, "sample": s.start.get("sample"),
-            "operator": s.start.get("operator"), "warnings": [*s.warnings, *(str(n.message) for n in notes)]}  # fmt: skip
+            "operator": s.start.get("operator"), "warnings": said}  # fmt: skip
 
 
 async def session_details(request: Request) -> Response:
