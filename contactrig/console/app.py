@@ -296,7 +296,8 @@ def _start(console: Console, body: dict[str, Any]) -> SessionRun:
     if resume:
         if not isinstance(output, str) or resolve_under(console.root, output) is None:
             raise BadRequest(f"resume {output!r}: not a session file in the console's folder")
-        scene_path, blocks_planned, address = None, 0, _recorded_address(console.root / output)
+        scene_path = None
+        address, blocks_planned, before, weights = _recorded(console.root / output)
     else:
         if not isinstance(output, str) or not SAFE_NAME.match(output):
             raise BadRequest(
@@ -307,6 +308,7 @@ def _start(console: Console, body: dict[str, Any]) -> SessionRun:
         scene_path = _scene_path(console, body.get("scene"))
         plan, _ = _plan(console, body)
         blocks_planned, address = plan.blocks_planned, plan.instrument.address
+        before, weights = 0, len(plan.session.weights_kg)
     request = {"scene": None if scene_path is None else str(scene_path), "output": str(console.root / output),
                "sim": bool(body.get("sim")), "sim_speed": _speed(body), "resume": resume}  # fmt: skip
     client = str(body.get("client") or "")[:64]
@@ -315,13 +317,15 @@ def _start(console: Console, body: dict[str, Any]) -> SessionRun:
         if busy is not None:
             raise BadRequest(f"a session is running on {address} already ({busy.state.file}): one at a time per bench")
         state = RunState(id=secrets.token_hex(8), file=output, address=address, controller=client,
-                         sim=bool(body.get("sim")), resume=resume, blocks_planned=blocks_planned)  # fmt: skip
+                         sim=bool(body.get("sim")), resume=resume, blocks_planned=blocks_planned,
+                         blocks_before=before, weights_left=weights)  # fmt: skip
         run = SessionRun(state, request, cwd=str(console.root))
         console.runs[state.id] = run
     return run
 
 
-def _recorded_address(path: Path) -> str:
+def _recorded(path: Path) -> tuple[str, int, int, int]:
+    """A session to resume: its bench address, blocks planned, blocks on file, weights not yet measured."""
     from daq.session_file import load_session
 
     try:
@@ -330,7 +334,13 @@ def _recorded_address(path: Path) -> str:
             session = load_session(path, timeout=30)
     except Exception as exc:
         raise BadRequest(f"{path.name}: {exc}") from None
-    return str((session.start.get("instrument") or {}).get("address", ""))
+    start = session.start
+    plan = start.get("plan") or {}
+    planned = int(plan.get("blocks_planned") or 0)
+    done = len(session.summary)
+    weights = (plan.get("session") or {}).get("weights_kg") or []
+    measured = set(session.summary["weight_kg"].tolist())
+    return str((start.get("instrument") or {}).get("address", "")), planned, done, len(set(weights) - measured)
 
 
 async def start_run(request: Request) -> Response:

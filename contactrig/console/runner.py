@@ -35,6 +35,10 @@ class RunState:
     sim: bool
     resume: bool
     blocks_planned: int = 0
+    #: blocks on file before this run (a resumed session)
+    blocks_before: int = 0
+    #: weights in the plan (the operator places each of them once)
+    weights_left: int = 0
     phase: str = "starting"  # starting, prompt, resume_choice, measuring, stopping, ended
     prompt: dict[str, Any] | None = None
     lines: list[str] = field(default_factory=list)
@@ -48,22 +52,29 @@ class RunState:
 
     def public(self) -> dict[str, Any]:
         """The JSON the pages get (strings from files inside are data: pages show them with textContent)."""
-        eta = _eta_s(self.block_times, self.blocks_planned, len(self.blocks))
+        eta = _eta_s(self.block_times, self.blocks, self.blocks_planned - self.blocks_before - len(self.blocks))
+        blocks = [{k: v for k, v in b.items() if k != "readings_ohm"} for b in self.blocks[:-1]] + self.blocks[-1:]
         return {
             "id": self.id, "file": self.file, "address": self.address, "controller": self.controller,
             "sim": self.sim, "resume": self.resume, "phase": self.phase, "prompt": self.prompt,
-            "lines": self.lines[-MAX_LINES:], "blocks": self.blocks, "blocks_planned": self.blocks_planned,
-            "stop": self.stop, "end": self.end, "stop_requests": self.stop_requests, "eta_s": eta,
+            "lines": self.lines[-MAX_LINES:], "blocks": blocks, "blocks_planned": self.blocks_planned,
+            "blocks_before": self.blocks_before, "stop": self.stop, "end": self.end,
+            "stop_requests": self.stop_requests, "eta_s": eta, "weights_left": self.weights_left,
             "version": self.version,
         }  # fmt: skip
 
 
-def _eta_s(times: list[float], planned: int, done: int) -> float | None:
-    """Seconds left at the pace of this run's blocks so far (operator time included); None before two blocks."""
-    if len(times) < 2 or planned <= done:
-        return None if planned > done else 0.0
-    per_block = (times[-1] - times[0]) / (len(times) - 1)
-    return per_block * (planned - done)
+def _eta_s(times: list[float], blocks: list[dict[str, Any]], left: int) -> float | None:
+    """Seconds of measuring left: the blocks still to take × the median time between two blocks at the same weight
+    (the operator's time to place a weight is not in it: the page says how many weights are still to place);
+    None before two blocks at one weight."""
+    if left <= 0:
+        return 0.0
+    steps = sorted(b - a for a, b, wa, wb in zip(times, times[1:], blocks, blocks[1:], strict=False)
+                   if wa.get("weight_kg") == wb.get("weight_kg"))  # fmt: skip
+    if not steps:
+        return None
+    return steps[len(steps) // 2] * left
 
 
 class SessionRun:
@@ -114,6 +125,8 @@ class SessionRun:
                 s.phase = "stopping" if s.stop_requests else "measuring"
             elif kind in ("prompt", "resume_choice"):
                 s.phase, s.prompt = str(kind), event
+                if kind == "prompt":
+                    s.weights_left = max(s.weights_left - 1, 0)
             elif kind == "stop":
                 s.stop = event
                 s.blocks_planned = int(event.get("blocks_planned") or s.blocks_planned)

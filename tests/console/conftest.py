@@ -21,7 +21,7 @@ HOSTILE = {
 }
 
 
-def scene_text(*, weights: str = "[5.44, 10.526]", repeats: int = 2, count: int = 10, sample: str | None = None,
+def scene_text(*, weights: str = "[5.44, 10.526, 25.966]", repeats: int = 2, count: int = 10, sample: str | None = None,
                operator: str | None = None) -> str:  # fmt: skip
     """The packaged default scene with a small session (``weights`` × ``repeats`` blocks of ``count`` readings)."""
     from contactrig.core.scene import default_scene_text

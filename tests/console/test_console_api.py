@@ -108,7 +108,7 @@ def test_console_session_equals_a_session_without_it(client: Client, folder: Pat
 
     run = client.start("console.h5")
     state = client.drive(run)
-    assert state["stop"]["status"] == "success" and len(state["blocks"]) == 4
+    assert state["stop"]["status"] == "success" and len(state["blocks"]) == 6
     plain = tmp_path / "plain.h5"
     acquire(folder / "small.toml", plain, bench=SimulatedRigBench(float("inf")), yes=True, quiet=True)
     a, b = load_session(folder / "console.h5"), load_session(plain)
@@ -140,14 +140,14 @@ def test_stop_after_block_then_resume(client: Client, folder: Path):
     state = client.drive(run, decide)
     stop = state["stop"]
     assert stop["status"] == "aborted" and "stopped after the block" in stop["reason"], stop
-    assert 1 <= stop["blocks_done"] < 6
+    assert 1 <= stop["blocks_done"] < 9
     s = load_session(folder / "stopped.h5")
     assert s.status == "aborted" and len(s.summary) == stop["blocks_done"]
     again = client.post("/api/runs", {"resume": True, "output": "stopped.h5", "sim": True, "sim_speed": "inf",
                                       "client": "tester"}).json()  # fmt: skip
     assert client.drive(again["id"])["stop"]["status"] == "success"
     done = load_session(folder / "stopped.h5")
-    assert done.status == "success" and done.sealed and len(done.summary) == 6
+    assert done.status == "success" and done.sealed and len(done.summary) == 9
 
 
 @pytest.mark.slow

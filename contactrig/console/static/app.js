@@ -154,10 +154,10 @@ function showRun(id) {
   source.onmessage = (m) => {
     const s = JSON.parse(m.data);
     document.getElementById("run-title").textContent = `Session ${s.file}`;
-    status.textContent = `${s.phase} — ${s.blocks.length} of ${s.blocks_planned} blocks this run` + (s.stop_requests ? ` — stop requested (${s.stop_requests})` : "");
+    status.textContent = `${s.phase} — ${s.blocks_before + s.blocks.length} of ${s.blocks_planned} blocks` + (s.stop_requests ? ` — stop requested (${s.stop_requests})` : "");
     const last = s.blocks[s.blocks.length - 1];
     const invalid = s.blocks.reduce((a, b) => a + b.n_invalid, 0);
-    info.textContent = `ETA ${fmtDuration(s.eta_s)} · invalid readings ${invalid}` + (s.sim ? " · simulated bench" : ` · ${s.address}`);
+    info.textContent = `ETA ${fmtDuration(s.eta_s)} measuring + ${s.weights_left} weight(s) still to place · invalid readings ${invalid}` + (s.sim ? " · simulated bench" : ` · ${s.address}`);
     block.textContent = last ? `last block #${last.block}: ${last.weight_kg} kg repeat ${last.repeat}: R = ${fmtOhm(last.mean_ohm)} ± ${fmtOhm(last.sem_ohm)} (n = ${last.n}, ${last.n_invalid} invalid)` + (last.compliance ? " COMPLIANCE: excluded" : "") : "";
     drawPlot(canvas, s.blocks, last ? last.readings_ohm : []);
     if (s.prompt && s.version !== answered) renderAsk(ask, weight, id, s, () => { answered = s.version; });
