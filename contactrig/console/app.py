@@ -69,6 +69,8 @@ class Console:
     root: Path
     token: str
     allowed_hosts: frozenset[str]
+    #: bound to every interface (``--host 0.0.0.0``): any Host header is answered (token and Origin still checked)
+    any_host: bool = False
     runs: dict[str, SessionRun] = field(default_factory=dict)
     index_cache: dict[Any, Any] = field(default_factory=dict)
     lock: threading.Lock = field(default_factory=threading.Lock)
@@ -96,7 +98,7 @@ class Guard:
         headers = {k.decode("latin-1").lower(): v.decode("latin-1") for k, v in scope["headers"]}
         query = parse_qs(scope.get("query_string", b"").decode("latin-1"))
         host = headers.get("host")
-        if host not in self.console.allowed_hosts:
+        if host is None or (host not in self.console.allowed_hosts and not self.console.any_host):
             await _deny("unknown Host", scope, receive, send)
             return
         from_query = (query.get("token") or [None])[0]
@@ -112,9 +114,8 @@ class Guard:
                 return
             await _deny("token missing or wrong", scope, receive, send)
             return
-        if scope["method"] not in ("GET", "HEAD") and not same_origin(
-            headers.get("origin"), host, self.console.allowed_hosts
-        ):
+        hosts = frozenset({host}) if self.console.any_host else self.console.allowed_hosts
+        if scope["method"] not in ("GET", "HEAD") and not same_origin(headers.get("origin"), host, hosts):
             await _deny("cross-origin request refused", scope, receive, send)
             return
         await self.app(scope, receive, _with_headers(send, scope["path"]))

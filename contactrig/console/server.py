@@ -37,10 +37,11 @@ def bind(host: str, port: int) -> socket.socket:
 
 def make_console(root: Path, host: str, port: int, token: str | None = None) -> Console:
     """The console's state for a server on ``host``:``port``: the Host headers it answers to are that address and,
-    on loopback, ``127.0.0.1``/``localhost``."""
+    on loopback, ``127.0.0.1``/``localhost`` (bound to every interface, any: the token and the Origin check guard)."""
     names = {host, "127.0.0.1", "localhost"} if host in LOOPBACK else {host}
     hosts = frozenset(f"[{h}]:{port}" if ":" in h else f"{h}:{port}" for h in names)
-    return Console(root=root.resolve(), token=token or new_token(), allowed_hosts=hosts)
+    any_host = host in ("0.0.0.0", "::", "")  # every interface: any name may reach it; the token still guards
+    return Console(root=root.resolve(), token=token or new_token(), allowed_hosts=hosts, any_host=any_host)
 
 
 def serve(
