@@ -60,6 +60,8 @@ FILE_CSP = "sandbox; default-src 'none'; img-src 'self' data:; style-src 'unsafe
 SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,120}\.(h5|hdf5|nxs)$")
 STATIC = {"app.js": "text/javascript", "style.css": "text/css", "index.html": "text/html"}
 SUBPROCESS_TIMEOUT_S = 600
+#: seconds between the two SIGINTs of "stop now" (POSIX does not queue a second pending SIGINT)
+STOP_GAP_S = 0.2
 
 
 @dataclass
@@ -405,10 +407,10 @@ async def stop(request: Request) -> Response:
                             status_code=409)  # fmt: skip
     want = 2 if body.get("now") else 1
     count = run.state.stop_requests
-    while count < want:
+    while count < want and run.running:
+        if count:  # two signals close together may arrive as one: give the first its time to be handled
+            await asyncio.sleep(STOP_GAP_S)
         count = run.request_stop()
-        if not run.running:
-            break
     return JSONResponse({"stop_requests": count})
 
 

@@ -183,3 +183,46 @@ def test_bad_form_values_are_one_line_errors(client: Client, folder: Path):
         assert r.status_code == 400 and needle in r.json()["error"], (body, r.text)
         assert "\n" not in r.json()["error"]
     assert not list(folder.glob("*.h5"))
+
+
+@pytest.mark.slow
+def test_stop_now_discards_the_block_under_way(client: Client, folder: Path):
+    """Stop now = the second Ctrl-C: the block under way is discarded, every completed one kept, the source idle
+    (the driver's close on every path) and the stop record written."""
+    from daq.session_file import load_session
+
+    (folder / "long.toml").write_text(scene_text(count=200, repeats=3), encoding="utf-8")
+    run = client.start("now.h5", scene="long.toml", speed="5")  # a block takes ≈ 1 s
+
+    def decide(s):
+        if s["stop_requests"] == 0:
+            client.post(f"/api/runs/{run}/answer", {"decision": "go"})
+            time.sleep(0.3)  # inside the first block
+            assert client.post(f"/api/runs/{run}/stop", {"client": "tester", "now": True}).json()["stop_requests"] == 2
+            return {}
+        return None
+
+    stop = client.drive(run, decide)["stop"]
+    assert stop["status"] == "aborted" and "Ctrl-C twice" in stop["reason"] and "discarded" in stop["reason"], stop
+    with pytest.warns(Warning):
+        s = load_session(folder / "now.h5")
+    assert s.status == "aborted" and len(s.summary) == stop["blocks_done"] == 0
+
+
+@pytest.mark.slow
+def test_skip_is_recorded_as_at_the_terminal(client: Client, folder: Path):
+    run = client.start("skipped.h5")
+
+    def decide(s):
+        return {"decision": "skip"} if s["prompt"].get("weight_kg") == 10.526 else None
+
+    stop = client.drive(run, decide)["stop"]
+    assert stop["status"] == "success" and stop["weights_skipped"] == [10.526], stop
+    assert "skipped by the operator: 10.526 kg" in stop["reason"]
+
+
+def test_console_command_errors_are_one_line(folder: Path, tmp_path: Path):
+    from contactrig.cli.main import main
+
+    assert main(["console", str(tmp_path / "missing"), "--no-browser"]) == 2
+    assert main(["console", str(folder), "--port", "70000", "--no-browser"]) == 2

@@ -289,3 +289,16 @@ def test_a_closed_tab_leaves_a_complete_sealed_file(browser, console, folder, tm
     a, b = load_session(folder / "closed-tab.h5"), load_session(plain)
     assert a.sealed and a.status == "success" and len(a.summary) == 6
     assert list(a.summary["sha256"]) == list(b.summary["sha256"])
+
+
+def test_skip_asks_to_confirm_as_the_terminal_does(browser, console):
+    open_console(browser, console)
+    start_from_form(browser, "small.toml", "skip.h5", "inf")
+    wait(browser, lambda d: d.find_elements(By.ID, "btn-skip"))[0].click()
+    browser.find_element(By.XPATH, "//button[starts-with(text(), 'No,')]").click()  # not skipped: still asked
+    assert "Place 5.44 kg" in text_of(browser, "#weight") and not browser.find_elements(By.ID, "btn-confirm-skip")
+    browser.find_element(By.ID, "btn-skip").click()
+    browser.find_element(By.ID, "btn-confirm-skip").click()
+    wait(browser, lambda d: "Place 10.526 kg" in text_of(d, "#weight"))
+    continue_all(browser)
+    assert "skipped by the operator: 5.44 kg" in text_of(browser, "#stop-record")
