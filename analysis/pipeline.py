@@ -330,8 +330,29 @@ def _scene_for(session: Any) -> Any:
 
     text = getattr(session, "scene_text", "") or ""
     if text.strip():
-        return parse_scene(text, f"{session.path} (recorded scene)")
+        label = f"{session.path} (recorded scene)"
+        return parse_scene(text, label, base_dir=_height_map_folder(session, text))
     return load_scene(None)
+
+
+def _height_map_folder(session: Any, text: str) -> Path | None:
+    """Where the recorded scene's measured height maps are (``kind = "file"`` paths are relative to the scene file):
+    the folder of the scene file the session was started from, if that file still holds exactly the recorded text;
+    else None (the maps are not read: the fingerprint then compares the tables as written)."""
+    from contactrig.core.inputs import read_text_file
+    from contactrig.core.validation import SettingError
+
+    if 'kind = "file"' not in text and "kind = 'file'" not in text:
+        return None
+    source = (getattr(session, "start", None) or {}).get("scene_source")
+    if not isinstance(source, str) or not source or source.startswith("<"):
+        return None
+    try:
+        if read_text_file("scene", source) != text:
+            return None
+    except SettingError:
+        return None
+    return Path(source).resolve().parent
 
 
 def _load_sim(

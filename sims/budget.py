@@ -26,6 +26,7 @@ stage           memory                                                          
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -54,8 +55,9 @@ _BEM_POINT_S = 2.0e-6  # BEM: seconds per refined point and pressure (order of m
 def _grid(spec: SurfaceSpec) -> tuple[int, str]:
     """Points of a surface's grid and the scene key that sets it."""
     if spec.kind == "file" and spec.measured is not None:
-        rows, cols = spec.measured.shape
-        return rows * cols, f"[{spec.section}] path = {spec.path!r} ({rows} × {cols})"
+        mirrored = (spec.conditioning or {}).get("edges") == "mirror"  # 2× each side
+        shape = tuple(2 * k for k in spec.measured.shape) if mirrored else spec.measured.shape
+        return math.prod(shape), f"[{spec.section}] path = {spec.path!r} ({' × '.join(map(str, shape))})"
     n = int(spec.n or 0)
     return n * n, f"[{spec.section}] n = {n}"
 

@@ -507,11 +507,11 @@ class BuildContext:
 
 def _surface_statistics(config: SimConfig, heights: dict[str, NDArray[np.float64]], prov: dict[str, Any]) -> Any:
     """McCool statistics of each surface (from the generated map when there is one) → GT parameters."""
-    from sims.surface import mccool, spectral_moments
+    from sims.surface import mccool
 
     sq, stats = {}, {}
     for body, spec in (("liner", config.liner), ("piston", config.piston)):
-        mom = spectral_moments(heights[body], spec.pixel_m) if spec.kind == "file" else spec.moments()
+        mom = spec.moments()  # a measured map's (or profile's) from finite differences: it is not periodic
         st = mccool(mom)
         sq[body], stats[body] = math.sqrt(mom.m0), st
         prov["surfaces"][body].update(mccool=st.as_dict(), sq_m=sq[body])
@@ -605,7 +605,7 @@ def build_database(
     specs = [get_model(m) for m in settings.models]
     need_surface = any(s.needs_surface for s in specs)
     heights: dict[str, NDArray[np.float64]] = {}
-    if need_surface or config.liner.kind == "file" or config.piston.kind == "file":
+    if need_surface:  # a measured map is already held (a profile has no map: its statistics are enough)
         heights = {"liner": config.liner.heights(), "piston": config.piston.heights()}
     g = _surface_statistics(config, heights, prov)
     prov["greenwood_tripp"] = g

@@ -20,6 +20,7 @@ a measured height map (``kind = "file"``) is read when the scene is loaded (``Sc
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, fields, replace
 from typing import TYPE_CHECKING, Any
 
@@ -33,20 +34,25 @@ if TYPE_CHECKING:
 
 __all__ = [
     "SURFACE_KINDS",
+    "Conditioning",
     "SpectralMoments",
     "SummitData",
     "SummitStatistics",
     "SurfaceSpec",
     "combined_sigma",
+    "condition_height_map",
     "curvature",
     "expected_spectral_moments",
+    "finite_difference_moments",
     "gaussian",
+    "kurtosis",
     "level_height_map",
     "mccool",
     "radius_of_curvature",
     "rms_roughness",
     "rms_slope",
     "self_affine",
+    "skewness",
     "spectral_moments",
     "statistics_of",
     "summit_data",
@@ -200,6 +206,127 @@ def level_height_map(
     return levelled
 
 
+@dataclass(frozen=True)
+class Conditioning:
+    """How a measured map becomes a roughness surface (scene keys of ``kind = "file"``; see :mod:`sims.surface_filter`).
+
+    ``form``: F-operator (``plane`` | ``cylinder`` | ``polynomial``), ``form_degree`` its degree (polynomial),
+    ``bore_axis`` (``x`` | ``y``: the direction of the bore's axis on the map), ``lambda_s_m`` / ``lambda_c_m``:
+    ISO 16610-61 S- and L-filter nesting indices, m (None: not applied), ``max_missing_fraction``: most missing
+    points (NaN) a map may have.
+    """
+
+    form: str = "plane"
+    form_degree: int = 2
+    bore_axis: str = "x"
+    lambda_s_m: float | None = None
+    lambda_c_m: float | None = None
+    max_missing_fraction: float = 0.05
+    edges: str = "mirror"
+
+    @classmethod
+    def from_table(cls, table: Mapping[str, Any]) -> Conditioning:
+        from sims.surface_filter import EDGES, FORMS
+
+        def length(key: str) -> float | None:
+            value = table.get(key)
+            return None if value is None else check_range(key, value, 0.0, 1.0, lo_open=True, unit="m")
+
+        out = cls(
+            form=check_choice("form", table.get("form", "plane"), FORMS),
+            form_degree=check_int("form_degree", table.get("form_degree", 2), 1, 6),
+            bore_axis=check_choice("bore_axis", table.get("bore_axis", "x"), ("x", "y")),
+            lambda_s_m=length("lambda_s_m"),
+            lambda_c_m=length("lambda_c_m"),
+            max_missing_fraction=check_range("max_missing_fraction", table.get("max_missing_fraction", 0.05), 0.0, 0.5),
+            edges=check_choice("edges", table.get("edges", "mirror"), EDGES),
+        )
+        if out.lambda_s_m is not None and out.lambda_c_m is not None and not out.lambda_s_m < out.lambda_c_m:
+            raise SettingError("lambda_s_m", out.lambda_s_m, f"expected < lambda_c_m = {out.lambda_c_m:g} m")
+        return out
+
+
+def _from_file_or_table(table: Mapping[str, Any], meta: Mapping[str, Any], key: str, source: str | None) -> Any:
+    """The scene's ``key`` if given (an override), else the file's; neither is an error naming the quantity."""
+    if key in table:
+        return table[key]
+    if meta.get(key) is not None:
+        return meta[key]
+    what = "pixel size" if key == "pixel_m" else "height unit"
+    where = f"the file {source}" if source else "the heights"
+    raise SettingError(key, None, f"the {what} is missing: {where} does not give it; set {key} (metres) in the scene")
+
+
+def _check_measured_shape(raw: NDArray[np.float64], key: str, where: str) -> None:
+    if raw.ndim not in (1, 2):
+        raise SettingError(key, where, f"expected a 2-D grid of heights or a 1-D profile, got {raw.ndim} dimensions")
+    if raw.ndim == 2 and (raw.shape[0] < 8 or raw.shape[1] < 8):
+        raise SettingError(key, where, f"expected at least 8×8 heights, got {raw.shape[0]}×{raw.shape[1]}")
+    if raw.ndim == 1 and raw.size < 64:
+        raise SettingError(key, where, f"expected a profile of at least 64 points, got {raw.size}")
+    if np.isinf(raw).any():
+        raise SettingError(key, where, "contains infinite heights")
+
+
+def condition_height_map(
+    heights: ArrayLike,
+    *,
+    pixel_m: float,
+    height_unit_m: float,
+    conditioning: Conditioning | None = None,
+    key: str = "heights",
+    source: str | None = None,
+) -> tuple[NDArray[np.float64], dict[str, Any]]:
+    """A measured map (2-D, or a 1-D profile) in metres after S-filter, form removal and L-filter.
+
+    ``heights`` as measured (NaN: missing points), ``height_unit_m`` converts them to metres. Returns the surface
+    (missing points filled, never with zeros; see :func:`sims.surface_filter.s_l_surface`) and the record of what
+    was done (provenance). An RMS slope above :data:`MAX_RMS_SLOPE` (a unit slip) names ``height_unit_m``.
+    """
+    from sims.surface_filter import s_l_surface
+
+    c = conditioning or Conditioning()
+    raw = np.asarray(heights, dtype=np.float64)
+    where = source if source is not None else f"array of shape {raw.shape}"
+    _check_measured_shape(raw, key, where)
+    grid = raw[None, :] if raw.ndim == 1 else raw  # a profile is a one-row map (its bore axis across the row)
+    axis = "y" if raw.ndim == 1 else c.bore_axis
+    result = s_l_surface(
+        grid * height_unit_m,
+        pixel_m,
+        form=c.form,
+        degree=c.form_degree,
+        axis=axis,
+        lambda_s_m=c.lambda_s_m,
+        lambda_c_m=c.lambda_c_m,
+        max_missing_fraction=c.max_missing_fraction,
+        key=key,
+    )
+    z = result.z[0] if raw.ndim == 1 else result.z
+    slope = math.sqrt(2.0 * finite_difference_moments(z, pixel_m).m2)
+    if not slope <= MAX_RMS_SLOPE:
+        raise SettingError(
+            "height_unit_m",
+            height_unit_m,
+            f"the heights of {where} in units of {height_unit_m:g} m at pixel_m = {pixel_m:g} m have an RMS slope "
+            f"of {slope:.3g}; expected <= {MAX_RMS_SLOPE:g} (gentle asperities): are the numbers in that unit "
+            "(1e-6 for µm)?",
+        )
+    return z, result.record
+
+
+def finite_difference_moments(z: ArrayLike, pixel_m: float) -> SpectralMoments:
+    """m0, m2, m4 of a non-periodic map or profile from finite differences (no wrap across the edges), the
+    isotropic estimate averaging x and y: m2 = ⟨z_x²⟩ by forward differences, m4 = ⟨z_xx²⟩ by 3-point second
+    differences. The definition SurfaceTopography's ``rms_slope_from_profile``/``rms_curvature_from_profile`` use."""
+    a = np.asarray(z, dtype=np.float64)
+    a = a - a.mean()
+    axes = range(a.ndim)
+    m2 = float(np.mean([np.mean((np.diff(a, axis=k) / pixel_m) ** 2) for k in axes]))
+    m4 = float(np.mean([np.mean((np.diff(a, 2, axis=k) / pixel_m**2) ** 2) for k in axes]))
+    return SpectralMoments(float(np.mean(a * a)), m2, m4)
+
+
 # ---------------------------------------------------------------------------------------------------------------
 # Roughness and summits.
 
@@ -208,6 +335,20 @@ def rms_roughness(z: ArrayLike) -> float:
     """Sq: RMS of heights about their mean, m."""
     z = np.asarray(z, dtype=float)
     return float(np.sqrt(np.mean((z - z.mean()) ** 2)))
+
+
+def skewness(z: ArrayLike) -> float:
+    """Ssk = ⟨(z − z̄)³⟩ / Sq³ (ISO 25178-2), −."""
+    a = np.asarray(z, dtype=float)
+    a = a - a.mean()
+    return float(np.mean(a**3) / np.mean(a * a) ** 1.5)
+
+
+def kurtosis(z: ArrayLike) -> float:
+    """Sku = ⟨(z − z̄)⁴⟩ / Sq⁴ (ISO 25178-2; 3 for a Gaussian height distribution), −."""
+    a = np.asarray(z, dtype=float)
+    a = a - a.mean()
+    return float(np.mean(a**4) / np.mean(a * a) ** 2)
 
 
 def rms_slope(z: ArrayLike, pixel_m: float, *, periodic: bool = True) -> float:
@@ -438,12 +579,24 @@ def mccool(moments: SpectralMoments) -> SummitStatistics:
 _KIND_KEYS = {
     "gaussian": ("kind", "n", "pixel_m", "sq_m", "correlation_m", "seed"),
     "self_affine": ("kind", "n", "pixel_m", "sq_m", "hurst", "rolloff_m", "cutoff_m", "seed"),
-    "file": ("kind", "path", "pixel_m", "height_unit_m"),
+    "file": (
+        "kind",
+        "path",
+        "pixel_m",
+        "height_unit_m",
+        "form",
+        "form_degree",
+        "bore_axis",
+        "lambda_s_m",
+        "lambda_c_m",
+        "max_missing_fraction",
+        "edges",
+    ),
 }
 _REQUIRED = {
     "gaussian": ("n", "pixel_m", "sq_m", "correlation_m"),
     "self_affine": ("n", "pixel_m", "sq_m", "hurst"),
-    "file": ("pixel_m",),  # and ``path`` unless the heights are given directly
+    "file": (),  # ``path`` unless the heights are given directly; pixel and unit from the file or the table
 }
 
 
@@ -513,7 +666,15 @@ class SurfaceSpec:
     ``cutoff_m``       short-wavelength cut-off, m (default: 2 pixels) — ``self_affine``
     ``seed``           random seed, integer ≥ 0 (default 0) — generated kinds
     ``path``           height-map file, relative to the scene file — ``file`` (read by the scene reader)
-    ``height_unit_m``  metres per unit of the file's numbers (default 1.0; 1e-6 for µm) — ``file``
+    ``height_unit_m``  metres per unit of the file's numbers — ``file`` (default: the file's own unit)
+    ``pixel_m``, ``height_unit_m`` for ``file`` override the file's metadata; a plain-text grid has none, so both
+    are required for it (a missing one is refused, naming it). Form and filtering (``file``, see
+    :mod:`sims.surface_filter`): ``form`` (``"plane"`` default | ``"cylinder"`` | ``"polynomial"``),
+    ``form_degree`` (polynomial, default 2), ``bore_axis`` (``"x"`` default: the bore's axis runs along the map's
+    columns | ``"y"``), ``lambda_s_m`` and ``lambda_c_m`` (ISO 16610-61 S- and L-filter nesting indices, m;
+    default: no filter), ``max_missing_fraction`` (default 0.05), ``edges`` (``"mirror"`` default | ``"window"``: how
+    the summation models and BEM use the non-periodic map, :data:`sims.surface_filter.EDGES`; statistics use the map
+    itself).
 
     Every surface must have an RMS slope ≤ :data:`MAX_RMS_SLOPE` (a larger one is a unit slip, reported on ``sq_m``
     or ``height_unit_m``). For ``file``, ``measured`` holds the levelled heights in metres (read-only; not part of
@@ -533,23 +694,32 @@ class SurfaceSpec:
     path: str | None = None
     height_unit_m: float = 1.0
     measured: NDArray[np.float64] | None = field(default=None, repr=False, compare=False)
+    #: how a measured map was conditioned (form, filters, missing points, file metadata): provenance
+    conditioning: dict[str, Any] | None = field(default=None, compare=False)
 
     @classmethod
     def from_table(
-        cls, section: str, table: dict[str, Any], heights: ArrayLike | None = None, *, path: str | None = None
+        cls,
+        section: str,
+        table: dict[str, Any],
+        heights: ArrayLike | None = None,
+        *,
+        path: str | None = None,
+        metadata: Mapping[str, Any] | None = None,
     ) -> SurfaceSpec:
         """Validate a ``[surfaces.<body>]`` table; errors name the scene key (``[surfaces.liner] sq_m``).
 
         ``kind = "file"`` needs ``heights``, the height map's numbers as read from its file (the scene reader
         passes ``Scene.height_maps[section]``; a notebook may pass any 2-D array, ``path`` then optional);
-        ``path`` is the file they came from, kept for provenance (default: the table's ``path``).
+        ``path`` is the file they came from, kept for provenance (default: the table's ``path``); ``metadata`` what
+        the file says (``pixel_m``, ``height_unit_m`` in m, ``instrument``, ``file_format``; None values: unknown).
         """
         kind = _check_table(section, table)
         if heights is not None and kind != "file":
             raise SettingError(f"{section}.kind", kind, "heights were given: expected kind 'file' (a measured map)")
         try:
             if kind == "file":
-                return cls._measured(section, table, heights, path)
+                return cls._measured(section, table, heights, path, metadata)
             return cls._generated(section, kind, table)
         except SettingError as exc:
             raise _in_section(section, exc) from None
@@ -569,7 +739,14 @@ class SurfaceSpec:
         return cls.from_table(section, table, heights, path=path)
 
     @classmethod
-    def _measured(cls, section: str, table: dict[str, Any], heights: ArrayLike | None, path: str | None) -> SurfaceSpec:
+    def _measured(
+        cls,
+        section: str,
+        table: dict[str, Any],
+        heights: ArrayLike | None,
+        path: str | None,
+        metadata: Mapping[str, Any] | None = None,
+    ) -> SurfaceSpec:
         source = _path_of(table, path)
         if heights is None:
             if source is None:
@@ -580,12 +757,31 @@ class SurfaceSpec:
                 "the height map was not read: load the scene from its file (contactrig.core.scene.load_scene) "
                 "or pass the heights (SurfaceSpec.from_table(..., heights=...))",
             )
-        pixel_m = check_range("pixel_m", table["pixel_m"], 0.0, 1.0, lo_open=True, unit="m")
-        unit = check_range("height_unit_m", table.get("height_unit_m", 1.0), 0.0, 1e3, lo_open=True, unit="m")
+        meta = dict(metadata or {})
+        pixel_m = check_range("pixel_m", _from_file_or_table(table, meta, "pixel_m", source), 0.0, 1.0, lo_open=True)
+        unit = check_range(
+            "height_unit_m", _from_file_or_table(table, meta, "height_unit_m", source), 0.0, 1e3, lo_open=True
+        )
         key = "path" if source is not None else "heights"
-        z = level_height_map(heights, pixel_m=pixel_m, height_unit_m=unit, key=key, source=source)
+        conditioning = Conditioning.from_table(table)
+        z, record = condition_height_map(
+            heights, pixel_m=pixel_m, height_unit_m=unit, conditioning=conditioning, key=key, source=source
+        )
         z.setflags(write=False)
-        return cls(section=section, kind="file", pixel_m=pixel_m, path=source, height_unit_m=unit, measured=z)
+        record.update({k: v for k, v in meta.items() if k in ("instrument", "file_format") and v is not None})
+        record["edges"] = conditioning.edges
+        record["pixel_m_from"] = "scene" if "pixel_m" in table else "file"
+        record["height_unit_m_from"] = "scene" if "height_unit_m" in table else "file"
+        return cls(
+            section=section,
+            kind="file",
+            pixel_m=pixel_m,
+            path=source,
+            height_unit_m=unit,
+            sq_m=math.sqrt(finite_difference_moments(z, pixel_m).m0),  # as the database computes it
+            measured=z,
+            conditioning=record,
+        )
 
     @classmethod
     def _generated(cls, section: str, kind: str, table: dict[str, Any]) -> SurfaceSpec:
@@ -628,7 +824,8 @@ class SurfaceSpec:
         return self.kind != "file"
 
     def heights(self) -> NDArray[np.float64]:
-        """The height map, m (generated, or the measured one levelled; a fresh array either way)."""
+        """The height map, m (generated, or the measured one conditioned and its edges treated as ``edges`` says; a
+        fresh array either way). A measured line profile has none (an error saying so)."""
         if self.kind == "gaussian":
             lam = self._value("correlation_m")
             return gaussian(self.n, pixel_m=self.pixel_m, sq_m=self.sq_m, correlation_m=lam, seed=self.seed)
@@ -644,12 +841,28 @@ class SurfaceSpec:
             )
         if self.measured is None:
             raise SettingError(f"{self.section}.path", self.path, "no height map: build it with from_table(heights=)")
-        return self.measured.copy()
+        if self.is_profile:
+            raise SettingError(
+                f"{self.section}.path",
+                self.path,
+                "is a line profile (stylus trace): the summation models and BEM need an areal height map; "
+                "statistics-only models (greenwood_tripp) accept a profile",
+            )
+        from sims.surface_filter import treat_edges
+
+        return treat_edges(self.measured, (self.conditioning or {}).get("edges", "mirror"))
+
+    @property
+    def is_profile(self) -> bool:
+        """A measured line profile (1-D): statistics only."""
+        return self.measured is not None and self.measured.ndim == 1
 
     def moments(self) -> SpectralMoments:
         """Spectral moments without generating the surface (generated kinds); of the map for measured ones."""
         if self.kind == "file":
-            return spectral_moments(self.heights(), self.pixel_m)
+            if self.measured is None:
+                raise SettingError(f"{self.section}.path", self.path, "no height map")
+            return finite_difference_moments(self.measured, self.pixel_m)
         qx, qy = _wavenumbers(self.n, self.pixel_m)
         q2 = qx[:, None] ** 2 + qy[None, :] ** 2
         if self.kind == "gaussian":
@@ -679,5 +892,9 @@ def surfaces_from_scene(scene: Scene) -> tuple[SurfaceSpec, SurfaceSpec]:
         if loaded is None:
             out.append(SurfaceSpec.from_table(section, table[body]))
         else:
-            out.append(SurfaceSpec.from_table(section, table[body], loaded.heights, path=loaded.path))
+            out.append(
+                SurfaceSpec.from_table(
+                    section, table[body], loaded.heights, path=loaded.path, metadata=loaded.metadata()
+                )
+            )
     return out[0], out[1]

@@ -32,6 +32,7 @@ _COMMAND_MODULES = (
     "contactrig.cli.design",
     "contactrig.cli.compare",
     "contactrig.cli.live",
+    "contactrig.cli.surface",
     "contactrig.cli.console",
 )
 

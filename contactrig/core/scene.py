@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from contactrig.core.inputs import HEIGHT_MAP_MAX_BYTES, HEIGHT_MAP_MAX_SIDE, read_text_file
+from contactrig.core.inputs import HEIGHT_MAP_MAX_BYTES, HEIGHT_MAP_MAX_SIDE, read_input_bytes, read_text_file
 from contactrig.core.validation import SCENE_TABLES, SettingError, check_keys
 
 __all__ = [
@@ -54,6 +54,7 @@ __all__ = [
     "load_scene",
     "parse_scene",
     "read_height_map",
+    "read_measured_map",
 ]
 
 KNOWN_TABLES = SCENE_TABLES
@@ -62,10 +63,25 @@ KNOWN_TABLES = SCENE_TABLES
 @dataclass(frozen=True)
 class HeightMap:
     """A measured height map as read from its file: ``heights`` are the file's numbers (its own unit, rows × columns,
-    read-only), ``path`` the file it came from (resolved; for provenance and messages)."""
+    read-only; 1-D for a line profile; NaN where the instrument measured no point), ``path`` the file it came from
+    (resolved; for provenance and messages). ``pixel_m`` and ``height_unit_m`` (m) are the file's own metadata (None
+    when it has none: a plain-text grid), ``instrument`` and ``file_format`` what the file and its reader say."""
 
     path: str
     heights: NDArray[np.float64] = field(repr=False, compare=False)
+    pixel_m: float | None = None
+    height_unit_m: float | None = None
+    instrument: str | None = None
+    file_format: str = "plain text"
+
+    def metadata(self) -> dict[str, Any]:
+        """What the file says about itself (for ``sims.surface`` and provenance)."""
+        return {
+            "pixel_m": self.pixel_m,
+            "height_unit_m": self.height_unit_m,
+            "instrument": self.instrument,
+            "file_format": self.file_format,
+        }
 
 
 def _no_height_maps() -> Mapping[str, HeightMap]:
@@ -156,8 +172,46 @@ def load_height_maps(data: Mapping[str, Any], base_dir: str | Path) -> Mapping[s
         p = Path(value)
         if not p.is_absolute():
             p = Path(base_dir) / p
-        out[section] = HeightMap(path=str(p), heights=read_height_map(p, key=f"{section}.path"))
+        out[section] = read_measured_map(p, key=f"{section}.path")
     return MappingProxyType(out)
+
+
+def read_measured_map(path: str | Path, *, key: str = "path") -> HeightMap:
+    """A measured height map from a plain-text grid (:func:`read_height_map`) or any profilometer format
+    SurfaceTopography reads (:mod:`contactrig.core.topography_file`, with the file's pixel size and unit).
+
+    The file is read once, bounded (:func:`contactrig.core.inputs.read_input_bytes`); UTF-8 text that parses as a
+    grid of numbers is a plain-text map, anything else goes to the library (a message naming the pip command when it
+    is not installed). Errors are :class:`SettingError` naming ``key``.
+    """
+    from contactrig.core.topography_file import read_topography_file
+
+    p = Path(path)
+    raw = read_input_bytes(key, p, max_bytes=HEIGHT_MAP_MAX_BYTES)
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        text = None
+    if text is not None:
+        try:
+            return HeightMap(path=str(p), heights=_parse_grid(text, p, key))
+        except SettingError:
+            if not _looks_like_a_header(text):
+                raise
+    m = read_topography_file(raw, key=key, path=str(p))
+    heights = m.heights
+    heights.setflags(write=False)
+    return HeightMap(str(p), heights, m.pixel_m, m.height_unit_m, m.instrument, m.file_format)
+
+
+def _looks_like_a_header(text: str) -> bool:
+    """Text the library may read (e.g. a header with units) rather than a malformed grid: its first line that is
+    not blank or a ``#`` comment has letters (other than exponents and nan)."""
+    for line in text.splitlines():
+        body = line.split("#", 1)[0].lower().replace("nan", "").strip()
+        if body:
+            return any(c.isalpha() and c != "e" for c in body)
+    return False
 
 
 def _parse_row(line: str, where: str, key: str) -> NDArray[np.float64] | None:
@@ -183,8 +237,12 @@ def read_height_map(path: str | Path, *, key: str = "path") -> NDArray[np.float6
     non-rectangular file is a :class:`SettingError` naming ``key``.
     """
     p = Path(path)
+    return _parse_grid(read_text_file(key, p, max_bytes=HEIGHT_MAP_MAX_BYTES), p, key)
+
+
+def _parse_grid(text: str, p: Path, key: str) -> NDArray[np.float64]:
     rows: list[NDArray[np.float64]] = []
-    for line_no, line in enumerate(read_text_file(key, p, max_bytes=HEIGHT_MAP_MAX_BYTES).splitlines(), 1):
+    for line_no, line in enumerate(text.splitlines(), 1):
         row = _parse_row(line, f"{p}:{line_no}", key)
         if row is None:
             continue

@@ -215,7 +215,9 @@ def test_a_scene_with_a_measured_height_map(tmp_path) -> None:
     (tmp_path / "scene.toml").write_text(text)
     liner, piston = s.surfaces_from_scene(load_scene(tmp_path / "scene.toml"))
     assert liner.path == str(tmp_path.resolve() / "liner.csv") and liner.as_dict()["path"] == liner.path
-    np.testing.assert_allclose(liner.heights(), s.level_height_map(z_um, pixel_m=1e-6, height_unit_m=1e-6))
+    np.testing.assert_allclose(liner.measured, s.level_height_map(z_um, pixel_m=1e-6, height_unit_m=1e-6), atol=1e-18)
+    np.testing.assert_array_equal(liner.heights()[:32, :32], liner.measured)  # edges = "mirror" (default): 64×64
+    assert liner.heights().shape == (64, 64)
     assert piston.kind == "gaussian" and piston.measured is None
     with pytest.raises(SettingError, match=r"\[surfaces\.liner\] path = 'liner\.csv'.*not read"):
         s.surfaces_from_scene(parse_scene(text))  # parsed from text: no file was read

@@ -1,0 +1,157 @@
+"""Profilometer files: any format SurfaceTopography reads (X3P, SDF, SUR, DATX, PLU, OPD, GWY, NetCDF, …), bounded.
+
+:func:`read_topography_file` turns the bytes of a measured file into a :class:`Measured`: the heights as numbers in
+the file's own height unit (rows = y, columns = x; NaN where the instrument recorded no point), the file's pixel
+size and height unit in metres (None when the file does not say), the instrument's name and the format.
+
+The guarantees of :mod:`contactrig.core.inputs` hold for every format:
+
+* the file is read once, by :func:`~contactrig.core.inputs.read_input_bytes` (a regular file, at most
+  ``HEIGHT_MAP_MAX_BYTES``, within ``READ_TIMEOUT_S``), *before* the library sees anything; the library parses
+  those bytes from memory, never the path;
+* the library parses in a forked child process with a deadline (:data:`PARSE_TIMEOUT_S`): a damaged file that makes
+  a reader loop or crash is a one-line error, and the child is killed;
+* the grid size the file declares is checked against ``HEIGHT_MAP_MAX_SIDE`` before the heights are decoded.
+
+SurfaceTopography (the optional extra ``surfaces``) is imported only here and only in that child, so
+``contactrig.core`` stays light. Every refusal is a :class:`SettingError` naming the scene key.
+"""
+
+from __future__ import annotations
+
+import io
+import multiprocessing
+import pickle
+import signal
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from contactrig.core.inputs import HEIGHT_MAP_MAX_SIDE
+from contactrig.core.validation import SettingError
+
+__all__ = ["PARSE_TIMEOUT_S", "PIP_HINT", "Measured", "read_topography_file", "surfaces_library_available"]
+
+#: Longest time the library may take to parse one file, s.
+PARSE_TIMEOUT_S = 60.0
+
+#: What to run when the library is missing.
+PIP_HINT = "pip install 'contactrig[surfaces]' (or: pip install SurfaceTopography)"
+
+#: Longest line profile, points (a stylus trace of 50 mm at 0.1 µm is 500 000).
+PROFILE_MAX_POINTS = HEIGHT_MAP_MAX_SIDE * 256
+
+
+@dataclass(frozen=True)
+class Measured:
+    """A measured topography as its file holds it.
+
+    ``heights``: the file's numbers in its height unit (2-D rows = y × columns = x, or 1-D for a line profile; NaN
+    where no point was measured); ``pixel_m``: the grid pitch in m (None: the file gives none); ``height_unit_m``:
+    metres per unit of ``heights`` (None: the file gives no unit); ``instrument`` and ``file_format`` as named by the
+    file and the library.
+    """
+
+    heights: NDArray[np.float64] = field(repr=False, compare=False)
+    pixel_m: float | None
+    height_unit_m: float | None
+    instrument: str | None
+    file_format: str
+
+
+def surfaces_library_available() -> bool:
+    """Whether SurfaceTopography can be imported (without importing it)."""
+    import importlib.util
+
+    return importlib.util.find_spec("SurfaceTopography") is not None
+
+
+def _instrument(info: dict[str, Any]) -> str | None:
+    inst = info.get("instrument") if isinstance(info, dict) else None
+    if isinstance(inst, dict) and inst.get("name"):
+        return str(inst["name"])
+    return None
+
+
+def _pixel(sizes: Any, pts: tuple[int, ...], factor: float | None) -> float | None:
+    """The square pixel in m, or None (no sizes or no unit); non-square pixels are an error text (a str)."""
+    if sizes is None or factor is None:
+        return None
+    pitch = [float(s) / n * factor for s, n in zip(sizes, pts, strict=False)]
+    if len(pitch) == 2 and abs(pitch[0] - pitch[1]) > 1e-6 * max(pitch):
+        raise ValueError(f"non-square pixels ({pitch[0]:g} m × {pitch[1]:g} m); expected a square grid")
+    return pitch[0]
+
+
+def _parse(raw: bytes) -> Measured:
+    """Runs in the child: the library parses ``raw`` (size checked before the heights are decoded)."""
+    from SurfaceTopography import open_topography
+    from SurfaceTopography.Support.UnitConversion import get_unit_conversion_factor
+
+    reader = open_topography(io.BytesIO(raw))
+    channel = reader.default_channel
+    pts = tuple(int(n) for n in channel.nb_grid_pts)
+    limit = HEIGHT_MAP_MAX_SIDE if len(pts) == 2 else PROFILE_MAX_POINTS
+    if max(pts) > limit:
+        raise ValueError(f"the file declares {pts} points; expected at most {limit} per side")
+    unit = channel.unit
+    factor = float(get_unit_conversion_factor(unit, "m")) if unit else None
+    sizes = channel.physical_sizes
+    kwargs: dict[str, Any] = {}
+    if sizes is None:  # decode anyway (the scene may give the pixel); nothing from these dummies is kept
+        kwargs["physical_sizes"] = tuple(float(n) for n in pts)
+    if not unit:
+        kwargs["unit"] = "m"
+    topo = reader.topography(channel_index=channel.index, **kwargs)
+    h = np.ma.filled(np.ma.masked_invalid(topo.heights()).astype(np.float64), np.nan)
+    heights = np.ascontiguousarray(h.T if h.ndim == 2 else h)  # the library's [x, y] → rows = y
+    return Measured(heights, _pixel(sizes, pts, factor), factor, _instrument(channel.info), type(reader).name())
+
+
+def _child(conn: Any, raw: bytes) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        result: tuple[str, Any] = ("ok", _parse(raw))
+    except BaseException as exc:  # untrusted content: any failure is one line
+        text = str(exc).strip().splitlines()
+        name = type(exc).__name__
+        detail = f"{name}: {text[0] if text else ''}"
+        result = ("error", "format not recognised" if name == "CannotDetectFileFormat" else detail)
+    conn.send_bytes(pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL))
+    conn.close()
+
+
+def read_topography_file(raw: bytes, *, key: str, path: str, timeout_s: float = PARSE_TIMEOUT_S) -> Measured:
+    """Parse the bytes ``raw`` of the file ``path`` with SurfaceTopography in a child process within ``timeout_s``.
+
+    Errors (library missing, unknown format, a damaged file, too many points, non-square pixels) are a
+    :class:`SettingError` naming ``key`` and ``path``.
+    """
+    if not surfaces_library_available():
+        raise SettingError(
+            key, path, f"is not a plain-text grid; reading profilometer formats needs SurfaceTopography: {PIP_HINT}"
+        )
+    methods = multiprocessing.get_all_start_methods()
+    ctx: Any = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+    recv, send = ctx.Pipe(duplex=False)
+    proc = ctx.Process(target=_child, args=(send, raw), daemon=True)
+    proc.start()
+    send.close()
+    try:
+        if not recv.poll(timeout_s):
+            raise SettingError(key, path, f"parsing it took longer than {timeout_s:g} s (a damaged file?)")
+        try:
+            status, value = pickle.loads(recv.recv_bytes())
+        except (EOFError, OSError):
+            raise SettingError(key, path, "the reader crashed on it (a damaged file?)") from None
+    finally:
+        if proc.is_alive():
+            proc.kill()
+        proc.join()
+        recv.close()
+    if status == "error":
+        raise SettingError(key, path, f"not a height map SurfaceTopography can read ({value})")
+    assert isinstance(value, Measured)
+    return value
