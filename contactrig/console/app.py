@@ -60,6 +60,8 @@ FILE_CSP = "sandbox; default-src 'none'; img-src 'self' data:; style-src 'unsafe
 SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,120}\.(h5|hdf5|nxs)$")
 STATIC = {"app.js": "text/javascript", "style.css": "text/css", "index.html": "text/html"}
 SUBPROCESS_TIMEOUT_S = 600
+#: past sessions overlaid at most (the latest)
+MAX_OVERLAID = 10
 #: seconds between the two SIGINTs of "stop now" (POSIX does not queue a second pending SIGINT)
 STOP_GAP_S = 0.2
 
@@ -300,7 +302,7 @@ def _start(console: Console, body: dict[str, Any]) -> SessionRun:
         if not isinstance(output, str) or resolve_under(console.root, output) is None:
             raise BadRequest(f"resume {output!r}: not a session file in the console's folder")
         scene_path = None
-        address, blocks_planned, before, weights = _recorded(console.root / output)
+        address, blocks_planned, before, weights, sample = _recorded(console.root / output)
     else:
         if not isinstance(output, str) or not SAFE_NAME.match(output):
             raise BadRequest(
@@ -311,7 +313,7 @@ def _start(console: Console, body: dict[str, Any]) -> SessionRun:
         scene_path = _scene_path(console, body.get("scene"))
         plan, _ = _plan(console, body)
         blocks_planned, address = plan.blocks_planned, plan.instrument.address
-        before, weights = 0, len(plan.session.weights_kg)
+        before, weights, sample = 0, len(plan.session.weights_kg), plan.session.sample
     request = {"scene": None if scene_path is None else str(scene_path), "output": str(console.root / output),
                "sim": bool(body.get("sim")), "sim_speed": _speed(body), "resume": resume}  # fmt: skip
     client = str(body.get("client") or "")[:64]
@@ -321,14 +323,14 @@ def _start(console: Console, body: dict[str, Any]) -> SessionRun:
             raise BadRequest(f"a session is running on {address} already ({busy.state.file}): one at a time per bench")
         state = RunState(id=secrets.token_hex(8), file=output, address=address, controller=client,
                          sim=bool(body.get("sim")), resume=resume, blocks_planned=blocks_planned,
-                         blocks_before=before, weights_left=weights)  # fmt: skip
+                         blocks_before=before, weights_left=weights, sample=sample)  # fmt: skip
         run = SessionRun(state, request, cwd=str(console.root))
         console.runs[state.id] = run
     return run
 
 
-def _recorded(path: Path) -> tuple[str, int, int, int]:
-    """A session to resume: its bench address, blocks planned, blocks on file, weights not yet measured."""
+def _recorded(path: Path) -> tuple[str, int, int, int, str]:
+    """A session to resume: its bench address, blocks planned, blocks on file, weights not yet measured, sample."""
     from daq.session_file import load_session
 
     try:
@@ -343,7 +345,8 @@ def _recorded(path: Path) -> tuple[str, int, int, int]:
     done = len(session.summary)
     weights = (plan.get("session") or {}).get("weights_kg") or []
     measured = set(session.summary["weight_kg"].tolist())
-    return str((start.get("instrument") or {}).get("address", "")), planned, done, len(set(weights) - measured)
+    address = str((start.get("instrument") or {}).get("address", ""))
+    return address, planned, done, len(set(weights) - measured), str(start.get("sample") or "")
 
 
 async def start_run(request: Request) -> Response:
@@ -507,6 +510,36 @@ async def session_action(request: Request) -> Response:
     return JSONResponse(result)
 
 
+def _overlay(console: Console, sample: str, leave_out: str) -> list[dict[str, Any]]:
+    """Past sessions of ``sample`` (the same text, case-insensitive): per weight, the mean of the block means."""
+    from daq.index import index_sessions
+    from daq.session_file import load_session
+
+    found = []
+    for e in index_sessions(console.root, cache=console.index_cache):
+        rel = _relative(console, e.path)
+        if rel == leave_out or e.sample.casefold() != sample.casefold() or e.status in ("corrupt", "newer", "other"):
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                summary = load_session(e.path, timeout=30).summary
+            except Exception:
+                continue
+        ok = summary[~summary["compliance"]] if "compliance" in summary.columns else summary
+        means = ok.groupby("weight_kg")["mean_ohm"].mean()
+        points = [{"weight_kg": float(w), "mean_ohm": float(m)} for w, m in means.items() if m == m]
+        found.append({"path": rel, "start": e.start_time, "points": points})
+    return found[-MAX_OVERLAID:]
+
+
+async def overlay(request: Request) -> Response:
+    console: Console = request.app.state.console
+    sample = request.query_params.get("sample", "")
+    found = await asyncio.to_thread(_overlay, console, sample, request.query_params.get("leave_out", ""))
+    return JSONResponse({"sessions": found})
+
+
 def build_app(console: Console) -> ASGIApp:
     """The ASGI application of ``console`` (wrapped by :class:`Guard`)."""
     routes = [
@@ -523,6 +556,7 @@ def build_app(console: Console) -> ASGIApp:
         Route("/api/runs/{run}/stop", stop, methods=["POST"]),
         Route("/api/runs/{run}/events", events),
         Route("/api/session", session_details),
+        Route("/api/overlay", overlay),
         Route("/api/session/{action}", session_action, methods=["POST"]),
     ]
     app = Starlette(routes=routes)

@@ -39,6 +39,8 @@ class RunState:
     blocks_before: int = 0
     #: weights in the plan (the operator places each of them once)
     weights_left: int = 0
+    #: the sample (from the scene or the recorded start record): past sessions of it can be overlaid
+    sample: str = ""
     phase: str = "starting"  # starting, prompt, resume_choice, measuring, stopping, ended
     prompt: dict[str, Any] | None = None
     lines: list[str] = field(default_factory=list)
@@ -60,6 +62,7 @@ class RunState:
             "lines": self.lines[-MAX_LINES:], "blocks": blocks, "blocks_planned": self.blocks_planned,
             "blocks_before": self.blocks_before, "stop": self.stop, "end": self.end,
             "stop_requests": self.stop_requests, "eta_s": eta, "weights_left": self.weights_left,
+            "sample": self.sample,
             "version": self.version,
         }  # fmt: skip
 

@@ -9,7 +9,12 @@ else (the state, the pages, the browsers) lives in the console's own process. Me
   session   acquire() of the same simulated session (instrument time 0, fsync per block) with the console writer
             and without it (the baseline), alternated, median per block of each.
 
-Run: python tests/benchmarks/bench_console.py [REPEATS]
+And the sessions page's listing (issue 23: 1 000 session files in under a second after the first scan):
+
+  index     daq.index.index_sessions over N names of one session file (hard links), the first scan (every file
+            read, each in a bounded child process) and the next (the console's cache: a stat per file).
+
+Run: python tests/benchmarks/bench_console.py [REPEATS]      python tests/benchmarks/bench_console.py --index [N]
 """
 
 from __future__ import annotations
@@ -91,5 +96,31 @@ def main(repeats: int = 5, count: int = 100) -> None:
     print(f"{'difference (target ≤ 1 ms)':<34} {(c - b) * 1e3:>9.3f} ms")
 
 
+def index(n: int = 1000) -> None:
+    from daq.index import index_sessions
+
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        scene = _scene(folder, 10)
+        acquire(scene, folder / "one.h5", bench=SimulatedRigBench(float("inf")), yes=True, quiet=True)
+        (folder / "all").mkdir()
+        for i in range(n):
+            os.link(folder / "one.h5", folder / "all" / f"s{i:04d}.h5")
+        cache: dict = {}
+        t0 = time.perf_counter()
+        first = index_sessions(folder / "all", cache=cache)
+        t1 = time.perf_counter()
+        again = index_sessions(folder / "all", cache=cache)
+        t2 = time.perf_counter()
+        plain = index_sessions(folder / "all", cache=None) if n <= 50 else None
+        assert len(first) == len(again) == n and (plain is None or plain == first)
+    print(f"{'index of':<34} {n:>9d} session files")
+    print(f"{'first scan (every file read)':<34} {t1 - t0:>9.2f} s")
+    print(f"{'next scan (cached; target < 1 s)':<34} {t2 - t1:>9.3f} s")
+
+
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 5)
+    if len(sys.argv) > 1 and sys.argv[1] == "--index":
+        index(int(sys.argv[2]) if len(sys.argv) > 2 else 1000)
+    else:
+        main(int(sys.argv[1]) if len(sys.argv) > 1 else 5)

@@ -219,6 +219,11 @@ def test_skip_is_recorded_as_at_the_terminal(client: Client, folder: Path):
     stop = client.drive(run, decide)["stop"]
     assert stop["status"] == "success" and stop["weights_skipped"] == [10.526], stop
     assert "skipped by the operator: 10.526 kg" in stop["reason"]
+    run = client.start("full.h5")
+    client.drive(run)
+    past = client.get("/api/overlay", params={"sample": "AL-SI piston in cast-iron liner, dry", "leave_out": "full.h5"})
+    [only] = past.json()["sessions"]
+    assert only["path"] == "skipped.h5" and [p["weight_kg"] for p in only["points"]] == [5.44, 25.966]
 
 
 def test_console_command_errors_are_one_line(folder: Path, tmp_path: Path):

@@ -302,3 +302,7 @@ def test_skip_asks_to_confirm_as_the_terminal_does(browser, console):
     wait(browser, lambda d: "Place 10.526 kg" in text_of(d, "#weight"))
     continue_all(browser)
     assert "skipped by the operator: 5.44 kg" in text_of(browser, "#stop-record")
+    browser.find_element(By.ID, "to-session").click()  # past sessions of the same sample, overlaid on request
+    wait(browser, lambda d: d.find_elements(By.ID, "session-status"))
+    browser.find_element(By.ID, "overlay").click()
+    wait(browser, lambda d: int(d.find_element(By.ID, "plot").get_attribute("data-overlaid") or 0) >= 1)

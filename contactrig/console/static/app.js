@@ -147,7 +147,9 @@ function showRun(id) {
   const block = el("p", { id: "block" });
   const ended = el("div", { id: "ended" });
   const lines = el("pre", { id: "lines" });
-  main(el("h1", { id: "run-title", text: "Session" }), status, weight, ask, stops, info, canvas, block, ended,
+  let overlays = [], last = { blocks: [], readings: [] };
+  const toggle = el("span");
+  main(el("h1", { id: "run-title", text: "Session" }), status, weight, ask, stops, info, toggle, canvas, block, ended,
     el("h2", { text: "Plan and notes" }), lines);
   let answered = -1;
   source = new EventSource(`/api/runs/${encodeURIComponent(id)}/events`);
@@ -155,11 +157,14 @@ function showRun(id) {
     const s = JSON.parse(m.data);
     document.getElementById("run-title").textContent = `Session ${s.file}`;
     status.textContent = `${s.phase} — ${s.blocks_before + s.blocks.length} of ${s.blocks_planned} blocks` + (s.stop_requests ? ` — stop requested (${s.stop_requests})` : "");
-    const last = s.blocks[s.blocks.length - 1];
+    const lastBlock = s.blocks[s.blocks.length - 1];
     const invalid = s.blocks.reduce((a, b) => a + b.n_invalid, 0);
     info.textContent = `ETA ${fmtDuration(s.eta_s)} measuring + ${s.weights_left} weight(s) still to place · invalid readings ${invalid}` + (s.sim ? " · simulated bench" : ` · ${s.address}`);
-    block.textContent = last ? `last block #${last.block}: ${last.weight_kg} kg repeat ${last.repeat}: R = ${fmtOhm(last.mean_ohm)} ± ${fmtOhm(last.sem_ohm)} (n = ${last.n}, ${last.n_invalid} invalid)` + (last.compliance ? " COMPLIANCE: excluded" : "") : "";
-    drawPlot(canvas, s.blocks, last ? last.readings_ohm : []);
+    const b = lastBlock;
+    block.textContent = b ? `last block #${b.block}: ${b.weight_kg} kg repeat ${b.repeat}: R = ${fmtOhm(b.mean_ohm)} ± ${fmtOhm(b.sem_ohm)} (n = ${b.n}, ${b.n_invalid} invalid)` + (b.compliance ? " COMPLIANCE: excluded" : "") : "";
+    last = { blocks: s.blocks, readings: lastBlock ? lastBlock.readings_ohm : [] };
+    if (!toggle.firstChild) toggle.append(overlayToggle(s.sample, s.file, (o) => { overlays = o; drawPlot(canvas, last.blocks, last.readings, overlays); }));
+    drawPlot(canvas, s.blocks, last.readings, overlays);
     if (s.prompt && s.version !== answered) renderAsk(ask, weight, id, s, () => { answered = s.version; });
     if (!s.prompt) { ask.replaceChildren(); weight.textContent = s.phase === "ended" ? "" : weight.textContent; }
     lines.textContent = s.lines.join("\n");
@@ -207,7 +212,7 @@ async function stop(id, now, confirm) {
 
 // R against weight: every block (a repeat) as a dot, mean ± 1 SEM over the repeats per weight as a bar, blocks in
 // compliance as red crosses on the axis; the current block's readings as a strip on the right.
-function drawPlot(canvas, blocks, readings) {
+function drawPlot(canvas, blocks, readings, overlays) {
   const ctx = canvas.getContext("2d");
   const W = canvas.width, H = canvas.height, left = 70, right = 150, top = 15, bottom = 35;
   ctx.clearRect(0, 0, W, H);
@@ -217,14 +222,23 @@ function drawPlot(canvas, blocks, readings) {
   ctx.strokeRect(left, top, W - left - right, H - top - bottom);
   ctx.fillText("weight [kg]", (W - right) / 2, H - 5);
   ctx.save(); ctx.translate(12, H / 2); ctx.rotate(-Math.PI / 2); ctx.fillText("R [mΩ]", 0, 0); ctx.restore();
-  if (!blocks.length) return;
-  const ws = blocks.map((b) => b.weight_kg), rs = ok.map((b) => b.mean_ohm);
+  const past = (overlays || []).flatMap((o) => o.points);
+  if (!blocks.length && !past.length) return;
+  const ws = [...blocks.map((b) => b.weight_kg), ...past.map((p) => p.weight_kg)];
+  const rs = [...ok.map((b) => b.mean_ohm), ...past.map((p) => p.mean_ohm)];
   const wmin = Math.min(...ws), wmax = Math.max(...ws) === wmin ? wmin + 1 : Math.max(...ws);
   const rmin = rs.length ? Math.min(...rs) : 0, rmax0 = rs.length ? Math.max(...rs) : 1, rmax = rmax0 === rmin ? rmin * 1.01 + 1e-9 : rmax0;
   const x = (w) => left + 10 + (w - wmin) / (wmax - wmin) * (W - left - right - 20);
   const y = (r) => H - bottom - 10 - (r - rmin) / (rmax - rmin) * (H - top - bottom - 20);
   ctx.fillText((rmax * 1e3).toPrecision(4), 2, top + 10); ctx.fillText((rmin * 1e3).toPrecision(4), 2, H - bottom - 5);
   ctx.fillText(String(wmin), left, H - bottom + 14); ctx.fillText(String(wmax), W - right - 30, H - bottom + 14);
+  ctx.strokeStyle = "#bbb"; ctx.lineWidth = 1;
+  for (const o of overlays || []) {
+    ctx.beginPath();
+    o.points.forEach((p, i) => (i ? ctx.lineTo(x(p.weight_kg), y(p.mean_ohm)) : ctx.moveTo(x(p.weight_kg), y(p.mean_ohm))));
+    ctx.stroke();
+  }
+  canvas.setAttribute("data-overlaid", String((overlays || []).length));
   ctx.fillStyle = "#48c";
   for (const b of ok) { ctx.beginPath(); ctx.arc(x(b.weight_kg), y(b.mean_ohm), 3, 0, 2 * Math.PI); ctx.fill(); }
   const byW = new Map();
@@ -250,6 +264,17 @@ function drawPlot(canvas, blocks, readings) {
     vals.forEach((v, i) => ctx.fillRect(W - right + 20 + i / vals.length * (right - 30), H - bottom - 10 - (v - lo) / (hi - lo) * (H - top - bottom - 40), 2, 2));
   }
   ctx.lineWidth = 1;
+}
+
+// Past sessions of the same sample, overlaid on request (grey lines: per weight, the mean of their block means).
+function overlayToggle(sample, leaveOut, redraw) {
+  const box = el("input", { type: "checkbox", id: "overlay" });
+  box.addEventListener("change", async () => {
+    if (!box.checked) { redraw([]); return; }
+    const r = await api(`/api/overlay?${new URLSearchParams({ sample: sample || "", leave_out: leaveOut })}`);
+    redraw(r.sessions || []);
+  });
+  return el("label", { class: "small" }, box, " overlay past sessions of this sample");
 }
 
 // ---- a finished session ------------------------------------------------------------------------------------
@@ -280,7 +305,8 @@ async function showSession(path) {
       el("button", { id: "btn-report", onclick: action("report"), text: "Report" }),
       el("button", { id: "btn-csv", onclick: action("export", { to: "csv" }), text: "Export CSV" }),
       el("button", { id: "btn-xlsx", onclick: action("export", { to: "xlsx" }), text: "Export xlsx" })),
-    links, out, canvas, el("h2", { text: "History" }), history, el("h2", { text: "Blocks" }), blocks);
+    links, out, overlayToggle(d.sample, path, (o) => drawPlot(canvas, d.blocks, [], o)), canvas,
+    el("h2", { text: "History" }), history, el("h2", { text: "Blocks" }), blocks);
   drawPlot(canvas, d.blocks, []);
 }
 
