@@ -315,7 +315,8 @@ def _start(console: Console, body: dict[str, Any]) -> SessionRun:
         blocks_planned, address = plan.blocks_planned, plan.instrument.address
         before, weights, sample = 0, len(plan.session.weights_kg), plan.session.sample
     request = {"scene": None if scene_path is None else str(scene_path), "output": str(console.root / output),
-               "sim": bool(body.get("sim")), "sim_speed": _speed(body), "resume": resume}  # fmt: skip
+               "sim": bool(body.get("sim")), "sim_speed": _speed(body), "resume": resume,
+               "visa_library": _visa_library(body)}  # fmt: skip
     client = str(body.get("client") or "")[:64]
     with console.lock:
         busy = console.running_on(address)
@@ -327,6 +328,16 @@ def _start(console: Console, body: dict[str, Any]) -> SessionRun:
         run = SessionRun(state, request, cwd=str(console.root))
         console.runs[state.id] = run
     return run
+
+
+def _visa_library(body: dict[str, Any]) -> str:
+    """The VISA library of the real bench (``@py``, a path; empty: pyvisa's default), as ``--visa-library``."""
+    value = body.get("visa_library") or ""
+    if not isinstance(value, str) or len(value) > 300 or any(ord(c) < 32 for c in value):
+        raise BadRequest(f"visa_library {str(value)[:40]!r}: expected e.g. @py or a library path (one line)")
+    if value and body.get("sim"):
+        raise BadRequest("visa_library applies to the real bench, not to the simulated one")
+    return value
 
 
 def _recorded(path: Path) -> tuple[str, int, int, int, str]:

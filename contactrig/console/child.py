@@ -129,15 +129,16 @@ class _Lines:
 
 
 def run(request: dict[str, Any], channel: _Channel) -> int:
-    """One ``acquire`` as ``request`` says (scene, output, sim, sim_speed, resume); returns the exit code of
-    ``contactrig acquire`` (0 done, 1 stopped early, 2 error)."""
+    """One ``acquire`` as ``request`` says (scene, output, sim, sim_speed, resume, visa_library); returns the exit
+    code of ``contactrig acquire`` (0 done, 1 stopped early, 2 error)."""
     from analysis.simulated_session import DEFAULT_SIM_SPEED, SimulatedRigBench
     from analysis.watch import Guarded
     from daq.acquire import acquire
     from daq.link import VisaBench
 
     speed = request.get("sim_speed") or DEFAULT_SIM_SPEED
-    bench = SimulatedRigBench(float(speed)) if request.get("sim") else VisaBench(visa_library="")
+    library = str(request.get("visa_library") or "")
+    bench = SimulatedRigBench(float(speed)) if request.get("sim") else VisaBench(visa_library=library)
     try:
         result = acquire(
             request.get("scene"), request["output"], bench=bench, resume=bool(request.get("resume")),

@@ -178,6 +178,8 @@ def test_bad_form_values_are_one_line_errors(client: Client, folder: Path):
         ({"output": "x.h5", "scene": "../etc/passwd"}, "scene"),
         ({"output": "x.h5", "sim_speed": "-1", "sim": True}, "sim_speed"),
         ({"resume": True, "output": "/etc/passwd"}, "resume"),
+        ({"output": "x.h5", "sim": True, "visa_library": "@py"}, "visa_library"),
+        ({"output": "x.h5", "visa_library": "@py\nrm"}, "visa_library"),
     ):
         r = client.post("/api/runs", body)
         assert r.status_code == 400 and needle in r.json()["error"], (body, r.text)

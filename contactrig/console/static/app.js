@@ -105,11 +105,12 @@ async function showNew() {
   const scene = el("select", { id: "scene" }, ...(scenes.scenes || []).map((s) => el("option", { value: s.id, text: s.label })));
   const sim = el("input", { type: "checkbox", id: "sim", checked: "checked" });
   const speed = el("input", { id: "sim-speed", value: "1000", size: 8 });
+  const visa = el("input", { id: "visa-library", placeholder: "default (e.g. @py)", size: 20 });
   const stamp = new Date().toISOString().slice(0, 19).replace(/[-:]/g, "").replace("T", "-");
   const name = el("input", { id: "output", value: `session-${stamp}.h5`, size: 40 });
   const plan = el("pre", { id: "plan" });
   const error = el("p", { class: "error", id: "form-error" });
-  const form = { scene, sim, speed };
+  const form = { scene, sim, speed, visa };
   const preview = async () => {
     const r = await api("/api/plan", body(form));
     plan.textContent = r.error ? "" : r.lines.join("\n") + `\nbench address: ${r.address}`;
@@ -125,13 +126,15 @@ async function showNew() {
   main(el("h1", { text: "New session" }),
     el("label", {}, "Scene: ", scene),
     el("label", {}, sim, " simulated bench (no instruments); instrument time × 1/", speed),
+    el("label", {}, "Real bench: VISA library ", visa, " (the address is the scene's [instrument] address)"),
     el("label", {}, "Session file (in the console's folder): ", name),
     el("h2", { text: "Plan" }), plan, error, el("p", { class: "buttons" }, start));
   await preview();
 }
 
 function body(form) {
-  return { scene: form.scene.value, sim: form.sim.checked, sim_speed: form.speed.value };
+  return { scene: form.scene.value, sim: form.sim.checked, sim_speed: form.speed.value,
+    visa_library: form.sim.checked ? "" : form.visa.value };
 }
 
 // ---- the running session -----------------------------------------------------------------------------------
