@@ -40,14 +40,24 @@ class _Channel:
 
     def __init__(self, out: TextIO, inp: TextIO) -> None:
         self.out, self.inp = out, inp
+        #: the console went away (its end of the pipe closed): events are dropped, questions end the run
+        self.gone = False
 
     def send(self, event: dict[str, Any]) -> None:
-        self.out.write(json.dumps(event, allow_nan=False) + "\n")
-        self.out.flush()
+        """Send one event; never raises for a console that went away (the acquisition must go on)."""
+        if self.gone:
+            return
+        try:
+            self.out.write(json.dumps(event, allow_nan=False) + "\n")
+            self.out.flush()
+        except (OSError, ValueError):  # EPIPE, or the stream closed
+            self.gone = True
 
     def ask(self, event: dict[str, Any]) -> dict[str, Any]:
         """Send a question and wait for its answer; the console gone → ``OperatorQuit``."""
         self.send(event)
+        if self.gone:
+            raise OperatorQuit("the console that asked the operator went away: stopped at the prompt")
         line = self.inp.readline()
         if not line:
             raise OperatorQuit("the console that asked the operator went away (no answer): stopped at the prompt")

@@ -2,8 +2,13 @@
 
 from __future__ import annotations
 
+import json
+import os
 import re
+import subprocess
+import sys
 import time
+import urllib.request
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -11,6 +16,8 @@ from typing import Any
 import pytest
 
 pytest.importorskip("starlette", reason="the console's extra is not installed: pip install '.[console]'")
+
+ROOT = Path(__file__).resolve().parents[2]
 
 #: strings from files that must stay data in every page
 HOSTILE = {
@@ -97,6 +104,38 @@ class Client:
 
     def close(self) -> None:
         self.console.close()
+
+
+class ConsoleProcess:
+    """``contactrig console`` in a child process; its URL read from what it prints."""
+
+    def __init__(self, folder: Path, state: Path) -> None:
+        env = {**os.environ, "XDG_RUNTIME_DIR": str(state)}
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "contactrig", "console", str(folder), "--port", "0", "--no-browser"],
+            stderr=subprocess.PIPE, text=True, env=env, cwd=ROOT,
+        )  # fmt: skip
+        assert self.proc.stderr is not None
+        line = self.proc.stderr.readline()
+        m = re.search(r"(http://127\.0\.0\.1:\d+)/\?token=([\w-]+)", line)
+        assert m, line
+        self.base, self.token = m.group(1), m.group(2)
+
+    def api(self, path: str, body: dict[str, Any] | None = None, token: bool = True) -> Any:
+        headers = {"Origin": self.base, "Content-Type": "application/json"}
+        if token:
+            headers["X-Contactrig-Token"] = self.token
+        data = None if body is None else json.dumps(body).encode()
+        req = urllib.request.Request(self.base + path, data=data, headers=headers)
+        with urllib.request.urlopen(req, timeout=30) as r:
+            return json.loads(r.read())
+
+    def close(self) -> None:
+        self.proc.terminate()
+        try:
+            self.proc.wait(timeout=40)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
 
 
 @pytest.fixture

@@ -233,3 +233,46 @@ def test_console_command_errors_are_one_line(folder: Path, tmp_path: Path):
 
     assert main(["console", str(tmp_path / "missing"), "--no-browser"]) == 2
     assert main(["console", str(folder), "--port", "70000", "--no-browser"]) == 2
+
+
+@pytest.mark.slow
+def test_a_killed_console_leaves_the_session_sealed(folder: Path, tmp_path: Path):
+    """The console process killed (SIGKILL) while blocks are measured: the acquisition, in its own process group,
+    finishes the weight under way, finds nobody to ask for the next one and stops there, its stop record written
+    (source idle: the driver's close on every path) — a complete, sealed file."""
+    import signal
+
+    from tests.console.conftest import ConsoleProcess
+
+    (folder / "slow.toml").write_text(scene_text(count=60, repeats=3), encoding="utf-8")
+    console = ConsoleProcess(folder, tmp_path / "state")
+    try:
+        run = console.api("/api/runs", {"scene": "slow.toml", "sim": True, "sim_speed": "20", "output": "k.h5"})["id"]
+        deadline = time.monotonic() + 60
+        while console.api(f"/api/runs/{run}")["prompt"] is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        console.api(f"/api/runs/{run}/answer", {"decision": "go"})
+        time.sleep(0.2)
+    finally:
+        console.proc.send_signal(signal.SIGKILL)
+        console.proc.wait()
+    deadline = time.monotonic() + 60
+    s = _loaded(folder / "k.h5")
+    while (s is None or s.status == "running") and time.monotonic() < deadline:
+        time.sleep(0.2)
+        s = _loaded(folder / "k.h5")
+    assert s is not None and s.status == "aborted" and s.sealed, s
+    assert "went away" in s.stop["reason"] and len(s.summary) == 3  # the first weight's blocks, all of them
+
+
+def _loaded(path: Path):
+    import warnings
+
+    from daq.session_file import load_session
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            return load_session(path)
+        except Exception:  # not there yet, or caught mid-write: asked again
+            return None

@@ -8,12 +8,8 @@ simulated bench. Screenshots of each page go to ``$CONTACTRIG_SCREENSHOTS`` when
 
 from __future__ import annotations
 
-import json
 import os
-import re
 import shutil
-import subprocess
-import sys
 import time
 import urllib.error
 import urllib.request
@@ -23,7 +19,7 @@ from typing import Any
 
 import pytest
 
-from tests.console.conftest import HOSTILE, scene_text
+from tests.console.conftest import HOSTILE, ConsoleProcess, scene_text
 
 pytest.importorskip("selenium", reason="Selenium is not installed: pip install '.[console]'")
 
@@ -44,40 +40,7 @@ pytestmark = [
         "chromium-driver (.ci/run does it)",
     ),
 ]
-ROOT = Path(__file__).resolve().parents[2]
 HOSTILE_TEXT = "".join(HOSTILE.values())
-
-
-class ConsoleProcess:
-    """``contactrig console`` in a child process; its URL read from what it prints."""
-
-    def __init__(self, folder: Path, state: Path) -> None:
-        env = {**os.environ, "XDG_RUNTIME_DIR": str(state)}
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "contactrig", "console", str(folder), "--port", "0", "--no-browser"],
-            stderr=subprocess.PIPE, text=True, env=env, cwd=ROOT,
-        )  # fmt: skip
-        assert self.proc.stderr is not None
-        line = self.proc.stderr.readline()
-        m = re.search(r"(http://127\.0\.0\.1:\d+)/\?token=([\w-]+)", line)
-        assert m, line
-        self.base, self.token = m.group(1), m.group(2)
-
-    def api(self, path: str, body: dict[str, Any] | None = None, token: bool = True) -> Any:
-        headers = {"Origin": self.base, "Content-Type": "application/json"}
-        if token:
-            headers["X-Contactrig-Token"] = self.token
-        data = None if body is None else json.dumps(body).encode()
-        req = urllib.request.Request(self.base + path, data=data, headers=headers)
-        with urllib.request.urlopen(req, timeout=30) as r:
-            return json.loads(r.read())
-
-    def close(self) -> None:
-        self.proc.terminate()
-        try:
-            self.proc.wait(timeout=40)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
 
 
 @pytest.fixture(scope="module")
