@@ -276,3 +276,28 @@ def _loaded(path: Path):
             return load_session(path)
         except Exception:  # not there yet, or caught mid-write: asked again
             return None
+
+
+@pytest.mark.slow
+def test_real_bench_path_over_loopback_lan(client: Client, folder: Path):
+    """Not simulated: the form's real bench (VisaBench, VISA library @py) on the scene's LAN address, served by the
+    simulated instruments' socket server on loopback — the path a lab PC takes to a 6221 on the network."""
+    pytest.importorskip("pyvisa_py")
+    import re
+
+    from daq.session_file import load_session
+    from instruments.server import SimServer
+    from instruments.simulated import SimulatedBench
+
+    with SimServer(port=0, bench=SimulatedBench(resistance_ohm=5e-3, seed=1, time_scale=0.0)) as server:
+        address = server.address
+        text = re.sub(r"(?m)^address = .*$", f'address = "{address}"', scene_text(weights="[5.44]"))
+        (folder / "lan.toml").write_text(text, encoding="utf-8")
+        r = client.post("/api/runs", {"scene": "lan.toml", "sim": False, "visa_library": "@py", "output": "lan.h5",
+                                      "client": "tester"})  # fmt: skip
+        assert r.status_code == 200, r.text
+        state = client.drive(r.json()["id"])
+    assert state["stop"]["status"] == "success", state
+    s = load_session(folder / "lan.h5")
+    assert s.sealed and not s.start["sim"] and s.start["instrument"]["address"] == address
+    assert s.summary["mean_ohm"].to_numpy() == pytest.approx(5e-3, rel=1e-2)
