@@ -150,7 +150,6 @@ def continue_all(driver: webdriver.Chrome, timeout: float = 90) -> list[int]:
 def test_sessions_new_run_finished_report(browser, console, folder, tmp_path):
     open_console(browser, console)
     wait(browser, lambda d: d.find_elements(By.CSS_SELECTOR, "#sessions-table td.sample"))
-    shot(browser, "sessions", tmp_path)
     start_from_form(browser, "small.toml", "browser.h5", "20", tmp_path)
     wait(browser, lambda d: d.find_elements(By.ID, "btn-continue"))
     assert "Place 5.44 kg" in text_of(browser, "#weight")
@@ -254,7 +253,7 @@ def test_a_closed_tab_leaves_a_complete_sealed_file(browser, console, folder, tm
     assert list(a.summary["sha256"]) == list(b.summary["sha256"])
 
 
-def test_skip_asks_to_confirm_as_the_terminal_does(browser, console):
+def test_skip_asks_to_confirm_as_the_terminal_does(browser, console, tmp_path):
     open_console(browser, console)
     start_from_form(browser, "small.toml", "skip.h5", "inf")
     wait(browser, lambda d: d.find_elements(By.ID, "btn-skip"))[0].click()
@@ -269,3 +268,6 @@ def test_skip_asks_to_confirm_as_the_terminal_does(browser, console):
     wait(browser, lambda d: d.find_elements(By.ID, "session-status"))
     browser.find_element(By.ID, "overlay").click()
     wait(browser, lambda d: int(d.find_element(By.ID, "plot").get_attribute("data-overlaid") or 0) >= 1)
+    browser.get(f"{console.base}/#/sessions")  # every session of this module's tests, the hostile one among them
+    wait(browser, lambda d: len(d.find_elements(By.CSS_SELECTOR, "#sessions-table td.sample")) >= 4)
+    shot(browser, "sessions", tmp_path)

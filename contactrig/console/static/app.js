@@ -53,6 +53,7 @@ async function showSessions() {
   const runsBox = el("div", { id: "console-runs" });
   main(el("h1", { text: "Sessions" }), runsBox, el("label", {}, "Filter by sample: ", filter), table);
   const runs = await api("/api/runs");
+  if ((runs.runs || []).length) runsBox.append(el("h2", { text: "Started from this console" }));
   for (const r of runs.runs || []) {
     runsBox.append(el("p", {}, el("a", { href: `#/run/${encodeURIComponent(r.id)}`, text: `${r.file}: ${r.phase}, ${r.blocks}/${r.blocks_planned} blocks` })));
   }
@@ -76,7 +77,7 @@ async function showSessions() {
       const status = ["corrupt", "newer"].includes(s.status) ? s.status.toUpperCase() : s.status;
       const row = el("tr", {}, el("td", { text: (s.start_time || "").slice(0, 19).replace("T", " ") }),
         el("td", { class: s.status, text: status }), el("td", { text: blocks }), el("td", { text: s.kind }),
-        el("td", { class: "sample", text: s.sample }), el("td", { text: s.operator }), el("td", {}, link), action);
+        el("td", { class: "sample text", text: s.sample }), el("td", { class: "text", text: s.operator }), el("td", { class: "text" }, link), action);
       const out = [row];
       if (s.note && !["success", "running"].includes(s.status)) out.push(el("tr", {}, el("td", { colspan: 8, class: "note", text: s.note })));
       return out;
