@@ -381,7 +381,8 @@ async def runs(request: Request) -> Response:
 
 def _brief(run: SessionRun) -> dict[str, Any]:
     s = run.state
-    return {"id": s.id, "file": s.file, "phase": s.phase, "address": s.address, "blocks": s.blocks_before + len(s.blocks),
+    blocks = s.blocks_before + len(s.blocks)
+    return {"id": s.id, "file": s.file, "phase": s.phase, "address": s.address, "blocks": blocks,
             "blocks_planned": s.blocks_planned}  # fmt: skip
 
 
