@@ -516,7 +516,9 @@ async def session_action(request: Request) -> Response:
     elif action == "export":
         to = "xlsx" if body.get("to") == "xlsx" else "csv"
         result = await asyncio.to_thread(_contactrig, ["export", rel, "--to", to, "--force"], console.root)
-        result["written"] = [ln[len("wrote "):] for ln in result["stderr"].splitlines() if ln.startswith("wrote ")]
+        written = [ln[len("wrote "):] for ln in result["stderr"].splitlines() if ln.startswith("wrote ")]
+        result["written"] = [_relative(console, str((console.root / w).resolve())) for w in written]
+        result["links"] = [f"/files/{w}" for w in result["written"]]
     else:
         return JSONResponse({"error": "no such action"}, status_code=404)
     return JSONResponse(result)

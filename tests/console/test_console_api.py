@@ -301,3 +301,23 @@ def test_real_bench_path_over_loopback_lan(client: Client, folder: Path):
     s = load_session(folder / "lan.h5")
     assert s.sealed and not s.start["sim"] and s.start["instrument"]["address"] == address
     assert s.summary["mean_ohm"].to_numpy() == pytest.approx(5e-3, rel=1e-2)
+
+
+@pytest.mark.slow
+def test_exports_sorting_and_filtering(client: Client, folder: Path):
+    """Export CSV and xlsx (``contactrig export`` itself) beside the session, served back from DIR; the index
+    sorts and filters as ``contactrig sessions --sort/--sample`` does."""
+    (folder / "other.toml").write_text(scene_text(weights="[5.44]", repeats=1, sample="B sample"), encoding="utf-8")
+    for name, scene in (("one.h5", "small.toml"), ("two.h5", "other.toml")):
+        assert client.drive(client.start(name, scene=scene))["stop"]["status"] == "success"
+    for to in ("csv", "xlsx"):
+        r = client.post("/api/session/export", {"path": "one.h5", "to": to}).json()
+        assert r["code"] == 0 and r["written"], r
+        assert all((folder / w).is_file() for w in r["written"])
+        for link in r["links"]:
+            assert client.get(link).status_code == 200
+    assert client.post("/api/session/export", {"path": "../one.h5"}).status_code == 400
+    by_sample = [r["path"] for r in client.get("/api/sessions", params={"sort": "sample"}).json()["sessions"]]
+    assert by_sample == ["one.h5", "two.h5"]  # "Al-Si …" before "B sample"
+    only = client.get("/api/sessions", params={"sample": "b SAM"}).json()["sessions"]
+    assert [r["path"] for r in only] == ["two.h5"]

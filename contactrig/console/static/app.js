@@ -291,7 +291,7 @@ async function showSession(path) {
     const r = await api(`/api/session/${name}`, { path, ...(extra || {}) });
     out.textContent = r.error || [r.stdout, r.stderr].filter((t) => t).join("\n");
     if (r.link && r.code === 0) links.replaceChildren(el("a", { id: "report-link", href: r.link, target: "_blank", rel: "noopener", text: "open report.html" }));
-    for (const w of r.written || []) links.append(el("span", { text: ` wrote ${w} ` }));
+    (r.written || []).forEach((w, i) => links.append(el("a", { class: "export", href: r.links[i], text: w }), " "));
   };
   if (d.error) { main(el("h1", { text: path }), el("p", { class: "error", text: d.error })); return; }
   const stop = d.stop ? `${d.stop.status}: ${d.stop.reason} — ${d.stop.blocks_done} of ${d.stop.blocks_planned} blocks, stopped ${d.stop.stopped}` : "no stop record (incomplete or running)";
