@@ -64,7 +64,7 @@ best model stays first when the repeats are resampled.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, fields, is_dataclass
 from typing import Any
 
@@ -145,21 +145,22 @@ def area_at_weights(weight_sim_kg: np.ndarray, area_sim_m2: np.ndarray, weight_k
     if np.any(np.diff(ws) <= 0):
         raise SettingError("weight_kg", ws.tolist(), "expected distinct simulated weights")
     out = np.empty(w.shape)
-    interpolate: Any = None
-    for i, wi in enumerate(w):
-        hit = np.flatnonzero(np.abs(ws - wi) <= 1e-9 * max(abs(wi), 1e-12))
-        if hit.size:
-            out[i] = a[hit[0]]
-            continue
-        if wi < ws[0] or wi > ws[-1] or ws.size < 2 or wi <= 0 or ws[0] <= 0:
-            raise SettingError(
-                "weight_kg", float(wi), f"measured weight outside the simulated range [{ws[0]:g}, {ws[-1]:g}] kg"
-            )
-        if interpolate is None:  # built once: 10 000 weights would build it 10 000 times
-            from scipy.interpolate import PchipInterpolator
+    # the simulated weight within 1e-9 of each measured one (the lower if two are): ws sorted, so a neighbour
+    j = np.clip(np.searchsorted(ws, w), 1, max(ws.size - 1, 1)) - 1
+    tol = 1e-9 * np.maximum(np.abs(w), 1e-12)
+    j = np.where(np.abs(ws[j] - w) <= tol, j, np.minimum(j + 1, ws.size - 1))
+    hit = np.abs(ws[j] - w) <= tol
+    out[hit] = a[j[hit]]
+    bad = ~hit & ((w < ws[0]) | (w > ws[-1]) | (ws.size < 2) | (w <= 0) | (ws[0] <= 0))
+    if np.any(bad):
+        wi = float(w[np.argmax(bad)])
+        raise SettingError("weight_kg", wi, f"measured weight outside the simulated range [{ws[0]:g}, {ws[-1]:g}] kg")
+    if not np.all(hit):  # one PCHIP, evaluated at every other weight in one call (was a call per weight: ~1 s)
+        from scipy.interpolate import PchipInterpolator
 
-            interpolate = PchipInterpolator(np.log(ws), np.log(a))
-        out[i] = math.exp(float(interpolate(math.log(wi))))
+        interpolate = PchipInterpolator(np.log(ws), np.log(a))
+        log_a = interpolate(np.array([math.log(wi) for wi in w[~hit]]))
+        out[~hit] = [math.exp(v) for v in log_a.tolist()]
     return out
 
 
@@ -194,29 +195,65 @@ def _sigma(curve: MeasuredCurve, weighting: str) -> np.ndarray:
     return sigma
 
 
+#: Bootstrap rows generated and consumed at a time: the (B, m) resample matrix is never held (160 MB for 2000
+#: resamples of 10 000 weights), only (CHUNK, m) blocks (10 MB each).
+BOOT_CHUNK = 128
+
+
 @dataclass(frozen=True)
 class _Resamples:
     """Bootstrap resamples of the repeats, shared by every model (weights held fixed).
 
-    ``means`` (B, m) repeat means [Ω]; ``cols`` (B, r) the series drawn (mode "series"); ``var_of_mean`` (B, m)
-    the resampled s_i²/n_i [Ω²] (mode "within"), for studentizing.
+    Mode "series": ``cols`` (B, r) the series drawn and ``counts`` (B, r) how often each; the resampled means are
+    made ``chunk`` rows at a time by :meth:`blocks` (never all B × m at once). Mode "within": ``stored`` (B, m) the
+    resampled repeat means [Ω] and ``var_of_mean`` (B, m) the resampled s_i²/n_i [Ω²], for studentizing (drawn weight
+    by weight, so they are generated whole). ``series_ohm`` (r, m) the series / r [Ω] and ``offset`` (m,) a known
+    term subtracted from every resampled mean [Ω] (:func:`_shifted`).
     """
 
     mode: str
-    means: np.ndarray
+    n_boot: int
     cols: np.ndarray | None = None
+    counts: np.ndarray | None = None
+    series_ohm: np.ndarray | None = None
+    stored: np.ndarray | None = None
     var_of_mean: np.ndarray | None = None
+    offset: np.ndarray | None = None
+    chunk: int = BOOT_CHUNK
+
+    def blocks(self) -> Iterator[tuple[slice, np.ndarray]]:
+        """(rows, resampled means [Ω] of those rows) for consecutive blocks of ``chunk`` rows.
+
+        Each row is computed on its own, in a fixed order (Σ_k counts_k · series_k, then − offset: no BLAS, whose
+        blocking and threads change the rounding with the number of rows), so every row is the same bit for bit
+        whatever the block size."""
+        for a in range(0, self.n_boot, self.chunk):
+            rows = slice(a, min(a + self.chunk, self.n_boot))
+            if self.stored is not None:
+                means = self.stored[rows]
+            else:
+                assert self.counts is not None and self.series_ohm is not None
+                c = self.counts[rows]
+                means = c[:, :1] * self.series_ohm[0]
+                for k in range(1, c.shape[1]):
+                    means += c[:, k : k + 1] * self.series_ohm[k]
+            yield rows, means if self.offset is None else means - self.offset
 
 
-def _resample(curve: MeasuredCurve, mode: str, n_boot: int, rng: np.random.Generator) -> _Resamples:
-    """Resample the repeats with replacement: whole series (``"series"``) or within each weight (``"within"``)."""
+def _resample(
+    curve: MeasuredCurve, mode: str, n_boot: int, rng: np.random.Generator, chunk: int | None = None
+) -> _Resamples:
+    """Resample the repeats with replacement: whole series (``"series"``) or within each weight (``"within"``);
+    ``chunk`` the rows per block of :meth:`_Resamples.blocks` (default :data:`BOOT_CHUNK`; the result is the same
+    bit for bit whatever it is)."""
+    chunk = BOOT_CHUNK if chunk is None else chunk
     v = curve.values_ohm
     m, r = v.shape
     if mode == "series":
-        cols = rng.integers(0, r, size=(n_boot, r))
+        cols = rng.integers(0, r, size=(n_boot, r))  # (B, r): small; the (B, m) means are made block by block
         counts = np.zeros((n_boot, r))  # how often each series is drawn: no (m, n_boot, r) copy (1 GB at m = 10 000)
         np.add.at(counts, (np.arange(n_boot)[:, None], cols), 1.0)
-        return _Resamples(mode, counts @ (v.T / r), cols=cols)
+        return _Resamples(mode, n_boot, cols=cols, counts=counts, series_ohm=v.T / r, chunk=chunk)
     means = np.empty((n_boot, m))
     var = np.zeros((n_boot, m))
     for i in range(m):
@@ -225,7 +262,7 @@ def _resample(curve: MeasuredCurve, mode: str, n_boot: int, rng: np.random.Gener
         means[:, i] = draw.mean(axis=1)
         if row.size >= 2:
             var[:, i] = draw.var(axis=1, ddof=1) / row.size
-    return _Resamples(mode, means, var_of_mean=var)
+    return _Resamples(mode, n_boot, stored=means, var_of_mean=var, chunk=chunk)
 
 
 def _repeat_se(curve: MeasuredCurve, wls: np.ndarray, mode: str) -> np.ndarray:
@@ -316,7 +353,8 @@ def _bootstrap_ci(
         boot = qb.mean(axis=1)
         se_b = qb.std(axis=1, ddof=1) / math.sqrt(q.shape[0]) if interval == "studentized" else None
     else:
-        boot = res.means @ wls.T
+        assert res.stored is not None
+        boot = res.stored @ wls.T
         se_b = np.sqrt(res.var_of_mean @ (wls**2).T) if interval == "studentized" else None
     if se_b is None:
         q = _quantiles(boot, probs)
@@ -838,8 +876,10 @@ def _shifted(
     if off.shape != curve.weight_kg.shape or not np.all(np.isfinite(off)):
         raise SettingError("offset_ohm", off.tolist(), f"expected finite values, shape {curve.weight_kg.shape}")
     shifted = dataclasses.replace(curve, values_ohm=curve.values_ohm - off[:, None])
-    if resamples is not None:
-        resamples = dataclasses.replace(resamples, means=resamples.means - off)
+    if resamples is not None and resamples.stored is not None:
+        resamples = dataclasses.replace(resamples, stored=resamples.stored - off)
+    elif resamples is not None:  # subtracted block by block (:meth:`_Resamples.blocks`)
+        resamples = dataclasses.replace(resamples, offset=off)
     return shifted, resamples
 
 
@@ -1014,7 +1054,6 @@ def compare_models(
     curve, series_notes = independent_series(curve)
     sigma, mode = _prepare(curve, weighting, bootstrap, ci_level, n_boot, boot_interval, seed)
     res = _resample(curve, mode, n_boot, np.random.default_rng(seed)) if n_boot else None
-    boot = res.means if res is not None else None
     fits: dict[str, ModelFit] = {}
     for name, area in areas_m2.items():
         area = np.asarray(area, dtype=float)
@@ -1041,12 +1080,12 @@ def compare_models(
 
     candidates = [n for n in names if fits[n].physical and not fits[n].load_independent] or names
     first, decisive = _bootstrap_ranking(
-        fits, candidates, best, boot, sigma, offsets_ohm, c_hat if criterion == "QAIC" else math.nan, seed
+        fits, candidates, best, res, sigma, offsets_ohm, c_hat if criterion == "QAIC" else math.nan, seed
     )
     names = list(fits)
 
     discriminates, statement = _statement(
-        fits, ranking, delta, first, decisive, n_boot if boot is not None else 0, criterion=criterion, c_hat=c_hat
+        fits, ranking, delta, first, decisive, n_boot if res is not None else 0, criterion=criterion, c_hat=c_hat
     )
     return ModelComparison(
         fits=fits,
@@ -1070,7 +1109,7 @@ def _bootstrap_ranking(
     fits: Mapping[str, ModelFit],
     names: list[str],
     best: str,
-    boot: np.ndarray | None,
+    res: _Resamples | None,
     sigma: np.ndarray,
     offsets_ohm: Mapping[str, np.ndarray] | None,
     c_hat: float,
@@ -1078,31 +1117,34 @@ def _bootstrap_ranking(
 ) -> tuple[dict[str, float], float]:
     """(share of resamples in which each model has the lowest χ², share in which ``best`` is first by ≥ 2).
 
-    Ordinarily the repeats' resamples ``boot`` (B, m) are used, with each model's bootstrap parameters. When the data
-    are over-dispersed (``c_hat`` finite) the lack of fit is common to every series and resampling the repeats
-    cannot show it: the residuals about the best fit are resampled instead (wild bootstrap, a random sign per
-    weight), every model refitted, ĉ re-estimated per resample, and the margin is in Δχ²/ĉ.
+    Ordinarily the repeats' resamples ``res`` are used, with each model's bootstrap parameters. When the data are
+    over-dispersed (``c_hat`` finite) the lack of fit is common to every series and resampling the repeats cannot
+    show it: the residuals about the best fit are resampled instead (wild bootstrap, a random sign per weight),
+    every model refitted, ĉ re-estimated per resample, and the margin is in Δχ²/ĉ. Both run ``res.chunk`` resamples
+    at a time (no (B, m) array).
     """
-    if boot is None:
+    if res is None:
         return {}, math.nan
     if len(names) < 2:
         return {best: 1.0}, 1.0
     off = {n: np.zeros_like(sigma) if offsets_ohm is None else np.asarray(offsets_ohm[n], float) for n in names}
+    table = np.empty((len(names), res.n_boot))  # χ² (models, B)
     if math.isfinite(c_hat):
         pb = fits[best].points
         rng = np.random.default_rng(None if seed is None else seed + 1)
-        signs = rng.choice([-1.0, 1.0], (boot.shape[0], sigma.size))
-        y_star = pb.fitted_ohm + pb.residuals_ohm * signs  # (B, m), raw R (fitted_ohm includes the offset)
-        table = np.vstack([_refit_chi2(fits[n].points.regressor_per_m, y_star - off[n], sigma) for n in names])
+        for a in range(0, res.n_boot, res.chunk):
+            rows = slice(a, min(a + res.chunk, res.n_boot))
+            signs = rng.choice([-1.0, 1.0], (rows.stop - a, sigma.size))  # the same stream as all B rows at once
+            y_star = pb.fitted_ohm + pb.residuals_ohm * signs  # raw R (fitted_ohm includes the offset)
+            for i, n in enumerate(names):
+                table[i, rows] = _refit_chi2(fits[n].points.regressor_per_m, y_star - off[n], sigma)
         table = table / (np.min(table, axis=0) / max(sigma.size - 2, 1))
     else:
-        chi2s = []
-        for n in names:
-            f = fits[n]
-            assert f.boot_params is not None
-            design = np.column_stack((np.ones_like(f.points.regressor_per_m), f.points.regressor_per_m))
-            chi2s.append(_chi2_rows(boot, f.boot_params, design, sigma, off[n]))
-        table = np.vstack(chi2s)  # (models, B)
+        for rows, means in res.blocks():
+            for i, n in enumerate(names):
+                params = fits[n].boot_params
+                assert params is not None
+                table[i, rows] = _chi2_rows(means, params[rows], fits[n].points.regressor_per_m, sigma, off[n])
     winner = np.argmin(table, axis=0)
     first = {n: float(np.mean(winner == i)) for i, n in enumerate(names)}
     ordered = np.sort(table, axis=0)
@@ -1111,10 +1153,19 @@ def _bootstrap_ranking(
 
 
 def _refit_chi2(x: np.ndarray, y: np.ndarray, sigma: np.ndarray) -> np.ndarray:
-    """χ² of the weighted straight-line fit y ≈ a + b·x for every row of ``y`` (B, m) at once [-]."""
-    design = np.column_stack((np.ones_like(x), x)) / sigma[:, None]
-    coef, *_ = np.linalg.lstsq(design, (y / sigma).T, rcond=None)
-    return np.asarray(np.sum(((y / sigma).T - design @ coef) ** 2, axis=0))
+    """χ² of the weighted straight-line fit y ≈ a + b·x for every row of ``y`` (n, m) [-].
+
+    Closed form about the weighted means (w = 1/σ², b = Σw(x−x̄)(y−ȳ)/Σw(x−x̄)², χ² = Σw(y−ȳ−b(x−x̄))²), row by row
+    along the contiguous axis: each row's χ² is the same bit for bit however many rows are passed."""
+    w = 1.0 / sigma**2
+    dx = x - np.sum(w * x) / np.sum(w)
+    wdx = w * dx
+    ybar = np.sum(y * w, axis=1) / np.sum(w)
+    r = y - ybar[:, None]
+    slope = np.sum(r * wdx, axis=1) / np.sum(wdx * dx)
+    r -= slope[:, None] * dx
+    np.square(r, out=r)
+    return np.asarray(np.sum(r * w, axis=1))
 
 
 def _overdispersion(fits: Mapping[str, ModelFit]) -> tuple[float, str]:
@@ -1137,15 +1188,16 @@ def _criterion(g: GoodnessOfFit, c_hat: float) -> float:
 
 
 def _chi2_rows(
-    boot: np.ndarray, params: np.ndarray, design: np.ndarray, sigma: np.ndarray, offset: np.ndarray
+    means: np.ndarray, params: np.ndarray, x: np.ndarray, sigma: np.ndarray, offset: np.ndarray
 ) -> np.ndarray:
-    """Σ((boot − offset − params·designᵀ)/σ)² of each bootstrap row, a few hundred rows at a time: no (B, m) temporaries
-    (160 MB each for 2000 resamples of 10 000 weights)."""
-    out = np.empty(boot.shape[0])
-    for a in range(0, boot.shape[0], 256):
-        z = (boot[a : a + 256] - offset - params[a : a + 256] @ design.T) / sigma
-        out[a : a + 256] = np.einsum("ij,ij->i", z, z)
-    return out
+    """Σ((means − offset − (p₀ + p₁·x))/σ)² of each row [-]: resampled means (n, m) [Ω] and their parameters (n, 2),
+    elementwise and summed along the contiguous axis, so each row's value does not depend on the rows beside it."""
+    z = means - offset
+    z -= params[:, :1]
+    z -= params[:, 1:] * x
+    z /= sigma
+    np.square(z, out=z)
+    return np.asarray(np.sum(z, axis=1))
 
 
 def _statement(

@@ -27,6 +27,8 @@ __all__ = ["SeriesDependence", "find_dependence", "print_quantum"]
 
 #: Columns beyond which subsets are not searched for the mean rule (2^(r−1) subsets per column).
 _MAX_SUBSET_COLUMNS = 12
+#: Values gathered at a time when testing many subsets at once (8 MB).
+_BATCH_VALUES = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -67,10 +69,15 @@ def _mean_source(v: np.ndarray, j: int, tol: np.ndarray) -> tuple[int, ...]:
         others = others[:_MAX_SUBSET_COLUMNS]
     allowed_off = 1 if m >= 4 else 0
     for size in range(2, len(others) + 1):
-        for subset in itertools.combinations(others, size):
-            off = np.abs(v[:, j] - v[:, list(subset)].mean(axis=1)) > tol
-            if int(np.sum(off)) <= allowed_off:
-                return subset
+        subsets = itertools.combinations(others, size)
+        # many subsets at once, in the same order, each mean along the contiguous axis as one at a time (same bits):
+        # 4 000 subsets of 12 columns one by one took 10 s for 125 series
+        while batch := list(itertools.islice(subsets, max(1, _BATCH_VALUES // (m * size)))):
+            means = v[:, np.array(batch)].mean(axis=2)  # (m, subsets)
+            off = np.abs(v[:, j : j + 1] - means) > tol[:, None]
+            hit = np.flatnonzero(np.sum(off, axis=0) <= allowed_off)
+            if hit.size:
+                return batch[int(hit[0])]
     return ()
 
 

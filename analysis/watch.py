@@ -38,6 +38,7 @@ import numpy as np
 
 from analysis.resistance import resistance_unit
 from contactrig.core.text import escape_terminal
+from daq.records import block_number
 
 __all__ = [
     "BlockRow",
@@ -93,7 +94,8 @@ class LiveState:
 
     @property
     def compliant_blocks(self) -> list[int]:
-        return [r.block for r in self.rows if r.compliance]
+        """The numbers (1-based, :func:`daq.records.block_number`) of the blocks taken in compliance."""
+        return [block_number(r.block) for r in self.rows if r.compliance]
 
     @property
     def n_invalid(self) -> int:
@@ -130,7 +132,11 @@ def status_line(state: LiveState, now: float | None = None) -> str:
     if state.rows:
         last = state.rows[-1]
         parts.append(f"{last.weight_kg:g} kg repeat {last.repeat}")
-    parts.append(f"block {state.blocks_done}/{planned}")
+        number = block_number(last.block)  # the last block's number, as the live line and the exports call it
+        taken = f" ({state.blocks_done} taken)" if state.blocks_done != number else ""
+        parts.append(f"block {number}/{planned}{taken}")
+    else:
+        parts.append(f"no block yet/{planned}")
     eta = state.eta_s(now)
     if state.status == "running":
         parts.append(f"ETA {_clock(eta)}" if eta is not None else "ETA –")
@@ -232,7 +238,7 @@ def _draw_current(ax: Any, state: LiveState) -> None:
         ax.plot(t[~valid], np.zeros(int((~valid).sum())), "x", color="#d62728", label="invalid")
         ax.legend(fontsize=7.5)
     last = state.rows[-1] if state.rows else None
-    title = f"block {state.blocks_done}: {last.weight_kg:g} kg, repeat {last.repeat}" if last else "no block yet"
+    title = f"block {block_number(last.block)}: {last.weight_kg:g} kg, repeat {last.repeat}" if last else "no block yet"
     ax.set(xlabel="time t [s]", ylabel=f"resistance R [{unit}]", title=_plain(title))
     ax.ticklabel_format(axis="y", useOffset=False)
 
@@ -265,8 +271,10 @@ def render_png(state: LiveState, path: str | Path, *, force: bool = True, fig: A
     fig = fig if fig is not None else _new_figure()
     FigureCanvasAgg(fig)
     draw_state(fig, state)
+    from analysis.snapshot import SNAPSHOT_METADATA
+
     with atomic_write(path, force=force) as tmp:
-        fig.savefig(tmp, format="png", dpi=90)
+        fig.savefig(tmp, format="png", dpi=90, metadata=SNAPSHOT_METADATA)  # marked: a later run may rewrite it
     return Path(path)
 
 
@@ -339,17 +347,20 @@ def watch(
     keep_open: bool = True,
 ) -> LiveState:
     """Follow the session file ``path`` until nobody writes it (or ``once``, or ``max_seconds``); returns the last
-    frame. ``png``: rewrite that snapshot at most every ``every`` seconds (the first write refuses an existing file
-    unless ``force``) instead of a window; a window stays open on the finished session until closed
-    (``keep_open``). The status line goes to ``stream`` (default stderr) whenever it changes."""
-    from contactrig.core.files import check_new_file
+    frame. ``png``: rewrite that snapshot at most every ``every`` seconds instead of a window (an existing file is
+    refused unless ``force`` or it is a snapshot an earlier run wrote: :mod:`analysis.snapshot`); a window stays
+    open on the finished session until closed (``keep_open``). The status line goes to ``stream`` (default stderr)
+    whenever it changes. Without a display (and no ``png``) the status text is all there is: it goes to ``stream``
+    (default stdout), with a note on stderr."""
+    from analysis.snapshot import check_snapshot_path
 
-    out = stream if stream is not None else sys.stderr
     p = Path(path)
     if png is not None:
-        check_new_file(png, force=force)
+        check_snapshot_path(png, force=force)
     state = _load_state(p, None)  # a missing or unreadable file is the command's error, before any window opens
-    window = None if png is not None else _Window()
+    window = None if png is not None else _window_or_headless()
+    headless = png is None and window is None
+    out = stream if stream is not None else sys.stdout if headless else sys.stderr
     deadline = None if max_seconds is None else time.monotonic() + max_seconds
     fig = _new_figure() if png is not None else None
     shown = ""
@@ -373,6 +384,15 @@ def watch(
     if window is not None and keep_open:
         window.show_until_closed()
     return state
+
+
+def _window_or_headless() -> _Window | None:
+    """A window, or None (said on stderr) where there is no display: the status text is then the output."""
+    try:
+        return _Window()
+    except NoDisplayError as exc:
+        print(f"contactrig watch: {exc}; printing the status only", file=sys.stderr, flush=True)
+        return None
 
 
 def _pause(window: _Window | None, seconds: float) -> None:
@@ -737,9 +757,9 @@ class LiveView:
         try:
             self._state = replace(self._state, blocks_planned=_planned(start))
             if self._draw is None and self.png is not None:
-                from contactrig.core.files import check_new_file
+                from analysis.snapshot import check_snapshot_path
 
-                check_new_file(self.png, force=self.force)  # refused before any block, in the acquiring process
+                check_snapshot_path(self.png, force=self.force)  # refused before any block, in the acquiring process
         except Exception as exc:
             self._guard.fail(exc)
 

@@ -15,7 +15,7 @@ import errno
 import os
 import sys
 import warnings
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
@@ -25,6 +25,7 @@ from contactrig.core.scene import Scene, load_scene, parse_scene
 from daq.engine import AcquisitionEngine, Decision, Interrupts, OperatorQuit, Prompter, RunOutcome, Writer, answer_yes
 from daq.errors import MissingFileError, NoStartRecordError, SessionExistsError, SessionStateError
 from daq.link import Bench, InstrumentLink, OpenedBench, VisaBench
+from daq.overrides import OverrideChange, check_bench, plan_values, plan_with_overrides, resume_overrides
 from daq.plan import (
     CONVERSION_OVERHEAD_S,
     Measure,
@@ -71,6 +72,8 @@ class _Prior:
     first_start: dict[str, Any] | None = None
     #: weights the stop records of earlier runs list as skipped
     recorded_skips: frozenset[float] = frozenset()
+    #: the start record of the latest run (its overrides carry over to a resumed run)
+    last_start: dict[str, Any] | None = None
 
 
 @dataclass(frozen=True)
@@ -243,7 +246,9 @@ def _resume_state(path: Path, scene: Scene | None, simulated: bool) -> tuple[Sce
         for w in stop["weights_skipped"]
         if isinstance(w, (int, float)) and not isinstance(w, bool)
     )
-    prior = _Prior(resumed=True, done=done, readings=readings, first_start=session.start, recorded_skips=skips)
+    runs = [r for r in session.runs if isinstance(r, dict)]
+    prior = _Prior(resumed=True, done=done, readings=readings, first_start=session.start, recorded_skips=skips,
+                   last_start=runs[-1] if runs else session.start)  # fmt: skip
     return recorded, prior
 
 
@@ -297,6 +302,8 @@ def acquire(
     fsync: bool = True,
     extra_writers: Sequence[Writer] = (),
     resume_chooser: ResumeChooser | None = None,
+    overrides: Mapping[str, Any] | None = None,
+    allow_change: bool = False,
 ) -> AcquisitionResult:
     """Run a bench session and write it to ``output`` (see the module docstring for the order of work).
 
@@ -314,18 +321,23 @@ def acquire(
     earlier run skipped is asked about (``resume_chooser``, default: at the terminal; with ``yes`` it is kept
     skipped and the output says so): measured now (placed first) or kept skipped; the answers are recorded in the
     run's start record (``resume_choices``), with the run's ``loading_order_kg``.
+
+    ``overrides``: ``{scene key: value}`` of this run (:mod:`daq.overrides`: ``acquire --address``, ``--sample``
+    …), validated as the scene keys and recorded apart from the scene text; a resumed run keeps the earlier run's
+    and states a change (a different sample is refused unless ``allow_change``).
     """
     path = Path(output)
     bench = bench if bench is not None else VisaBench()
     scene, prior = _scene_and_prior(scene, path, resume=resume, force=force, simulated=bench.simulated)
-    plan = SessionPlan.from_scene(scene)
+    check_bench(overrides or {}, simulated=bench.simulated)
+    plan, run_overrides, changes = _overridden_plan(scene, prior, overrides or {}, allow_change)
     check = getattr(bench, "check", None)  # a bench's own part of the scene (the --sim simulation), before any output
     if check is not None:
         check(plan)
     sf = _prepare_file(path, plan, resume=resume, force=force, fsync=fsync)
     try:
         steps, order = _announce(plan, prior, bench, stream=stream, quiet=quiet, yes=yes, prompter=prompter,
-                                 resume_chooser=resume_chooser)  # fmt: skip
+                                 resume_chooser=resume_chooser, changes=changes)  # fmt: skip
     except BaseException:
         sf.discard()
         raise
@@ -347,6 +359,10 @@ def acquire(
             if prior.resumed:
                 sf.begin_resume(keep_blocks=len(prior.done))
             start = _start_record(plan, scene, simulated=bench.simulated, opened=opened, run=sf.run, prior=prior)
+            start["overrides"] = dict(run_overrides)
+            start["override_changes"] = [c.as_dict() for c in changes]
+            if "session.operator" in run_overrides:
+                start["operator_source"] = "override"
             start["loading_order_kg"] = _loading_order(steps)
             start["resume_choices"] = list(order.choices)
             display = LiveDisplay(plan.blocks_planned, done=len(prior.done), stream=stream, quiet=quiet)
@@ -380,6 +396,7 @@ def _announce(
     yes: bool,
     prompter: Prompter | None,
     resume_chooser: ResumeChooser | None,
+    changes: Sequence[OverrideChange] = (),
 ) -> tuple[list[PlaceWeight | Measure], _Order]:
     """Ask about the weights an earlier run skipped, then print the plan; returns the steps still to take."""
     out = stream if stream is not None else sys.stderr
@@ -390,12 +407,28 @@ def _announce(
 
     chooser = resume_chooser if resume_chooser is not None else None if yes else terminal_resume_chooser(stream)
     order = _resume_order(plan, prior, chooser, say)
+    for change in changes:
+        say(change.describe())
     steps = list(session_steps(plan, prior.done, first=order.first, leave_out=order.leave_out))
     time_scale = float(getattr(bench, "time_scale", 1.0)) if bench.simulated else 1.0
     for line in plan_lines(plan, steps, blocks_on_file=len(prior.done), attended=prompter is not None or not yes,
                            time_scale=time_scale):  # fmt: skip
         say(line)
     return steps, order
+
+
+def _overridden_plan(
+    scene: Scene, prior: _Prior, given: Mapping[str, Any], allow_change: bool
+) -> tuple[SessionPlan, dict[str, Any], list[OverrideChange]]:
+    """The plan of this run, its overrides and — on ``--resume`` — the changes from the run before
+    (:func:`daq.overrides.resume_overrides`: the earlier run's overrides are kept)."""
+    if not prior.resumed:
+        return plan_with_overrides(scene, given), dict(given), []
+    earlier = prior.last_start.get("overrides") if prior.last_start is not None else None
+    earlier = dict(earlier) if isinstance(earlier, dict) else {}
+    before = plan_values(plan_with_overrides(scene, earlier))
+    merged, changes = resume_overrides(earlier, given, before, allow_change=allow_change)
+    return plan_with_overrides(scene, merged), merged, changes
 
 
 def _scene_and_prior(
@@ -575,6 +608,7 @@ def _start_record(
         "scene_source": scene.source,
         "scene_name": scene.name,
         "sample": plan.session.sample,
+        "notes": plan.session.notes,
         "rig": plan.session.rig,
         "plan": plan.describe(),
         "instrument": {

@@ -25,7 +25,7 @@ import numpy as np
 from contactrig.core.provenance import now_iso
 from daq.link import InstrumentLink
 from daq.plan import Measure, PlaceWeight
-from daq.records import BlockRecord, StopRecord, StopStatus
+from daq.records import BlockRecord, StopRecord, StopStatus, block_number
 from instruments.block import Block
 from instruments.transport import Exchange
 
@@ -322,7 +322,7 @@ class AcquisitionEngine:
 def _where(current: Measure | None) -> str:
     if current is None:
         return ""
-    return f" in the block at {current.weight_kg:g} kg, repeat {current.repeat} (block #{current.block})"
+    return f" in the block at {current.weight_kg:g} kg, repeat {current.repeat} (block {block_number(current.block)})"
 
 
 def _interrupt_reason(state: _RunState, count: int) -> str:
@@ -330,7 +330,8 @@ def _interrupt_reason(state: _RunState, count: int) -> str:
     if current is not None:
         return (
             f"interrupted (Ctrl-C twice) during the block at {current.weight_kg:g} kg, repeat "
-            f"{current.repeat} (block #{current.block}); that block was discarded, every completed one is kept"
+            f"{current.repeat} (block {block_number(current.block)}); that block was discarded, every completed one "
+            "is kept"
         )
     if count >= 1 and state.done:
         return _after_block_reason(state.done)
@@ -343,24 +344,27 @@ def _after_block_reason(done: list[BlockRecord]) -> str:
     last = done[-1]
     return (
         f"interrupted (Ctrl-C): stopped after the block at {last.weight_kg:g} kg, repeat {last.repeat} "
-        f"(block #{last.block})"
+        f"(block {block_number(last.block)})"
     )
 
 
 def format_live_line(rec: BlockRecord, index: int, total: int) -> str:
-    """``block 3/48  5.44 kg  repeat 3  R = 8.0913 mΩ ± 12.3 µΩ (SEM, n = 100)`` — the live line; a block taken in
-    compliance says so and shows no value."""
+    """``block 3/48  5.44 kg  repeat 3  R = 8.0913 mΩ ± 12.3 µΩ (SEM, n = 100)`` — the live line: the block's number
+    (:func:`daq.records.block_number`) of ``total`` planned; ``index``, the blocks taken so far, is added when it
+    differs (a skipped weight, a resumed session). A block taken in compliance says so and shows no value."""
+    number = block_number(rec.block)
+    where = f"block {number}/{total}" + (f" ({index} taken)" if index != number else "")
     st = rec.stats
     if rec.compliance:
         value = f"COMPLIANCE: source could not drive the current, block excluded ({rec.reading.size} readings)"
-        return f"block {index}/{total}  {rec.weight_kg:g} kg  repeat {rec.repeat}  {value}"
+        return f"{where}  {rec.weight_kg:g} kg  repeat {rec.repeat}  {value}"
     if st.n == 0:
         value = "no valid readings"
     else:
         sem = "" if math.isnan(st.sem) else f" ± {_ohm(st.sem)}"
         value = f"R = {st.mean * 1e3:.4f} mΩ{sem} (SEM, n = {st.n})"
     invalid = f", {st.n_invalid} invalid" if st.n_invalid else ""
-    return f"block {index}/{total}  {rec.weight_kg:g} kg  repeat {rec.repeat}  {value}{invalid}"
+    return f"{where}  {rec.weight_kg:g} kg  repeat {rec.repeat}  {value}{invalid}"
 
 
 def _ohm(x: float) -> str:

@@ -42,6 +42,7 @@ import numpy as np
 from contactrig.core.files import atomic_write, refuse_existing
 from contactrig.core.text import escape_terminal
 from contactrig.core.validation import SettingError, check_choice
+from daq.records import block_number
 from daq.table_import import DIGITS_PER_OHM
 from daq.table_provenance import EXPORTED_BY, provenance_mapping, statistics_headers
 
@@ -148,7 +149,8 @@ def summary_table(summary: Any) -> Table:
         if not bool(comp) and math.isfinite(float(m)):
             stored[(float(w), int(r))] = float(m)
         if bool(comp):
-            notes.append(f"block {int(b)} ({float(w):g} kg, repeat {int(r)}) was taken in compliance: left empty")
+            where = f"block {block_number(b)} ({float(w):g} kg, repeat {int(r)})"
+            notes.append(f"{where} was taken in compliance: left empty")
     rows = []
     for w in weights:
         cells = [stored.get((w, r)) for r in repeats]
@@ -165,7 +167,7 @@ def readings_table(readings: Any, reading_unit: str) -> Table:
     unit = reading_unit or "as_returned"
     cols = ("block", "weight_kg", "repeat", "index", "time_s", f"reading_{unit}", "resistance_ohm", "valid")
     data = [
-        readings["block"].to_numpy(dtype=np.int64).tolist(),
+        [block_number(b) for b in readings["block"].to_numpy(dtype=np.int64)],  # 1-based, as every output
         readings["weight_kg"].to_numpy(dtype=float).tolist(),
         readings["repeat"].to_numpy(dtype=np.int64).tolist(),
         readings["index"].to_numpy(dtype=np.int64).tolist(),

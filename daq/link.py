@@ -189,8 +189,8 @@ class Bench(Protocol):
 @dataclass(frozen=True)
 class VisaBench:
     """The instruments at the plan's ``[instrument].address``, through ``resource_manager`` (None: a new one on
-    ``visa_library``, e.g. ``"@py"`` for pyvisa-py; "" = the system's VISA library; tests give a simulated one and
-    still take the hardware path)."""
+    ``visa_library``, e.g. ``"@py"`` for pyvisa-py; "" = the plan's ``[instrument].visa_library``, else the system's
+    VISA library; tests give a simulated one and still take the hardware path)."""
 
     resource_manager: Any = None  # a pyvisa.ResourceManager (pyvisa ships no type information)
     visa_library: str = ""
@@ -205,7 +205,7 @@ class VisaBench:
             plan.instrument.timeout_ms,
             self.resource_manager,
             pair=plan.pair,
-            visa_library=self.visa_library,
+            visa_library=self.visa_library or plan.instrument.visa_library,
             serial=plan.instrument.serial,
         )
         return OpenedBench(link)

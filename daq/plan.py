@@ -10,6 +10,7 @@ Scene keys (SI units; every key validated, unknown keys are errors naming the ke
 ``[instrument]``
     ``address``     VISA resource of the instrument the PC talks to (e.g. the 6221's ``GPIB0::12::INSTR``,
                     ``TCPIP0::<ip>::1394::SOCKET``)
+    ``visa_library``  VISA library to open it with (e.g. ``"@py"`` for pyvisa-py; default ``""``: the system's)
     ``timeout_ms``  VISA I/O timeout, 100 … 600 000 ms (over RS-232 raised if the baud rate needs it)
     ``pair``        the instrument pair (:mod:`instruments.pairs`; default ``"k6221_2182a"``, the Keithley 6221
                     with a 2182A in Delta mode)
@@ -30,6 +31,7 @@ the pair's settings table — ``[delta]`` for the Keithley pair
                     ``[rig].weights_kg``), each in (0, 1000] kg
     ``operator``    who runs the session (empty: the login name is recorded)
     ``sample``      free-text sample description
+    ``notes``       free-text notes on the session
     ``rig``         free-text rig description
     ``sim_model``   contact model whose simulated contact area drives ``--sim`` (one of ``[database].models``)
     ``sim_seed``    seed of the simulated bench's noise and re-seating factors (whole number ≥ 0; default 1)
@@ -66,8 +68,14 @@ __all__ = [
     "settings_from_record",
 ]
 
-INSTRUMENT_KEYS = ("address", "timeout_ms", "pair", "baud_rate", "flow_control", "terminator", "data_bits", "parity")
-SESSION_KEYS = ("repeats", "weights_kg", "operator", "sample", "rig", "sim_model", "sim_seed", "sim_repeat_sd")
+INSTRUMENT_KEYS = (
+    *("address", "visa_library", "timeout_ms", "pair"),
+    *("baud_rate", "flow_control", "terminator", "data_bits", "parity"),
+)
+SESSION_KEYS = (
+    *("repeats", "weights_kg", "operator", "sample", "notes", "rig"),
+    *("sim_model", "sim_seed", "sim_repeat_sd"),
+)
 #: Default ``[session].sim_repeat_sd``: Tab. 1's repeats M1–M3 scatter by 15–16 % at each weight
 #: (analysis.simulated_session).
 DEFAULT_SIM_REPEAT_SD = 0.15
@@ -89,10 +97,12 @@ def _check_str(field: str, value: Any, *, nonempty: bool = False) -> str:
 
 @dataclass(frozen=True)
 class InstrumentSettings:
-    """How to reach the instruments: VISA ``address``, I/O ``timeout_ms`` (ms), which registered ``pair``, and the
-    RS-232 parameters (used with ``ASRL`` addresses only; see the module docstring)."""
+    """How to reach the instruments: VISA ``address`` (opened with ``visa_library``), I/O ``timeout_ms`` (ms),
+    which registered ``pair``, and the RS-232 parameters (used with ``ASRL`` addresses only; see the module
+    docstring)."""
 
     address: str = "GPIB0::12::INSTR"
+    visa_library: str = ""
     timeout_ms: int = 5000
     pair: str = DEFAULT_PAIR
     baud_rate: int = 19200
@@ -107,6 +117,7 @@ class InstrumentSettings:
             raise SettingError(
                 "instrument.address", self.address, "expected a VISA resource such as 'GPIB0::12::INSTR'"
             )
+        _check_str("instrument.visa_library", self.visa_library)
         object.__setattr__(self, "timeout_ms", check_int("instrument.timeout_ms", self.timeout_ms, 100, 600_000))
         get_pair(self.pair)  # an unknown pair is an error naming [instrument] pair and the registered ones
         self.serial  # noqa: B018 -- validates the RS-232 keys, errors naming [instrument] <key>
@@ -138,6 +149,7 @@ class SessionSettings:
     repeats: int = 6
     operator: str = ""
     sample: str = ""
+    notes: str = ""
     rig: str = ""
     sim_model: str = "greenwood_tripp"
     sim_seed: int = 1
@@ -154,7 +166,7 @@ class SessionSettings:
         if not weights:
             raise SettingError("session.weights_kg", list(self.weights_kg), "expected at least one weight")
         object.__setattr__(self, "weights_kg", weights)
-        for name in ("operator", "sample", "rig"):
+        for name in ("operator", "sample", "notes", "rig"):
             _check_str(f"session.{name}", getattr(self, name))
         _check_str("session.sim_model", self.sim_model, nonempty=True)
         object.__setattr__(self, "sim_seed", check_int("session.sim_seed", self.sim_seed, 0, 2**63 - 1))

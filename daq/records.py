@@ -6,6 +6,10 @@ HDF5 session file, the live display, the in-memory collector used by replay). Ex
 :func:`instruments.block.block_statistics` (the one implementation, shared with the drivers).
 
 Units: resistance in Ω, weight in kg, times in s; ISO-8601 timestamps carry their time zone.
+
+Block numbers: a record's ``block`` is the block's 0-based position in the session's full plan (weight index ×
+repeats + repeat − 1), as the file stores it; a person always reads :func:`block_number` (1-based), in the live line,
+stop messages, exports, ``watch``, replay messages and reports.
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ __all__ = [
     "StopRecord",
     "block_digest",
     "block_digests",
+    "block_number",
     "exchanges_digest",
     "how_run_ended",
     "now_iso",
@@ -34,6 +39,11 @@ __all__ = [
 ]
 
 StopStatus = Literal["success", "aborted", "failed"]
+
+
+def block_number(block: int) -> int:
+    """The number a person reads for the block stored as ``block`` (0-based position in the plan): 1-based."""
+    return int(block) + 1
 
 
 def block_digest(

@@ -25,7 +25,7 @@ from daq.acquire import drive
 from daq.errors import SessionFileError, SessionStateError
 from daq.link import InstrumentLink
 from daq.plan import Measure, PlaceWeight, settings_from_record
-from daq.records import BlockRecord, how_run_ended
+from daq.records import BlockRecord, block_number, how_run_ended
 from daq.session_file import Session, exchange_list, load_session
 from daq.writers import MemoryWriter
 from instruments.errors import ReplayMismatch
@@ -152,8 +152,8 @@ def _close_after_discarded_block(session: Session, run: int, blocks: set[int]) -
     if tail[0].kind != "write" or tail[0].message != _ABORT or tail[0].error:
         return [], ""
     note = (
-        f"run {run}: {how_run_ended(stop)} during block #{block}, which was discarded; the recording ends with "
-        f"{_ABORT} (source left idle)"
+        f"run {run}: {how_run_ended(stop)} during block {block_number(block)}, which was discarded; the recording "
+        f"ends with {_ABORT} (source left idle)"
     )
     return tail, note
 
@@ -277,7 +277,7 @@ def _compare(rows: pd.DataFrame, blocks: list[BlockRecord], tally: _Tally) -> No
     by_block = {rec.block: rec for rec in blocks}
     for _, row in rows.iterrows():
         rec = by_block.get(int(row["block"]))
-        where = f"block {int(row['block'])} (weight {row['weight_kg']:g} kg, repeat {int(row['repeat'])})"
+        where = f"block {block_number(row['block'])} (weight {row['weight_kg']:g} kg, repeat {int(row['repeat'])})"
         if rec is None:
             tally.differences.append(f"{where}: not reproduced")
             continue
@@ -287,7 +287,8 @@ def _compare(rows: pd.DataFrame, blocks: list[BlockRecord], tally: _Tally) -> No
     stored = dict(zip(rows["block"].tolist(), rows["sha256"].tolist(), strict=True))
     for rec in blocks:
         if rec.block in stored and stored[rec.block] != rec.sha256:
-            tally.differences.append(f"block {rec.block}: readings differ from the recorded ones (SHA-256)")
+            number = block_number(rec.block)
+            tally.differences.append(f"block {number}: readings differ from the recorded ones (SHA-256)")
 
 
 def _row_differences(where: str, row: pd.Series, rec: BlockRecord) -> list[str]:

@@ -36,7 +36,7 @@ from daq.errors import (
     first_line,
     hdf5_error,
 )
-from daq.records import block_digests, exchanges_digest
+from daq.records import block_digests, block_number, exchanges_digest
 from daq.session_schema import (
     EXCHANGE_FIELDS,
     FORMAT_NAME,
@@ -478,21 +478,21 @@ def _verify(raw: dict[str, Any], path: Path) -> None:
     if wrong.size:
         i = int(np.searchsorted(np.cumsum(count), wrong[0], side="right"))
         raise ChecksumError(
-            f"{path}: block {int(s['block'][i])} has readings of another block — file corrupted", position=i
+            f"{path}: block {block_number(s['block'][i])} has readings of another block — file corrupted", position=i
         )
     digests = block_digests(s, r)
     stored = [text_of(d) for d in s["sha256"]]
     for i in range(k):
         if digests[i] != stored[i]:
             raise ChecksumError(
-                f"{path}: SHA-256 mismatch in block {int(s['block'][i])} (weight {float(s['weight_kg'][i]):g} kg, "
-                f"repeat {int(s['repeat'][i])}): the file was altered or damaged",
+                f"{path}: SHA-256 mismatch in block {block_number(s['block'][i])} (weight "
+                f"{float(s['weight_kg'][i]):g} kg, repeat {int(s['repeat'][i])}): the file was altered or damaged",
                 position=i,
             )
         if not _exchanges_hold(raw["exchanges"], s, i):
             raise ChecksumError(
-                f"{path}: the recorded instrument exchanges of block {int(s['block'][i])} are damaged (SHA-256): "
-                "the block cannot be replayed",
+                f"{path}: the recorded instrument exchanges of block {block_number(s['block'][i])} are damaged "
+                "(SHA-256): the block cannot be replayed",
                 position=i,
             )
     stop = raw["stop"]

@@ -24,6 +24,7 @@ import h5py
 import numpy as np
 
 from contactrig.core import provenance
+from contactrig.core.files import output_folder
 from daq.errors import (
     SessionExistsError,
     SessionWriteError,
@@ -317,6 +318,7 @@ class SessionFile:
         p = Path(path)
         check_new_session(p, force=force)
         image = cls._layout_image(reading_unit)
+        output_folder(p.parent)  # created when missing, as by every command that writes (contactrig.core.files)
         try:
             tmp = temporary_beside(p)
         except OSError as exc:  # the folder refuses it: the messages of any failed write (missing, no permission…)

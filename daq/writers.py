@@ -17,7 +17,7 @@ import numpy as np
 
 from daq.engine import format_live_line
 from daq.errors import SessionWriteError
-from daq.records import BlockRecord, StopRecord
+from daq.records import BlockRecord, StopRecord, block_number
 from daq.session_file import SessionFile
 from instruments.transport import Exchange
 
@@ -79,8 +79,8 @@ def _rescue(rec: BlockRecord, path: Path) -> str:
         except OSError as exc:
             errors.append(f"{folder or 'a private temporary folder'}: {exc.strerror or exc}")
             continue
-        return f"block {rec.block} was saved to {target}; every earlier block is safe in the session file"
-    return f"block {rec.block} could not be rescued either ({'; '.join(errors)})"
+        return f"block {block_number(rec.block)} was saved to {target}; every earlier block is safe in the session file"
+    return f"block {block_number(rec.block)} could not be rescued either ({'; '.join(errors)})"
 
 
 def _rescue_into(rec: BlockRecord, path: Path, folder: Path | None) -> Path:
@@ -89,7 +89,7 @@ def _rescue_into(rec: BlockRecord, path: Path, folder: Path | None) -> Path:
     where = folder if folder is not None else Path(tempfile.mkdtemp(prefix="contactrig-rescue-"))
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_BINARY", 0)
     for k in range(100):
-        target = where / f"{path.stem}.block{rec.block}{f'.{k}' if k else ''}.rescue.npz"
+        target = where / f"{path.stem}.block{block_number(rec.block)}{f'.{k}' if k else ''}.rescue.npz"
         try:
             fd = os.open(target, flags, 0o600)
         except FileExistsError:  # also a symlink planted under this name: never followed
@@ -113,7 +113,7 @@ def _rescue_into(rec: BlockRecord, path: Path, folder: Path | None) -> Path:
             target.unlink(missing_ok=True)
             raise
         return target
-    raise FileExistsError(errno.EEXIST, f"{where} holds 100 rescue files of block {rec.block} already")
+    raise FileExistsError(errno.EEXIST, f"{where} holds 100 rescue files of block {block_number(rec.block)} already")
 
 
 class MemoryWriter:

@@ -15,7 +15,7 @@ jsonschema = pytest.importorskip("jsonschema")
 
 #: Commands that print results (not only file paths or a status line): each must have --json and a schema.
 RESULT_COMMANDS = ("circuit", "fit", "simulate", "database", "compare-models", "design", "replay", "sessions", "bench",
-                   "instruments delta", "instruments identify")  # fmt: skip
+                   "instruments delta", "instruments identify", "surface")  # fmt: skip
 
 
 def _commands(parser: argparse.ArgumentParser, prefix: str = "") -> dict[str, argparse.ArgumentParser]:
@@ -59,6 +59,10 @@ def files(tmp_path_factory):
     return folder, scene, sim, session
 
 
+def _packaged(name: str):
+    return resources.files("contactrig").joinpath(name)
+
+
 def _argv(command: str, folder, scene, sim, session) -> list[str]:
     return {
         "circuit": ["circuit", "--paper"],
@@ -73,6 +77,7 @@ def _argv(command: str, folder, scene, sim, session) -> list[str]:
         "bench": ["bench", "--quick", "--study", "none", "--no-atlas"],
         "instruments delta": ["instruments", "delta", "--sim", "--current", "1e-3", "--count", "4"],
         "instruments identify": ["instruments", "identify", "--sim"],
+        "surface": ["surface", str(_packaged("scenes/measured/liner.x3p"))],
     }[command]
 
 

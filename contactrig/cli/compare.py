@@ -76,7 +76,10 @@ def run_compare(args: argparse.Namespace) -> int:
     import textwrap
 
     from analysis.compare_models import TABLE_WIDTH, compare_models, comparison_dict, comparison_table, report_lines
+    from contactrig.core.files import refuse_existing
 
+    if args.plot:  # refused (or its folder created) before the comparison runs, as every command's outputs
+        refuse_existing([args.plot])
     with progress_bar("compare-models: tasks", quiet=args.quiet) as progress:
         cmp = compare_models(
             args.scene,

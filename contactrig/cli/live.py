@@ -35,7 +35,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "weight with every repeat and mean ± SD, the last block's readings against time, and a status line "
             "(weight, block, ETA, invalid readings, blocks in compliance) printed whenever it changes. In a window "
             "that stays open on the finished session until closed; with --png, headless: the snapshot PATH is "
-            "rewritten every --every seconds and the command returns when nobody writes the file any more."
+            "rewritten every --every seconds and the command returns when nobody writes the file any more. Without a "
+            "display and without --png: the status text only, on stdout."
         ),
     )
     w.add_argument("session", help="session file (HDF5)")
@@ -44,7 +45,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     w.add_argument("--every", type=_seconds, default=2.0, metavar="S", help="seconds between reads (default 2)")
     w.add_argument("--once", action="store_true", help="draw the file as it is now and return")
-    w.add_argument("--force", action="store_true", help="overwrite an existing --png file")
+    w.add_argument(
+        "--force", action="store_true",
+        help="overwrite an existing --png file that is not a snapshot (a snapshot of watch or acquire --live, marked "
+        "in its PNG metadata, is rewritten without it; a symbolic link is never followed)",
+    )  # fmt: skip
     w.set_defaults(handler=watch_command)
 
     e = subparsers.add_parser(

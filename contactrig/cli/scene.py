@@ -50,6 +50,12 @@ def run_init(args: argparse.Namespace) -> int:
 def recorded_scene_text(path: str | Path) -> tuple[str, str]:
     """(kind, scene text) of the file at ``path``: a scene ``.toml`` (parsed, to report errors), or the scene
     recorded in a session, sweep or contact-database file. A file with no recorded scene is a ValueError."""
+    kind, text, _ = recorded_scene(path)
+    return kind, text
+
+
+def recorded_scene(path: str | Path) -> tuple[str, str, list]:
+    """(kind, scene text, the run start records of a session — [] for other files) of the file at ``path``."""
     from contactrig.core.scene import load_scene
     from daq.bounded import check_regular_file
 
@@ -58,11 +64,11 @@ def recorded_scene_text(path: str | Path) -> tuple[str, str]:
     with p.open("rb") as f:
         is_hdf5 = f.read(8) == b"\x89HDF\r\n\x1a\n"
     if not is_hdf5:
-        return "scene file", load_scene(p).text
-    kind, text = _recorded(p)
+        return "scene file", load_scene(p).text, []
+    kind, text, runs = _recorded(p)
     if not text.strip():
         raise ValueError(f"{p}: this {kind} records no scene text")
-    return kind, text
+    return kind, text, runs
 
 
 def _format_of(p: Path) -> str:
@@ -75,32 +81,37 @@ def _format_of(p: Path) -> str:
         return str(f.attrs.get("format", f.attrs.get("contactrig_format", "")))[:80]
 
 
-def _recorded(p: Path) -> tuple[str, str]:
+def _recorded(p: Path) -> tuple[str, str, list]:
     from daq.bounded import call_bounded
 
     fmt = call_bounded(_format_of, (p,), path=p, what="HDF5 file")  # untrusted: a child process with a deadline
     if fmt == "contactrig-contact-database":
         from daq.database_file import load_database
 
-        return "contact database", str(load_database(p).provenance.get("scene_text", ""))
+        return "contact database", str(load_database(p).provenance.get("scene_text", "")), []
     if fmt == "contactrig-sweep":
         from daq.sweep_file import load_sweep
 
-        return "rig sweep", str(load_sweep(p).provenance.get("scene_text", ""))
+        return "rig sweep", str(load_sweep(p).provenance.get("scene_text", "")), []
     import warnings
 
     from daq import load_session
 
     with warnings.catch_warnings():  # running, incomplete, aborted: the scene is shown all the same
         warnings.simplefilter("ignore")
-        return "session", load_session(p).scene_text
+        session = load_session(p)
+    return "session", session.scene_text, list(session.runs)
 
 
 def run_show(args: argparse.Namespace) -> int:
-    """Print the scene of ``args.file`` (control characters shown escaped: the text is data from a file)."""
+    """Print the scene of ``args.file`` (control characters shown escaped: the text is data from a file); for a
+    session, then the overrides of each run and the effective values (:func:`daq.overrides.describe_runs`)."""
     from contactrig.core.text import escape_terminal
+    from daq.overrides import describe_runs
 
-    kind, text = recorded_scene_text(args.file)
+    kind, text, runs = recorded_scene(args.file)
     print(f"# scene of {escape_terminal(str(args.file))} ({kind})")
     print(escape_terminal(text, keep_newlines=True))
+    for line in describe_runs(runs):
+        print(escape_terminal(line))
     return 0

@@ -44,12 +44,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="show the live view (as `contactrig watch`) in a window, or rewrite the snapshot PNG (headless); a "
         "failure of the view is reported once and turns it off, the acquisition goes on",
     )  # fmt: skip
-    acq.add_argument(
-        "--visa-library",
-        default="",
-        metavar="LIB",
-        help="VISA library for the scene's address, e.g. @py (pyvisa-py); recorded in the start record",
-    )
+    _add_override_options(acq)
     add_max_memory_option(acq)  # --sim: the rig simulation behind the simulated bench
     acq.set_defaults(handler=acquire_command)
 
@@ -104,6 +99,24 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     imp.set_defaults(handler=import_command)
 
 
+def _add_override_options(parser: argparse.ArgumentParser) -> None:
+    """The scene keys a run may override (daq.overrides.OVERRIDES), one option each, and --allow-change."""
+    from contactrig.core.validation import scene_key
+    from daq.overrides import OVERRIDES
+
+    group = parser.add_argument_group(
+        "overrides of the scene for this run",
+        "validated as the scene key; recorded in the start record apart from the scene text (see `scene show`); "
+        "kept by --resume, where a different value is stated and recorded (a different sample or sim seed is "
+        "refused unless --allow-change)",
+    )
+    for o in OVERRIDES:
+        group.add_argument(o.option, default=None, help=f"{o.help} (overrides {scene_key(o.key)})")
+    group.add_argument(
+        "--allow-change", action="store_true", help="--resume: accept (and record) a different sample or sim seed"
+    )
+
+
 def _speed(text: str) -> float:
     try:
         x = float(text)
@@ -119,19 +132,21 @@ def acquire_command(args: argparse.Namespace) -> int:
     from contactrig.core.text import escape_terminal as safe
     from daq.acquire import acquire
     from daq.link import VisaBench
+    from daq.overrides import overrides_by_option
 
     if args.sim_speed is not None and not args.sim:
         raise ValueError("--sim-speed only applies to --sim")
     if args.resume and args.force:
         raise ValueError("--resume and --force contradict each other: --resume keeps the file, --force replaces it")
-    if args.visa_library and args.sim:
-        raise ValueError("--visa-library applies to the real bench, not to --sim")
+    if args.allow_change and not args.resume:
+        raise ValueError("--allow-change only applies to --resume")
     speed = args.sim_speed if args.sim_speed is not None else DEFAULT_SIM_SPEED
-    bench = SimulatedRigBench(speed) if args.sim else VisaBench(visa_library=args.visa_library)
+    bench = SimulatedRigBench(speed) if args.sim else VisaBench()
     live = _live_view(args)
     result = acquire(
-        args.scene, args.output, bench=bench, yes=args.yes, resume=args.resume, force=args.force, extra_writers=live
-    )
+        args.scene, args.output, bench=bench, yes=args.yes, resume=args.resume, force=args.force, extra_writers=live,
+        overrides=overrides_by_option(vars(args)), allow_change=args.allow_change,
+    )  # fmt: skip
     print(
         f"{safe(result.path)}: {result.status}, {result.blocks_done} of {result.blocks_planned} blocks — "
         f"{safe(result.reason)}",

@@ -57,7 +57,13 @@ def _surface(args: argparse.Namespace) -> int:
 
         draw_surface(summary, args.plot, force=args.force)
     if args.json:
-        print(to_json(summary.as_dict(), indent=1))
+        from contactrig.cli.options import json_units
+
+        units = json_units(
+            Ssk="1", Sku="1", Sdq="1 (RMS slope)", eta_per_m2="1/m² (summits per area)",
+            missing_fraction="1 (a fraction)", height_unit_m="m per unit of the file's heights",
+        )  # fmt: skip
+        print(to_json({"units": units, **summary.as_dict()}, indent=1))
     else:
         for line in summary.text().splitlines():
             print(escape_terminal(line))

@@ -341,7 +341,7 @@ def test_status_line_eta_invalid_and_compliance():
     state = LiveState("s.h5", "running", rows, blocks_planned=6)
     assert state.eta_s(now=1025.0) == pytest.approx(3 * 10.0 - 5.0)
     line = status_line(state, now=1025.0)
-    assert line == "s.h5: RUNNING  10 kg repeat 1  block 3/6  ETA 0:25  2 invalid  COMPLIANCE in block(s) 2 (excluded)"
+    assert line == "s.h5: RUNNING  10 kg repeat 1  block 3/6  ETA 0:25  2 invalid  COMPLIANCE in block(s) 3 (excluded)"
     done = status_line(LiveState("s.h5", "success", rows[:2], blocks_planned=2))
     assert "ETA" not in done and "compliance: none" in done and "block 2/2" in done
     assert "ETA –" in status_line(LiveState("s.h5", "running", rows[:1], blocks_planned=6))
@@ -355,8 +355,7 @@ def test_watch_once_on_a_finished_file_and_the_snapshot_policy(tmp_path):
     state = watch(path, png=tmp_path / "a.png", stream=stream)  # finished: draws once and returns
     assert state.status == "success" and state.blocks_done == 6 and stream.getvalue().count("\n") == 1
     assert state_from_session(load_quietly(path)).current_ohm.size == 8
-    with pytest.raises(FileExistsError, match="use --force"):
-        watch(path, png=tmp_path / "a.png", stream=stream)
+    watch(path, png=tmp_path / "a.png", stream=stream)  # its own snapshot: rewritten without --force (issue 20)
     evil = LiveState("$\\x$ \x1b[2J", "running", (), current_ohm=np.array([1e-3]), current_valid=np.array([True]))
     render_png(evil, tmp_path / "evil.png")  # '$' would start mathtext, ESC would reach a terminal: both escaped
     assert (tmp_path / "evil.png").read_bytes().startswith(PNG)
@@ -404,3 +403,56 @@ def test_acquire_live_without_a_display_says_so_once_and_completes(sim_scene, tm
     err = capsys.readouterr().err
     assert err.count("live view off") == 1 and "no display" in err
     assert load_quietly(tmp_path / "s.h5").status == "success"
+
+
+def _foreign_png(path: Path) -> None:
+    """A PNG another program wrote: matplotlib's own, without the snapshot marker."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(1, 1))
+    FigureCanvasAgg(fig)
+    fig.savefig(path, format="png")
+
+
+def test_a_snapshot_is_rewritten_but_nothing_else_is_overwritten_and_links_are_not_followed(tmp_path):
+    """Issue 20 item 8: `watch --png P` rewrites the snapshot an earlier run left (marked in its PNG text chunks)
+    without --force; another file at P — a foreign PNG, a link, even a link to a snapshot — is refused and left as
+    it was; with --force a link itself is replaced, never what it points to."""
+    from analysis.snapshot import SNAPSHOT_METADATA, is_own_snapshot, png_text
+
+    path = tmp_path / "s.h5"
+    write_session(SessionPlan.from_scene(small_scene()), path)
+    snap, foreign, link = tmp_path / "snap.png", tmp_path / "figure.png", tmp_path / "link.png"
+    watch(path, png=snap, stream=io.StringIO())
+    assert png_text(snap.read_bytes()).items() >= SNAPSHOT_METADATA.items() and is_own_snapshot(snap)
+    first = snap.stat().st_mtime_ns
+    time.sleep(0.01)
+    watch(path, png=snap, stream=io.StringIO())  # the earlier run's snapshot: no --force needed
+    assert snap.stat().st_mtime_ns != first and is_own_snapshot(snap)
+    _foreign_png(foreign)
+    before = foreign.read_bytes()
+    assert not is_own_snapshot(foreign)
+    with pytest.raises(FileExistsError, match="use --force"):
+        watch(path, png=foreign, stream=io.StringIO())
+    assert foreign.read_bytes() == before
+    link.symlink_to(snap)
+    kept = snap.read_bytes()
+    assert not is_own_snapshot(link)  # a link is never read through, let alone written through
+    with pytest.raises(FileExistsError, match="use --force"):
+        watch(path, png=link, stream=io.StringIO())
+    watch(path, png=link, stream=io.StringIO(), force=True)
+    assert not link.is_symlink() and is_own_snapshot(link) and snap.read_bytes() == kept
+
+
+def test_watch_once_without_a_display_prints_the_status(tmp_path):
+    """Issue 20 item 8: headless (MPLBACKEND=Agg: no window possible), `watch SESSION --once` prints the status
+    text on stdout and exits 0; the note that there is no window goes to stderr."""
+    path = tmp_path / "s.h5"
+    write_session(SessionPlan.from_scene(small_scene()), path)
+    proc = subprocess.run([sys.executable, "-m", "contactrig", "watch", str(path), "--once"], cwd=ROOT, env=ENV,
+                          capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == status_line(state_from_session(load_quietly(path)))
+    assert proc.stdout.startswith("s.h5: SUCCESS") and "block 6/6" in proc.stdout
+    assert "no display" in proc.stderr and "Traceback" not in proc.stderr

@@ -166,7 +166,7 @@ def test_ctrl_c_twice_in_a_real_process(tmp_path):
     assert proc.wait(timeout=20) == 1, rest
     s = load_quietly(out)
     assert s.complete and s.status == "aborted" and len(s.summary) == 2
-    assert "Ctrl-C twice" in s.stop["reason"] and "(block #2)" in s.stop["reason"]
+    assert "Ctrl-C twice" in s.stop["reason"] and "(block 3)" in s.stop["reason"]
     assert written_commands(out)[-1] == "SOUR:SWE:ABOR"
 
 

@@ -78,7 +78,7 @@ def test_ctrl_c_once_stops_after_the_current_block(plan, tmp_path):
     with Interrupts() as intr:
         out, _ = write_session(plan, tmp_path / "c.h5", link=link, interrupts=intr)
     assert out.interrupted and out.stop.status == "aborted"
-    assert "stopped after the block at 10.526 kg, repeat 1 (block #2)" in out.stop.reason
+    assert "stopped after the block at 10.526 kg, repeat 1 (block 3)" in out.stop.reason
     s = load_quietly(tmp_path / "c.h5")
     assert list(s.summary.block) == [0, 1, 2] and s.complete
     assert _last_command(link) == "SOUR:SWE:ABOR"
@@ -98,7 +98,7 @@ def test_ctrl_c_twice_stops_now_and_keeps_completed_blocks(plan, tmp_path):
     link = make_link(plan, wrapper=lambda t: SignalTwice(t, at=[1]))
     with Interrupts() as intr:
         out, _ = write_session(plan, tmp_path / "d.h5", link=link, interrupts=intr)
-    assert out.stop.status == "aborted" and "(block #1)" in out.stop.reason
+    assert out.stop.status == "aborted" and "(block 2)" in out.stop.reason
     s = load_quietly(tmp_path / "d.h5")
     assert list(s.summary.block) == [0]
     assert set(s.exchanges.block) >= {-1, 0, 1}  # the discarded block's exchanges are kept for diagnosis
@@ -126,7 +126,7 @@ def test_instrument_timeout_mid_session(plan, tmp_path):
     link._place_weight = place_and_break
     out, _ = write_session(plan, tmp_path / "t.h5", link=link)
     assert out.stop.status == "failed" and isinstance(out.error, InstrumentTimeout)
-    assert "10.526 kg, repeat 1 (block #2)" in out.stop.reason and "TRAC:DATA:SEL?" in out.stop.reason
+    assert "10.526 kg, repeat 1 (block 3)" in out.stop.reason and "TRAC:DATA:SEL?" in out.stop.reason
     s = load_quietly(tmp_path / "t.h5")
     assert s.complete and s.status == "failed" and list(s.summary.block) == [0, 1]
     assert _last_command(link) == "SOUR:SWE:ABOR"

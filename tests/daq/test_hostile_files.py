@@ -312,20 +312,20 @@ def test_rescue_file_never_follows_a_planted_symlink(tmp_path):
 
     victim = tmp_path / "victim.txt"
     victim.write_text("precious")
-    planted = [tmp_path / "run.block2.rescue.npz", Path(tempfile.gettempdir()) / "run.block2.rescue.npz"]
+    planted = [tmp_path / "run.block3.rescue.npz", Path(tempfile.gettempdir()) / "run.block3.rescue.npz"]
     for link in planted:
         if not link.is_symlink():
             link.symlink_to(victim)
     sf, writer = _failing_writer(tmp_path)
     try:
-        with pytest.raises(SessionWriteError, match=r"block 2 was saved to (\S+\.rescue\.npz)") as err:
+        with pytest.raises(SessionWriteError, match=r"block 3 was saved to (\S+\.rescue\.npz)") as err:
             writer.block(_block())
     finally:
         sf.close()
         planted[1].unlink()
     target = Path(re.search(r"saved to (\S+\.rescue\.npz)", str(err.value)).group(1))
     assert victim.read_text() == "precious" and planted[0].is_symlink() and os.readlink(planted[0]) == str(victim)
-    assert target.parent == tmp_path and target.name == "run.block2.1.rescue.npz" and not target.is_symlink()
+    assert target.parent == tmp_path and target.name == "run.block3.1.rescue.npz" and not target.is_symlink()
     assert (target.stat().st_mode & 0o777) == 0o600
     np.testing.assert_array_equal(np.load(target)["resistance_ohm"], _block().resistance_ohm)
 

@@ -202,7 +202,7 @@ def test_replay_calls_a_run_stopped_by_ctrl_c_twice_stopped_early(plan, tmp_path
     report = replay_session(path)
     assert report.identical
     assert not any("killed" in n for n in report.notes), report.notes
-    assert any(n.startswith("run 0: stopped early (Ctrl-C) during block #1") and "SOUR:SWE:ABOR" in n
+    assert any(n.startswith("run 0: stopped early (Ctrl-C) during block 2") and "SOUR:SWE:ABOR" in n
                for n in report.notes)  # fmt: skip
 
 
@@ -221,7 +221,7 @@ def test_a_replay_that_differs_exits_2_with_one_line_saying_what(plan, tmp_path,
     assert main(["replay", str(path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("contactrig replay: error: ") and "DIFFERENT" in err[0]
-    assert f"block {block} " in err[0] and "mean_ohm recorded" in err[0]
+    assert f"block {block + 1} " in err[0] and "mean_ohm recorded" in err[0]
     assert main(["replay", str(path), "--json"]) == 2
 
 

@@ -60,7 +60,7 @@ def test_a_damaged_recording_is_refused_on_load(plan, tmp_path):
         msgs = h5["entry/exchanges/message"].asstr()[:]
         i = next(k for k, m in enumerate(msgs) if m.startswith("TRAC:DATA:SEL?"))
         _scale_first_reading(h5["entry/exchanges"], i)
-    with pytest.raises(ChecksumError, match="exchanges of block 0 are damaged"):
+    with pytest.raises(ChecksumError, match="exchanges of block 1 are damaged"):
         replay_session(path)
 
 
@@ -71,7 +71,7 @@ def test_replay_detects_replies_that_do_not_give_the_recorded_readings(plan, tmp
     reseal(path)  # the seal would refuse the edited file at load; replay's own comparison is under test here
     report = replay_session(path)
     assert not report.identical
-    assert any(d.startswith(f"block {block} ") and "mean_ohm recorded" in d for d in report.differences)
+    assert any(d.startswith(f"block {block + 1} ") and "mean_ohm recorded" in d for d in report.differences)
 
 
 def test_replay_detects_a_diverging_driver(plan, tmp_path):
