@@ -230,6 +230,16 @@ async def scenes(request: Request) -> Response:
     return JSONResponse({"scenes": _scene_choices(request.app.state.console)})
 
 
+async def overrides_form(request: Request) -> Response:
+    """The per-run overrides the New-session form offers: the declared table :data:`daq.overrides.OVERRIDES`."""
+    from contactrig.core.validation import scene_key
+    from daq.overrides import OVERRIDES
+
+    rows = [{"key": o.key, "option": o.option, "help": o.help, "sim_only": o.sim_only, "on_resume": o.on_resume,
+             "scene_key": scene_key(o.key)} for o in OVERRIDES]  # fmt: skip
+    return JSONResponse({"overrides": rows})
+
+
 class BadRequest(ValueError):
     """A form value the console refuses (one line, shown in the page)."""
 
@@ -260,10 +270,13 @@ def _plan(console: Console, body: dict[str, Any]) -> tuple[Any, list[str]]:
     from analysis.simulated_session import DEFAULT_SIM_SPEED
     from contactrig.core.scene import load_scene
     from daq.acquire import plan_lines
-    from daq.plan import SessionPlan, session_steps
+    from daq.overrides import check_bench, plan_with_overrides
+    from daq.plan import session_steps
 
     scene = load_scene(_scene_path(console, body.get("scene")))
-    plan = SessionPlan.from_scene(scene)
+    overrides = _overrides(body)
+    check_bench(overrides, simulated=bool(body.get("sim")))
+    plan = plan_with_overrides(scene, overrides)
     speed = _speed(body) or DEFAULT_SIM_SPEED
     time_scale = (0.0 if speed == float("inf") else 1.0 / speed) if body.get("sim") else 1.0
     steps = list(session_steps(plan))
@@ -314,9 +327,16 @@ def _start(console: Console, body: dict[str, Any]) -> SessionRun:
         plan, _ = _plan(console, body)
         blocks_planned, address = plan.blocks_planned, plan.instrument.address
         before, weights, sample = 0, len(plan.session.weights_kg), plan.session.sample
+    overrides = _overrides(body)
+    if resume:
+        from daq.overrides import check_bench
+
+        check_bench(overrides, simulated=bool(body.get("sim")))
+        address = str(overrides.get("instrument.address", address))
+        sample = str(overrides.get("session.sample", sample))
     request = {"scene": None if scene_path is None else str(scene_path), "output": str(console.root / output),
-               "sim": bool(body.get("sim")), "sim_speed": _speed(body), "resume": resume,
-               "visa_library": _visa_library(body)}  # fmt: skip
+               "sim": bool(body.get("sim")), "sim_speed": _speed(body), "resume": resume, "overrides": overrides,
+               "allow_change": bool(body.get("allow_change"))}  # fmt: skip
     client = str(body.get("client") or "")[:64]
     with console.lock:
         busy = console.running_on(address)
@@ -330,14 +350,26 @@ def _start(console: Console, body: dict[str, Any]) -> SessionRun:
     return run
 
 
-def _visa_library(body: dict[str, Any]) -> str:
-    """The VISA library of the real bench (``@py``, a path; empty: pyvisa's default), as ``--visa-library``."""
-    value = body.get("visa_library") or ""
-    if not isinstance(value, str) or len(value) > 300 or any(ord(c) < 32 for c in value):
-        raise BadRequest(f"visa_library {str(value)[:40]!r}: expected e.g. @py or a library path (one line)")
-    if value and body.get("sim"):
-        raise BadRequest("visa_library applies to the real bench, not to the simulated one")
-    return value
+def _overrides(body: dict[str, Any]) -> dict[str, Any]:
+    """The form's per-run overrides of the scene, ``{scene key: text}`` → ``{scene key: value}``, parsed by their
+    declarations (:data:`daq.overrides.OVERRIDES`, as ``acquire --address/--sample/…``); empty fields are left out."""
+    from daq.overrides import OVERRIDES
+
+    given = body.get("overrides") or {}
+    if not isinstance(given, dict):
+        raise BadRequest("overrides: expected an object {scene key: text}")
+    known = {o.key: o for o in OVERRIDES}
+    for key in given:
+        if key not in known:
+            raise BadRequest(f"overrides: {str(key)[:60]!r} is not one of {', '.join(known)}")
+    out = {}
+    for key, text in given.items():
+        if text in (None, ""):
+            continue
+        if not isinstance(text, str) or len(text) > 100_000:
+            raise BadRequest(f"{known[key].option}: expected text of at most 100000 characters")
+        out[key] = known[key].parse(text)
+    return out
 
 
 def _recorded(path: Path) -> tuple[str, int, int, int, str]:
@@ -562,6 +594,7 @@ def build_app(console: Console) -> ASGIApp:
         Route("/files/{path:path}", files),
         Route("/api/sessions", sessions),
         Route("/api/scenes", scenes),
+        Route("/api/overrides", overrides_form),
         Route("/api/plan", plan_preview, methods=["POST"]),
         Route("/api/runs", runs),
         Route("/api/runs", start_run, methods=["POST"]),

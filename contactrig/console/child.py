@@ -139,7 +139,7 @@ class _Lines:
 
 
 def run(request: dict[str, Any], channel: _Channel) -> int:
-    """One ``acquire`` as ``request`` says (scene, output, sim, sim_speed, resume, visa_library); returns the exit
+    """One ``acquire`` as ``request`` says (scene, output, sim, sim_speed, resume, overrides); returns the exit
     code of ``contactrig acquire`` (0 done, 1 stopped early, 2 error)."""
     from analysis.simulated_session import DEFAULT_SIM_SPEED, SimulatedRigBench
     from analysis.watch import Guarded
@@ -147,13 +147,13 @@ def run(request: dict[str, Any], channel: _Channel) -> int:
     from daq.link import VisaBench
 
     speed = request.get("sim_speed") or DEFAULT_SIM_SPEED
-    library = str(request.get("visa_library") or "")
-    bench = SimulatedRigBench(float(speed)) if request.get("sim") else VisaBench(visa_library=library)
+    bench = SimulatedRigBench(float(speed)) if request.get("sim") else VisaBench()  # the plan's VISA library
     try:
         result = acquire(
             request.get("scene"), request["output"], bench=bench, resume=bool(request.get("resume")),
             prompter=pipe_prompter(channel), resume_chooser=pipe_resume_chooser(channel), stream=_Lines(channel),  # type: ignore[arg-type]
             extra_writers=[Guarded(ConsoleWriter(channel), "console")],
+            overrides=request.get("overrides") or None, allow_change=bool(request.get("allow_change")),
         )  # fmt: skip
     except KeyboardInterrupt:
         channel.send({"event": "end", "code": 1, "error": "interrupted before the session began"})

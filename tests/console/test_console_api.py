@@ -178,8 +178,10 @@ def test_bad_form_values_are_one_line_errors(client: Client, folder: Path):
         ({"output": "x.h5", "scene": "../etc/passwd"}, "scene"),
         ({"output": "x.h5", "sim_speed": "-1", "sim": True}, "sim_speed"),
         ({"resume": True, "output": "/etc/passwd"}, "resume"),
-        ({"output": "x.h5", "sim": True, "visa_library": "@py"}, "visa_library"),
-        ({"output": "x.h5", "visa_library": "@py\nrm"}, "visa_library"),
+        ({"output": "x.h5", "sim": True, "overrides": {"instrument.visa_library": "@py"}}, "--visa-library"),
+        ({"output": "x.h5", "overrides": {"session.sim_seed": "3"}}, "--sim-seed"),
+        ({"output": "x.h5", "sim": True, "overrides": {"instrument.address": "nonsense"}}, "--address"),
+        ({"output": "x.h5", "overrides": {"session.nope": "x"}}, "overrides"),
     ):
         r = client.post("/api/runs", body)
         assert r.status_code == 400 and needle in r.json()["error"], (body, r.text)
@@ -280,20 +282,19 @@ def _loaded(path: Path):
 
 @pytest.mark.slow
 def test_real_bench_path_over_loopback_lan(client: Client, folder: Path):
-    """Not simulated: the form's real bench (VisaBench, VISA library @py) on the scene's LAN address, served by the
-    simulated instruments' socket server on loopback — the path a lab PC takes to a 6221 on the network."""
+    """Not simulated: the form's real bench (VisaBench) with this run's address and VISA library (@py) set in the
+    form over the scene (daq.overrides), a LAN address served by the simulated instruments' socket server on
+    loopback — the path a lab PC takes to a 6221 on the network."""
     pytest.importorskip("pyvisa_py")
-    import re
-
     from daq.session_file import load_session
     from instruments.server import SimServer
     from instruments.simulated import SimulatedBench
 
     with SimServer(port=0, bench=SimulatedBench(resistance_ohm=5e-3, seed=1, time_scale=0.0)) as server:
-        address = server.address
-        text = re.sub(r"(?m)^address = .*$", f'address = "{address}"', scene_text(weights="[5.44]"))
-        (folder / "lan.toml").write_text(text, encoding="utf-8")
-        r = client.post("/api/runs", {"scene": "lan.toml", "sim": False, "visa_library": "@py", "output": "lan.h5",
+        address = server.address  # the scene's address stays GPIB0::12::INSTR: the form's override replaces it
+        (folder / "lan.toml").write_text(scene_text(weights="[5.44]"), encoding="utf-8")
+        overrides = {"instrument.address": address, "instrument.visa_library": "@py"}
+        r = client.post("/api/runs", {"scene": "lan.toml", "sim": False, "overrides": overrides, "output": "lan.h5",
                                       "client": "tester"})  # fmt: skip
         assert r.status_code == 200, r.text
         state = client.drive(r.json()["id"])
@@ -301,6 +302,7 @@ def test_real_bench_path_over_loopback_lan(client: Client, folder: Path):
     s = load_session(folder / "lan.h5")
     assert s.sealed and not s.start["sim"] and s.start["instrument"]["address"] == address
     assert s.summary["mean_ohm"].to_numpy() == pytest.approx(5e-3, rel=1e-2)
+    assert s.start["overrides"] == overrides and "GPIB0::12::INSTR" in s.scene_text  # the scene text unchanged
 
 
 @pytest.mark.slow
@@ -321,3 +323,26 @@ def test_exports_sorting_and_filtering(client: Client, folder: Path):
     assert by_sample == ["one.h5", "two.h5"]  # "Al-Si …" before "B sample"
     only = client.get("/api/sessions", params={"sample": "b SAM"}).json()["sessions"]
     assert [r["path"] for r in only] == ["two.h5"]
+
+
+@pytest.mark.slow
+def test_overrides_from_the_form_are_the_runs(client: Client, folder: Path):
+    """Sample, operator and notes set in the form (hostile text included) are this run's, recorded as acquire
+    --sample/--operator/--notes record them (the scene text unchanged); the plan preview uses them."""
+    from daq.session_file import load_session
+
+    given = {"session.sample": "S-42 " + HOSTILE["script"], "session.operator": HOSTILE["attr"],
+             "session.notes": HOSTILE["ansi"] + " run 3"}  # fmt: skip
+    form = client.get("/api/overrides").json()["overrides"]
+    assert {"instrument.address", "instrument.visa_library", "session.sample", "session.operator",
+            "session.notes"} <= {o["key"] for o in form}  # fmt: skip
+    preview = client.post("/api/plan", {"scene": "small.toml", "sim": True,
+                                        "overrides": {"instrument.address": "GPIB0::7::INSTR"}}).json()  # fmt: skip
+    assert preview["address"] == "GPIB0::7::INSTR"
+    run = client.start("over.h5", overrides=given)
+    assert client.drive(run)["stop"]["status"] == "success"
+    s = load_session(folder / "over.h5")
+    assert s.start["sample"] == given["session.sample"] and s.start["operator"] == given["session.operator"]
+    assert s.start["overrides"] == given and "S-42" not in s.scene_text
+    row = next(r for r in client.get("/api/sessions").json()["sessions"] if r["path"] == "over.h5")
+    assert row["sample"] == given["session.sample"] and row["notes"] == given["session.notes"]

@@ -27,7 +27,7 @@ from selenium import webdriver
 from selenium.common.exceptions import NoAlertPresentException
 from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.by import By
-from selenium.webdriver.support.ui import Select, WebDriverWait
+from selenium.webdriver.support.ui import WebDriverWait
 
 CHROMIUM = next((p for p in ("/usr/bin/chromium", shutil.which("chromium") or "") if p and os.path.exists(p)), None)
 DRIVER = next((p for p in ("/usr/bin/chromedriver", shutil.which("chromedriver") or "") if p and os.path.exists(p)),
@@ -110,19 +110,26 @@ def points(driver: webdriver.Chrome) -> int:
     return int(driver.find_element(By.ID, "plot").get_attribute("data-points") or 0)
 
 
-def start_from_form(driver: webdriver.Chrome, scene: str, name: str, speed: str, tmp_path: Path | None = None) -> None:
+def start_from_form(driver: webdriver.Chrome, scene: str, name: str, speed: str, tmp_path: Path | None = None,
+                    blocks: int | None = None, **overrides: str) -> None:  # fmt: skip
     driver.get(driver.current_url.split("#")[0] + "#/new")
     wait(driver, lambda d: d.find_elements(By.CSS_SELECTOR, f"#scene option[value='{scene}']"))
-    Select(driver.find_element(By.ID, "scene")).select_by_value(scene)
+    # the choice as a user makes it (value + change event), without leaving the select's pop-up open in screenshots
+    driver.execute_script("const s = document.getElementById('scene'); s.value = arguments[0];"
+                          "s.dispatchEvent(new Event('change'));", scene)  # fmt: skip
     field = driver.find_element(By.ID, "sim-speed")
     field.clear()
     field.send_keys(speed)
     driver.find_element(By.ID, "output").clear()
     driver.find_element(By.ID, "output").send_keys(name)
+    for key, value in overrides.items():  # this run's sample, operator… over the scene (daq.overrides)
+        driver.find_element(By.ID, f"ov-session-{key}").send_keys(value)
     driver.find_element(By.ID, "scene").click()
     wait(driver, lambda d: ("estimated duration" in text_of(d, "#plan") and "slow" not in scene) or True)
-    wait(driver, lambda d: "plan:" in text_of(d, "#plan"))
+    wait(driver, lambda d: "plan:" in text_of(d, "#plan") and (blocks is None or f"plan: {blocks} blocks" in
+                                                               text_of(d, "#plan")))  # fmt: skip
     if tmp_path is not None:
+        driver.find_element(By.TAG_NAME, "h1").click()
         shot(driver, "new-session", tmp_path)
     driver.find_element(By.ID, "start").click()
     wait(driver, lambda d: "#/run/" in d.current_url)
@@ -150,7 +157,8 @@ def continue_all(driver: webdriver.Chrome, timeout: float = 90) -> list[int]:
 def test_sessions_new_run_finished_report(browser, console, folder, tmp_path):
     open_console(browser, console)
     wait(browser, lambda d: d.find_elements(By.CSS_SELECTOR, "#sessions-table td.sample"))
-    start_from_form(browser, "small.toml", "browser.h5", "20", tmp_path)
+    start_from_form(browser, "small.toml", "browser.h5", "20", tmp_path, blocks=6, sample="piston S-42, liner L-7",
+                    operator="A. Tribologist", notes="first run after re-honing")  # fmt: skip
     wait(browser, lambda d: d.find_elements(By.ID, "btn-continue"))
     assert "Place 5.44 kg" in text_of(browser, "#weight")
     browser.find_element(By.ID, "btn-continue").click()
@@ -162,6 +170,7 @@ def test_sessions_new_run_finished_report(browser, console, folder, tmp_path):
     assert "success" in text_of(browser, "#stop-record")
     browser.find_element(By.ID, "to-session").click()
     wait(browser, lambda d: "success" in text_of(d, "#session-status"))
+    assert text_of(browser, "#session-sample") == "piston S-42, liner L-7"  # the form's override, recorded
     browser.find_element(By.ID, "btn-fit").click()
     wait(browser, lambda d: "Greenwood" in text_of(d, "#action-output"), timeout=240)  # the table as `fit` prints it
     shot(browser, "finished", tmp_path)

@@ -72,7 +72,7 @@ async function showSessions() {
       const link = el("a", { href: `#/session/${encodeURIComponent(s.path)}`, text: s.path });
       const action = el("td");
       if (s.status === "aborted" || s.status === "incomplete" || s.status === "failed") {
-        action.append(el("button", { class: "resume", onclick: () => resume(s.path), text: "Resume" }));
+        action.append(el("button", { class: "resume", onclick: () => resume(s.path, s.kind === "simulated"), text: "Resume" }));
       }
       const status = ["corrupt", "newer"].includes(s.status) ? s.status.toUpperCase() : s.status;
       const row = el("tr", {}, el("td", { text: (s.start_time || "").slice(0, 19).replace("T", " ") }),
@@ -89,8 +89,8 @@ async function showSessions() {
   await load();
 }
 
-async function resume(path) {
-  const r = await api("/api/runs", { resume: true, output: path, sim: true, client: CLIENT });
+async function resume(path, sim) {
+  const r = await api("/api/runs", { resume: true, output: path, sim, client: CLIENT });
   if (r.error) { alertBox(r.error); return; }
   location.hash = `#/run/${encodeURIComponent(r.id)}`;
 }
@@ -106,14 +106,24 @@ async function showNew() {
   const scene = el("select", { id: "scene" }, ...(scenes.scenes || []).map((s) => el("option", { value: s.id, text: s.label })));
   const sim = el("input", { type: "checkbox", id: "sim", checked: "checked" });
   const speed = el("input", { id: "sim-speed", value: "1000", size: 8 });
-  const visa = el("input", { id: "visa-library", placeholder: "default (e.g. @py)", size: 20 });
+  const declared = await api("/api/overrides");
+  const fields = {};
+  const rows = (declared.overrides || []).map((o) => {
+    const input = el("input", { id: `ov-${o.key.replace(".", "-")}`, size: 40, placeholder: `the scene's ${o.scene_key}` });
+    fields[o.key] = input;
+    input.addEventListener("change", () => preview());
+    return el("label", {}, `${o.option.slice(2)}${o.sim_only ? " (simulated bench)" : ""}: `, input, el("span", { class: "small", text: ` ${o.help}` }));
+  });
   const stamp = new Date().toISOString().slice(0, 19).replace(/[-:]/g, "").replace("T", "-");
   const name = el("input", { id: "output", value: `session-${stamp}.h5`, size: 40 });
   const plan = el("pre", { id: "plan" });
   const error = el("p", { class: "error", id: "form-error" });
-  const form = { scene, sim, speed, visa };
+  const form = { scene, sim, speed, fields };
+  let asked = 0; // only the latest preview is shown (answers may come back out of order)
   const preview = async () => {
+    const mine = ++asked;
     const r = await api("/api/plan", body(form));
+    if (mine !== asked) return;
     plan.textContent = r.error ? "" : r.lines.join("\n") + `\nbench address: ${r.address}`;
     error.textContent = r.error || "";
   };
@@ -127,15 +137,16 @@ async function showNew() {
   main(el("h1", { text: "New session" }),
     el("label", {}, "Scene: ", scene),
     el("label", {}, sim, " simulated bench (no instruments); instrument time × 1/", speed),
-    el("label", {}, "Real bench: VISA library ", visa, " (the address is the scene's [instrument] address)"),
+    el("h2", { text: "This run (over the scene)" }), ...rows,
     el("label", {}, "Session file (in the console's folder): ", name),
     el("h2", { text: "Plan" }), plan, error, el("p", { class: "buttons" }, start));
   await preview();
 }
 
 function body(form) {
-  return { scene: form.scene.value, sim: form.sim.checked, sim_speed: form.speed.value,
-    visa_library: form.sim.checked ? "" : form.visa.value };
+  const overrides = {};
+  for (const [key, input] of Object.entries(form.fields)) if (input.value) overrides[key] = input.value;
+  return { scene: form.scene.value, sim: form.sim.checked, sim_speed: form.speed.value, overrides };
 }
 
 // ---- the running session -----------------------------------------------------------------------------------
