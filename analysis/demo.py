@@ -3,8 +3,9 @@
 1. simulate the rig for every model of the default scene (``sims.rig.sweep``; contact database built once) and
    save it (``sim.h5``);
 2. acquire a session on the simulated bench, unattended (``acquire(..., bench=SimulatedRigBench(), yes=True)``), whose
-   resistance is R_s + f·ζh/A(W) of the scene's ``[session].sim_model`` — f a seeded, mean-one log-normal
-   re-seating factor per block (``[session].sim_repeat_sd``) — plus the simulated instruments' noise
+   resistance is R_s + f·(ζh/A(W) + clean metal) of the scene's ``[session].sim_model`` — f a seeded, mean-one
+   log-normal factor per block with Tab. 1's noise structure (``[session].sim_noise``, :mod:`analysis.noise_model`)
+   — plus the simulated instruments' noise
    (``session.h5``);
 3. replay the session through the driver and check it reproduces every block (``daq.replay.replay_session``);
 4. fit the session against every model, and the seed paper's Tab. 1 (all six series, and M1–M3 alone, since

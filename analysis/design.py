@@ -5,25 +5,27 @@ For a scene (the piston rig, or a press scene with ``[press]``), every contact m
     R_m(W) = R_s + σ_f / A_m(W) + R_c,m(W) + R_macro,m(W)          (:mod:`analysis.resistance_model`)
 
 with the film σ_f [Ω·m²] and series R_s [Ω] of the fit to seed Tab. 1 (a material/circuit property, the same in any
-geometry; R_s ≥ 0), and the clean-metal terms computed. A bench session under a plan (loads, repeats) is simulated
-as the simulated bench does (:mod:`daq` ``--sim``): each block is ``R_s + f·(R_m − R_s) + ε`` with a mean-one
-log-normal re-seating factor f (SD of ln f ``repeat_sd``, default 0.15 from Tab. 1's independent repeats) and the
-instrument noise ε of one Delta block (``noise_v_rms``/(|I|√count), 2182A at the scene's NPLC). Every simulated
-session is fitted with every model by the closed-form weighted least squares of (R_s, σ_f)
+geometry; R_s ≥ 0), and the clean-metal terms computed (:func:`analysis.resistance_model.specimen_resistance_terms`,
+the simulated bench's and the physical fit's one resistance model). A bench session under a plan (loads, repeats) is
+simulated as the simulated bench does (``acquire --sim``, :func:`analysis.resistance_model.bench_resistance_ohm`):
+each block is ``R_s + f·(σ_f/A + R_clean) + ε`` with f the mean-one log-normal factor of the session's noise model
+and ε the instrument noise of one Delta block (``noise_v_rms``/(|I|√count), 2182A at the scene's NPLC). Every
+simulated session is fitted with every model by the closed-form weighted least squares of (R_s, σ_f)
 (:func:`analysis.resistance_model.fit_film_series`, "relative" weighting), all sessions at once.
 
-**Noise model** (:class:`NoiseModel`, issue 21 §3): the simulator's iid re-seating alone gives χ²/ν ≈ 1, Tab. 1 gives
-3 (M1–M3) to 11 (all six columns): a plan promised at 97 % would not hold that rate on the real rig. The simulated
-sessions therefore carry Tab. 1's structure, ln f_ik = a_k + b_i + e_ik (mean-one overall): a per-series offset a_k
-(SD ``series_sd``), a per-weight lack of fit b_i common to every series (``lack_sd``) and per-weight re-seating e_ik
-(``reseat_sd``), estimated by :func:`estimate_noise` from Tab. 1's independent series (two-way analysis of ln R,
-the lack of fit from the best model's residuals; default) or from a user's own session (``design --noise-from``).
-Estimates from Tab. 1 (M1–M3, default scene): see ``NoiseModel.describe`` in the design report.
+**Noise model** (:mod:`analysis.noise_model`, issue 21 §3; the simulated bench's too): iid re-seating alone gives
+χ²/ν ≈ 1, Tab. 1 gives 3 (M1–M3) to 11 (all six columns): a plan promised at 97 % would not hold that rate on the
+real rig. By default the simulated sessions carry Tab. 1's structure, ln f_ik = a_k + b_i + e_ik: per-series offset
+SD 9.6 %, per-weight re-seating 13.2 %, lack of fit common to every series 14.5 % (:func:`tab1_noise`), or the
+estimates from a user's own session (``design --noise-from SESSION.h5``), or iid re-seating (``--noise-from iid``).
 
-**Decision rule — the same as** :mod:`analysis.fit`: ĉ = the smallest χ²/ν over the models of each simulated
-session; when ĉ > 1.5 the models are compared by QAIC (Δχ²/ĉ), else by AIC (Δχ²). For a pair (t, m) the probability
-of discrimination is P(Δ ≥ 10 | t true), and the pair is told apart by a plan when both directions reach ``target``
-(90 %). The scene must give both bodies' resistivities (the clean-metal terms need them): a ``SettingError`` says so.
+**Decision rule — the same as** :mod:`analysis.fit` (:func:`told_apart`): ĉ = the smallest χ²/ν over the physical
+fits of each simulated session; when ĉ > 1.5 the models are compared by QAIC (Δχ²/ĉ), else by AIC (Δχ²); a fit that
+is unphysical (R_s significantly < 0, σ_f significantly ≤ 0) or load-independent is ranked after the others whatever
+its (Q)AIC, with the fit's t-intervals (its one error rule, per session: :class:`SessionFits`). For a pair (t, m) the
+probability of discrimination is P(t ranked first by Δ ≥ 10 | t true), and the pair is told apart by a plan when
+both directions reach ``target`` (90 %). The scene must give both bodies' resistivities (the clean-metal terms need
+them): a ``SettingError`` says so.
 Cost of a plan: loads × (placing time + repeats × block time)
 [s]. The cheapest plan reaching the target for a pair is reported, or "none". Monte-Carlo error of a probability
 p from N sessions: √(p(1−p)/N).
@@ -41,96 +43,30 @@ import numpy as np
 from scipy.interpolate import PchipInterpolator
 
 from analysis.fit import OVERDISPERSION  # ĉ above which models are compared by QAIC: the fit's rule, one constant
-from analysis.resistance_model import elliptic_spot_resistance_ohm, fit_film_series, relative_sigma_ohm
+from analysis.noise_model import NoiseModel, estimate_noise, tab1_noise
+from analysis.resistance_model import (
+    bench_resistance_ohm,
+    fit_film_series,
+    relative_sigma_ohm,
+    specimen_resistance_terms,
+)
 
 __all__ = [
     "DesignResult",
     "ModelCurves",
     "NoiseModel",
     "Plan",
+    "SessionFits",
     "design",
     "estimate_noise",
     "model_curves",
     "plan_scene_text",
     "simulate_plan",
+    "tab1_noise",
+    "told_apart",
 ]
 
 DELTA_AIC = 10.0
-
-
-@dataclass(frozen=True)
-class NoiseModel:
-    """Relative scatter of a session [-], as SDs of ln R: ``series_sd`` per-series offset, ``reseat_sd`` per weight
-    and repeat, ``lack_sd`` per weight common to every series (a lack of fit no model follows); ``source`` where the
-    estimates come from. ``NoiseModel.iid(sd)``: the old simulator, re-seating only."""
-
-    series_sd: float
-    reseat_sd: float
-    lack_sd: float
-    source: str = ""
-
-    @classmethod
-    def iid(cls, sd: float) -> NoiseModel:
-        """Independent re-seating of SD ``sd`` only (χ²/ν ≈ 1: the simulated bench)."""
-        return cls(0.0, sd, 0.0, f"iid re-seating, SD {sd:g}")
-
-    def factors(self, rng: np.random.Generator, shape: tuple[int, int, int]) -> np.ndarray:
-        """Mean-one log-normal factors of shape (sessions, weights, repeats)."""
-        n, m, r = shape
-        log = (
-            self.series_sd * rng.standard_normal((n, 1, r))
-            + self.lack_sd * rng.standard_normal((n, m, 1))
-            + self.reseat_sd * rng.standard_normal((n, m, r))
-        )
-        var = self.series_sd**2 + self.lack_sd**2 + self.reseat_sd**2
-        return np.asarray(np.exp(log - 0.5 * var))
-
-    def describe(self) -> str:
-        """The estimates in words."""
-        return (
-            f"noise model ({self.source}): per-series offset SD {100 * self.series_sd:.1f} %, re-seating SD "
-            f"{100 * self.reseat_sd:.1f} %, lack of fit common to every series SD {100 * self.lack_sd:.1f} % (of ln R)"
-        )
-
-
-def estimate_noise(curve: Any, curves: ModelCurves | None = None, source: str = "") -> NoiseModel:
-    """The :class:`NoiseModel` of a measured curve (complete, paired; copies of other series left out first,
-    :func:`analysis.fit.independent_series`): two-way analysis of ln R (weights × series) gives the re-seating
-    (residual mean square) and the series offsets (column mean square beyond it); the lack of fit is the best model's
-    relative residual variance of the mean curve beyond re-seating/r (``curves``: the models' A and clean terms;
-    without them, a straight line in log–log)."""
-    from analysis.fit import independent_series
-    from contactrig.core.validation import SettingError
-
-    curve, _ = independent_series(curve)
-    v = np.asarray(curve.values_ohm, dtype=float)
-    m, r = v.shape
-    if r < 2 or m < 4 or not np.all(np.isfinite(v)) or np.any(v <= 0):
-        raise SettingError("noise", f"{m} weights × {r} series", "expected ≥ 4 weights × ≥ 2 complete series > 0 Ω")
-    lv = np.log(v)
-    rows, cols, grand = lv.mean(axis=1), lv.mean(axis=0), float(lv.mean())
-    resid = lv - rows[:, None] - cols[None, :] + grand
-    reseat2 = float(np.sum(resid**2)) / ((m - 1) * (r - 1))
-    ms_col = m * float(np.sum((cols - grand) ** 2)) / (r - 1)
-    series2 = max(0.0, (ms_col - reseat2) / m)
-    mean = v.mean(axis=1)
-    rel = _best_relative_misfit(curve.weight_kg, mean, curves)
-    lack2 = max(0.0, rel - reseat2 / r)
-    return NoiseModel(math.sqrt(series2), math.sqrt(reseat2), math.sqrt(lack2), source or curve.source)
-
-
-def _best_relative_misfit(weight_kg: np.ndarray, mean: np.ndarray, curves: ModelCurves | None) -> float:
-    """Smallest Σ((R̄ − fit)/fit)²/(m − 2) over the models (relative lack of fit of the mean curve) [-]."""
-    m = mean.size
-    if curves is None:
-        coef = np.polyfit(np.log(weight_kg), np.log(mean), 1)
-        return float(np.sum((np.log(mean) - np.polyval(coef, np.log(weight_kg))) ** 2)) / (m - 2)
-    best = math.inf
-    for name in curves.area_m2:
-        a, c = curves.at(name, weight_kg)
-        fit = fit_film_series(mean, mean, a, c)  # equal relative weights
-        best = min(best, float(np.sum(((mean - fit.predicted_ohm) / fit.predicted_ohm) ** 2)) / (m - 2))
-    return best
 
 
 @dataclass(frozen=True)
@@ -154,40 +90,20 @@ class ModelCurves:
 def model_curves(
     scene: Any, weights_kg: Sequence[float] | np.ndarray, models: Sequence[str] | None = None
 ) -> ModelCurves:
-    """A(W) and the clean-metal terms of every model for a rig or press scene at ``weights_kg`` [kg]."""
-    from contactrig.core.validation import SettingError
+    """A(W) and the clean-metal terms of every model for a rig or press scene at ``weights_kg`` [kg]
+    (:func:`analysis.resistance_model.specimen_resistance_terms`)."""
     from sims.config import SimConfig
-    from sims.database import build_database
-    from sims.press import PressSettings, press_sweep
 
     config = SimConfig.from_scene(scene)
-    rho = config.materials.resistivity_sum_ohm_m
-    if rho is None:
-        raise SettingError(
-            "materials.liner.resistivity_ohm_m", None,
-            "both bodies' resistivities are needed by the design's clean-metal terms (materials.*.resistivity_ohm_m)",
-        )  # fmt: skip
     names = list(models) if models is not None else list(config.database.models)
-    db = build_database(config, models=names)
-    e_star = float(config.materials.E_star)
-    press = PressSettings.from_scene(scene)
-    weights = np.asarray(weights_kg, dtype=float)
-    area: dict[str, np.ndarray] = {}
-    clean: dict[str, np.ndarray] = {}
-    if press is not None:
-        res = press_sweep(config, press, names, list(weights), laws={n: db[n] for n in names})
-        for n in names:
-            k = np.asarray(res.provenance["press"]["models"][n]["stiffness_n_per_m"])
-            radius = 0.5 * res.models[n].contact_width_m
-            area[n] = res.models[n].contact_area_m2
-            clean[n] = rho * e_star / (2 * k) + elliptic_spot_resistance_ohm(radius, radius, rho)
-        return ModelCurves(weights, area, clean, "press")
-    from analysis.resistance_model import rig_resistance_terms
-
-    for n in names:
-        terms = rig_resistance_terms(config, n, list(weights), law=db[n])
-        area[n], clean[n] = terms.area_m2, terms.clean_ohm
-    return ModelCurves(weights, area, clean, "rig")
+    # the one resistance model (the simulated bench's and the physical fit's); no resistivities: a SettingError
+    terms = specimen_resistance_terms(config, names, list(np.asarray(weights_kg, dtype=float)))
+    return ModelCurves(
+        np.asarray(weights_kg, dtype=float),
+        {n: t.area_m2 for n, t in terms.items()},
+        {n: t.clean_ohm for n, t in terms.items()},
+        "press" if config.press is not None else "rig",
+    )
 
 
 @dataclass(frozen=True)
@@ -256,6 +172,42 @@ class DesignResult:
         return "\n".join(lines)
 
 
+@dataclass(frozen=True)
+class SessionFits:
+    """One model's fits of many simulated sessions, judged by :mod:`analysis.fit`'s rules: ``chi2`` [-],
+    ``unphysical`` (R_s significantly < 0 or σ_f significantly ≤ 0, :func:`analysis.fit.unphysical_limits`) and
+    ``load_independent`` (σ_f's t-interval reaches 0, :func:`analysis.fit.load_independent_slope`) per session, the
+    t-intervals from the fit's one error rule (paired-series covariance, or χ²-scaled when over-dispersed and larger:
+    :func:`analysis.fit.scaled_errors`) at the 95 % level."""
+
+    chi2: np.ndarray
+    unphysical: np.ndarray
+    load_independent: np.ndarray
+
+
+def _session_fits(values: np.ndarray, sigma: np.ndarray, area: np.ndarray, clean: np.ndarray) -> SessionFits:
+    """The fits of sessions ``values`` (n, m, r) [Ω] with weights from ``sigma`` (n, m): the mean curve, and each
+    series alone (the weighted estimator is linear, so the fit is the mean of the series' fits and the paired-series
+    covariance their scatter / r, as in :func:`analysis.fit._parameter_covariance`)."""
+    from analysis.fit import _t_quantile, load_independent_slope, scaled_errors, unphysical_limits
+
+    _, m, r = values.shape
+    fit = fit_film_series(values.mean(-1), sigma, area, clean)
+    per = fit_film_series(np.swapaxes(values, -1, -2), sigma[:, None, :], area, clean)  # (n, r) per series
+    rep_r, rep_s = per.series_ohm.var(-1, ddof=1) / r, per.film_ohm_m2.var(-1, ddof=1) / r
+    dof = m - 2
+    c_hat = fit.chi2 / dof
+    scaled = scaled_errors(c_hat, dof, fit.film_se**2, rep_s)
+    se_r = np.where(scaled, fit.series_se * np.sqrt(c_hat), np.sqrt(rep_r))
+    se_s = np.where(scaled, fit.film_se * np.sqrt(c_hat), np.sqrt(rep_s))
+    t = np.where(scaled, _t_quantile(0.95, dof), _t_quantile(0.95, r - 1))
+    return SessionFits(
+        chi2=fit.chi2,
+        unphysical=unphysical_limits(fit.series_ohm + t * se_r, fit.film_ohm_m2 + t * se_s),
+        load_independent=load_independent_slope(fit.film_ohm_m2 - t * se_s),
+    )
+
+
 def simulate_plan(
     curves: ModelCurves,
     plan: Plan,
@@ -267,21 +219,31 @@ def simulate_plan(
     repeat_sd: float,
     block_sd_ohm: float,
     noise: NoiseModel | None = None,
-) -> dict[str, np.ndarray]:
-    """χ² of every model for ``n_sessions`` simulated sessions of ``plan`` with model ``truth`` true (``noise``:
+) -> dict[str, SessionFits]:
+    """Every model's fits of ``n_sessions`` simulated sessions of ``plan`` with model ``truth`` true (``noise``:
     the session's scatter; None: iid re-seating of SD ``repeat_sd``)."""
     w = np.asarray(plan.weights_kg)
     a_t, c_t = curves.at(truth, w)
-    contact = film / a_t + c_t
     f = (noise or NoiseModel.iid(repeat_sd)).factors(rng, (n_sessions, w.size, plan.repeats))
-    values = series + f * contact[None, :, None] + block_sd_ohm * rng.standard_normal(f.shape)
-    mean = values.mean(-1)
+    values = bench_resistance_ohm(series, film, a_t, c_t, f) + block_sd_ohm * rng.standard_normal(f.shape)
     sigma = relative_sigma_ohm(values)
-    out = {}
-    for m in curves.area_m2:
-        a_m, c_m = curves.at(m, w)
-        out[m] = fit_film_series(mean, sigma, a_m, c_m).chi2
-    return out
+    return {m: _session_fits(values, sigma, *curves.at(m, w)) for m in curves.area_m2}
+
+
+def told_apart(fits: dict[str, SessionFits], truth: str, other: str, dof: int) -> np.ndarray:
+    """Per session: does the fit put ``truth`` ahead of ``other`` by Δ(Q)AIC ≥ :data:`DELTA_AIC`, as
+    :func:`analysis.fit.compare_models` ranks — ĉ = the smallest χ²/ν of the physical fits (of all when none is
+    physical), QAIC when ĉ > 1.5; a physical fit ranked before an unphysical one, a load-dependent one before a
+    load-independent one, whatever their (Q)AIC."""
+    chi2 = np.vstack([f.chi2 for f in fits.values()]) / max(dof, 1)
+    physical = ~np.vstack([f.unphysical for f in fits.values()])
+    c_phys = np.min(np.where(physical, chi2, np.inf), axis=0)
+    c_hat = np.where(np.isfinite(c_phys), c_phys, np.min(chi2, axis=0))
+    scale = np.where(c_hat > OVERDISPERSION, c_hat, 1.0)  # QAIC when over-dispersed, as in fit
+    t, o = fits[truth], fits[other]
+    same = t.unphysical == o.unphysical
+    first = (t.unphysical < o.unphysical) | (same & (t.load_independent <= o.load_independent))
+    return np.asarray(((o.chi2 - t.chi2) / scale >= DELTA_AIC) & first)
 
 
 def candidate_plans(
@@ -324,14 +286,12 @@ def design(
     for i, plan in enumerate(plans):
         dof = max(len(plan.weights_kg) - 2, 1)
         for t in models:
-            chi2 = simulate_plan(
+            fits = simulate_plan(
                 curves, plan, t, film_ohm_m2, series_ohm, rng, n_sessions, repeat_sd, block_sd_ohm, noise
             )
-            c_hat = np.min(np.vstack(list(chi2.values())), axis=0) / dof
-            scale = np.where(c_hat > OVERDISPERSION, c_hat, 1.0)  # QAIC when over-dispersed, as in fit
             for m in models:
                 if m != t:
-                    prob[(t, m)][i] = float(np.mean((chi2[m] - chi2[t]) / scale >= DELTA_AIC))
+                    prob[(t, m)][i] = float(np.mean(told_apart(fits, t, m, dof)))
         if progress is not None:
             progress(i + 1, len(plans))
     pair_score: dict[tuple[str, str], np.ndarray] = {}

@@ -466,7 +466,8 @@ def figure_fit(comparison: Any, title: str = "", sem_ohm: Any = None) -> Any:
     width = 0.6 * (np.min(np.diff(w)) if w.size > 1 else 1.0) / max(n, 1)
     for i, name in enumerate(names):
         f = comparison.fits[name]
-        label = f"{model_label(name)}: ΔAIC {comparison.delta_aic[name]:.1f}" + ("" if f.physical else " UNPHYSICAL")
+        crit = getattr(comparison, "criterion", "AIC")  # the fit's criterion: QAIC when over-dispersed
+        label = f"{model_label(name)}: Δ{crit} {comparison.delta_aic[name]:.1f}" + ("" if f.physical else " UNPHYSICAL")
         style = {**model_style(name), "label": label}
         top.plot(w, f.points.fitted_ohm * k_unit, mfc="none", **style)
         bottom.bar(w + (i - (n - 1) / 2) * width, f.points.normalised_residuals, width, color=style["color"])
@@ -729,7 +730,9 @@ def _draw_normalised(a: Any) -> Any:
 def _draw_fit(a: Any) -> Any:
     if a.comparison is None:
         return None
-    sem = a.fit_curve.sem_ohm if a.fit_curve is not None else None
+    from analysis.fit import independent_series  # the series the fit counts (copies of others once)
+
+    sem = independent_series(a.fit_curve)[0].sem_ohm if a.fit_curve is not None else None
     return figure_fit(
         a.comparison,
         title=f"{_legend_text(a.title)}: R = R$_s$ + s·x(A), x = {mathtext(regressor_label(a.conversion))}",

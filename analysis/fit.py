@@ -814,11 +814,30 @@ def _shares(
     return out
 
 
+def load_independent_slope(scale_low: Any) -> Any:
+    """True where the slope's t-interval lower limit ≤ 0 (the resistance does not depend on the load; not ranked).
+    Arrays welcome (the design's simulated sessions apply the same rule)."""
+    return np.asarray(scale_low) <= 0
+
+
+def unphysical_limits(series_high_ohm: Any, scale_high: Any) -> Any:
+    """True where a fit is unphysical: R_s significantly < 0 (t upper limit < 0) or s significantly ≤ 0 (upper limit
+    ≤ 0). Arrays welcome (the design's simulated sessions apply the same rule)."""
+    return (np.asarray(series_high_ohm) < 0) | (np.asarray(scale_high) <= 0)
+
+
+def scaled_errors(c_hat: Any, dof: Any, curvature_var: Any, repeat_var: Any) -> Any:
+    """True where the errors are the χ²-scaled curvature ones (:func:`_error_rule`): over-dispersed (ĉ >
+    :data:`OVERDISPERSION`, ν > 0) and ĉ·(JᵀJ)⁻¹ larger than the repeats' variance on the scale. Arrays welcome."""
+    c = np.asarray(c_hat, dtype=float)
+    return (np.asarray(dof) > 0) & (c > OVERDISPERSION) & (np.asarray(curvature_var) * c > np.asarray(repeat_var))
+
+
 def _load_independent(est: Estimate, intervals: Intervals) -> str:
     """Why the fit says the resistance does not depend on the load ("" when it does): the slope s is consistent with
-    zero or negative (the t-interval's lower limit ≤ 0). Such a fit is not ranked."""
+    zero or negative (the t-interval's lower limit ≤ 0, :func:`load_independent_slope`). Such a fit is not ranked."""
     lo, hi = intervals.t.scale
-    if lo > 0:
+    if not load_independent_slope(lo):
         return ""
     return (
         f"s = {est.scale:.3g} ± {est.scale_se:.2g} (t-interval [{lo:.3g}, {hi:.3g}]) is consistent with zero or "
@@ -856,7 +875,7 @@ def _error_rule(
         base = "within-block standard errors"
     else:
         base = "each weight's own repeat scatter (Welch dof)"
-    if gof.dof > 0 and c_hat > OVERDISPERSION and cov_curv[1, 1] * c_hat > cov_rep[1, 1]:
+    if scaled_errors(c_hat, gof.dof, cov_curv[1, 1], cov_rep[1, 1]):
         return (
             cov_curv * c_hat,
             np.full(2, float(gof.dof)),
@@ -888,6 +907,8 @@ def _unphysical(est: Estimate, intervals: Intervals, curve: MeasuredCurve) -> tu
     out = []
     factor, unit = resistance_unit(curve.mean_ohm)
     hi_r, hi_s, lvl = intervals.t.R_series_ohm[1], intervals.t.scale[1], f"{intervals.level:.0%}"
+    if not unphysical_limits(hi_r, hi_s):
+        return ()
     if hi_r < 0:
         out.append(
             f"R_s = {est.R_series_ohm * factor:.3g} ± {est.R_series_se * factor:.2g} {unit} is significantly below "

@@ -520,32 +520,20 @@ def analyse_tab1(
 
 
 def tab1_integrity_notes(curve: MeasuredCurve) -> list[str]:
-    """Checks of Tab. 1's series against each other: columns that are arithmetic copies of others are not
-    independent repeats, which shrinks the real repeat count behind any standard error."""
-    v = curve.values_ohm * 1e3  # mΩ, as printed
-    labels = curve.repeat_labels
-    notes = []
-    if v.shape[1] >= 4:
-        d = v[:, 3] - v[:, :3].mean(axis=1)
-        same = np.abs(d) <= 1.5e-4
-        if np.sum(same) >= v.shape[0] - 1:
-            odd = [f"{curve.weight_kg[i]:g} kg ({d[i]:+.4f} mΩ)" for i in np.flatnonzero(~same)]
-            notes.append(
-                f"{labels[3]} equals the mean of {', '.join(labels[:3])} to the printed 4 decimals at "
-                f"{int(np.sum(same))} of {v.shape[0]} weights" + (f"; off at {', '.join(odd)}" if odd else "")
-                + ": it is not an independent repeat."
-            )  # fmt: skip
-    for k in range(v.shape[1]):
-        for j in range(k + 1, v.shape[1]):
-            diff = v[:, j] - v[:, k]
-            # offsets with at most 3 decimals (in mΩ) at every weight: one column derived from the other
-            if np.all(np.abs(diff * 1000 - np.round(diff * 1000)) < 0.02) and not np.allclose(diff, 0):
-                notes.append(
-                    f"{labels[j]} − {labels[k]} is a number with at most 3 decimals (mΩ) at every weight "
-                    f"({', '.join(f'{x:+.3f}' for x in diff)}; by chance (1/10)^{v.shape[0]}): {labels[j]} looks "
-                    f"derived from {labels[k]}."
-                )
-    return notes
+    """Checks of Tab. 1's series against each other, in words: columns that are arithmetic copies of others are not
+    independent repeats, which shrinks the real repeat count behind any standard error. The series detector's
+    findings (:func:`analysis.series_dependence.find_dependence`, the one implementation the fit uses too)."""
+    from analysis.series_dependence import find_dependence
+
+    dep = find_dependence(curve.values_ohm, curve.repeat_labels)
+    if not dep.dropped:
+        return list(dep.notes)
+    labels = curve.repeat_labels or tuple(f"series {k + 1}" for k in range(curve.values_ohm.shape[1]))
+    dropped = ", ".join(labels[k] for k in dep.dropped)
+    return [f"{note}." for note in dep.notes] + [
+        f"{dropped} {'is' if len(dep.dropped) == 1 else 'are'} not independent repeats: the fit counts "
+        f"{dep.n_independent} independent series ({', '.join(labels[k] for k in dep.keep)})."
+    ]
 
 
 # ---------------------------------------------------------------------------------------------------------------

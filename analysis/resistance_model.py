@@ -43,7 +43,9 @@ __all__ = [
     "FilmFit",
     "PhysicalFit",
     "RigResistanceTerms",
+    "SpecimenTerms",
     "barber_resistance_ohm",
+    "bench_resistance_ohm",
     "elliptic_spot_resistance_ohm",
     "fit_film_series",
     "fit_measured",
@@ -51,6 +53,7 @@ __all__ = [
     "parallel_holm_ohm",
     "physical_sentence",
     "rig_resistance_terms",
+    "specimen_resistance_terms",
     "stiffness_weighted_width_m",
     "tab1_statement",
 ]
@@ -200,6 +203,82 @@ def rig_resistance_terms(
         composite_modulus_pa=e_star,
         pressure_width_m=np.asarray(batch.contact_width_m, dtype=float),
     )
+
+
+@dataclass(frozen=True)
+class SpecimenTerms:
+    """A(W) [m²] and the computed terms of R(W) by name [Ω] ("barber", "macro"; empty without resistivities) of one
+    contact model at ``weight_kg`` [kg], for the rig or the press."""
+
+    model: str
+    weight_kg: np.ndarray
+    area_m2: np.ndarray
+    terms: dict[str, np.ndarray]
+
+    @property
+    def clean_ohm(self) -> np.ndarray:
+        """The clean-metal part, the sum of the terms [Ω] (zeros without resistivities)."""
+        return np.sum([np.zeros_like(self.area_m2), *self.terms.values()], axis=0)
+
+
+def specimen_resistance_terms(
+    config: Any, models: Sequence[str], weights_kg: Sequence[float], *, laws: Any = None, require: bool = True
+) -> dict[str, SpecimenTerms]:
+    """The one resistance model of the design, the simulated bench and the physical fit: A(W) and the clean-metal
+    terms of each model at ``weights_kg`` [kg]. The rig: :func:`rig_resistance_terms` (the physical conversion's
+    function). The press: Barber's term from the press stiffness and Holm's circular spot of the nominal contact
+    radius ("macro"). ``laws`` prebuilt contact laws by model (else built); ``require``: a scene without both
+    resistivities is a SettingError (else the terms are empty: film and series only)."""
+    weights = [float(w) for w in weights_kg]
+    rho = config.materials.resistivity_sum_ohm_m
+    if rho is None and require:
+        raise SettingError(
+            "materials.liner.resistivity_ohm_m", None,
+            "both bodies' resistivities are needed by the clean-metal terms (materials.*.resistivity_ohm_m)",
+        )  # fmt: skip
+    if laws is None:
+        from sims.database import build_database
+
+        laws = build_database(config, models=list(models))
+    w = np.asarray(weights, dtype=float)
+    if config.press is not None:
+        from sims.press import press_sweep
+
+        res = press_sweep(config, config.press, list(models), weights, laws={n: laws[n] for n in models})
+        out = {}
+        for n in models:
+            area = np.asarray(res.models[n].contact_area_m2, dtype=float)
+            terms = {}
+            if rho is not None:
+                k = np.asarray(res.provenance["press"]["models"][n]["stiffness_n_per_m"], dtype=float)
+                radius = 0.5 * np.asarray(res.models[n].contact_width_m, dtype=float)
+                terms = {"barber": barber_resistance_ohm(k, rho, float(config.materials.E_star)),
+                         "macro": elliptic_spot_resistance_ohm(radius, radius, rho)}  # fmt: skip
+            out[n] = SpecimenTerms(n, w, area, terms)
+        return out
+    if rho is None:
+        from sims.rig import batch_equilibrium
+
+        return {
+            n: SpecimenTerms(n, w, np.asarray(batch_equilibrium(laws[n], config.rig, weights).contact_area_m2), {})
+            for n in models
+        }
+    out = {}
+    for n in models:
+        t = rig_resistance_terms(config, n, weights, law=laws[n])
+        out[n] = SpecimenTerms(n, w, t.area_m2, t.known_terms())
+    return out
+
+
+def bench_resistance_ohm(
+    series_ohm: float, film_ohm_m2: float, area_m2: ArrayLike, clean_ohm: ArrayLike, factors: ArrayLike
+) -> np.ndarray:
+    """What the bench measures for one block: ``R_s + f·(σ_f/A + R_clean)`` [Ω] (the contact re-made with factor f,
+    :mod:`analysis.noise_model`; the series resistance is not). ``area_m2``, ``clean_ohm`` per weight (last axis of
+    shape (m,)), ``factors`` shape (..., m, r): the result has the shape of ``factors``. One formula for the design's
+    simulated sessions and the simulated bench."""
+    contact = film_ohm_m2 / np.asarray(area_m2, dtype=float) + np.asarray(clean_ohm, dtype=float)
+    return np.asarray(series_ohm + np.asarray(factors, dtype=float) * contact[:, None])
 
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -1,23 +1,33 @@
 """Simulated sessions (``contactrig acquire --sim``): the instrument pair's simulated bench with the rig behind it.
 
-For block b (repeat k at weight W) the bench's sample resistance is the measured resistance of seed eq. 23 with a
-series term, and a re-seating factor on the contact term,
+For block b (repeat k at weight W_i) the bench's sample resistance is the resistance model of the design and of the
+physical fit (:func:`analysis.resistance_model.bench_resistance_ohm`), the contact re-made with a factor f_b::
 
-    R_b = R_s + f_b · ζ · h_R / A(W),     f_b = exp(σ·z_b − σ²/2),  z_b ~ N(0, 1)
+    R_b = R_s + f_b · (σ_f / A(W) + R_Barber(W) + R_macro(W)),      σ_f = ζ·h_R
 
-(:class:`analysis.circuit.CircuitSettings`: ζ, h_R and R_s from the scene's ``[circuit]``), with A(W) the real
-contact area the specimen simulation (:func:`sims.specimen.sweep_specimen`: the rig, or the press of a press scene)
-finds at that weight for the one model ``[session].sim_model``.
+(:class:`analysis.circuit.CircuitSettings`: ζ, h_R and R_s from the scene's ``[circuit]``), with A(W) and the
+clean-metal terms those of :func:`analysis.resistance_model.specimen_resistance_terms` — the function the physical
+conversion (``fit --conversion physical``) subtracts — for the one model ``[session].sim_model`` (the rig, or the
+press of a press scene). A scene without both bodies' resistivities has no clean-metal terms (film and series only,
+said in the session's notes).
 
 Why f_b: on the real bench the contact is made again for every repeat (the weight is lifted and re-placed, the
-piston re-seats, oxide and contamination films differ), so repeats at one weight scatter far more than the
-instrument noise — the seed paper's Tab. 1 repeats M1–M3 scatter by 15–16 % (relative SD at each weight: mean
-0.156, median 0.148; pooled SD of ln R 0.163). The series resistance (leads, bodies) is not re-made and stays
-fixed. f_b is log-normal (a resistance factor, always > 0) with mean 1, so E[R_b] = R_s + ζh/A(W) and a fit
-of the session recovers ζ without bias; σ = ``[session].sim_repeat_sd`` (0 switches it off). The factors are drawn
-from their own generator seeded by ``[session].sim_seed`` and indexed by block number (position in the full plan),
-so a resumed or partly skipped session gets the same factor for the same block. Noise, thermal EMF and drift
-come from the simulated instruments. Only the requested model is built.
+piston re-seats, oxide and contamination films differ), so repeats scatter far more than the instrument noise, and
+Tab. 1's fits are over-dispersed (χ²/ν = 3 for its independent series M1–M3). f_b follows the noise model of
+:mod:`analysis.noise_model` — the one ``contactrig design`` uses — chosen by ``[session].sim_noise``:
+
+* ``"tab1"`` (default): ln f_ik = a_k + b_i + e_ik, a per-series offset (SD 9.6 %), a per-weight lack of fit common
+  to every series (14.5 %) and per-weight re-seating (13.2 %), estimated from Tab. 1 (:func:`analysis.noise_model.
+  tab1_noise`). A session of r repeats then fits with E[χ²/ν] ≈ (σ_e² + r·σ_b²)/(σ_a² + σ_e²): 3.0 for r = 3, 5.4
+  for r = 6, as on the real rig;
+* ``"iid"``: independent re-seating of SD ``[session].sim_repeat_sd`` (0 switches it off; χ²/ν ≈ 1).
+
+f is log-normal (a resistance factor, always > 0) with mean 1, so E[R_b] = R_s + σ_f/A + R_clean. The series
+resistance (leads, bodies) is not re-made and stays fixed. The factors are drawn from their own generator seeded by
+``[session].sim_seed``, for the whole plan at once (weights × repeats, in block order), so a resumed or partly skipped
+session gets the same factor for the same block; they are recorded with the noise model's parameters in the start
+record's ``simulation``. Noise, thermal EMF and drift come from the simulated instruments. Only the requested model
+is built.
 
 :class:`SimulatedRigBench` is the :class:`daq.link.Bench` that ``daq.acquire.acquire`` runs ``--sim`` sessions on
 (this composition lives here, above ``daq``, because it needs the rig and the circuit). Replay serves the
@@ -32,11 +42,12 @@ from typing import Any
 
 import numpy as np
 
+from analysis.noise_model import NoiseModel, noise_model
 from contactrig.core.validation import SettingError
 from daq.link import OpenedBench, open_visa_link
 from daq.plan import SessionPlan
 
-__all__ = ["DEFAULT_SIM_SPEED", "SimulatedRigBench", "repeat_factors", "simulated_resistances"]
+__all__ = ["DEFAULT_SIM_SPEED", "SimulatedRigBench", "repeat_factors", "session_factors", "simulated_resistances"]
 
 #: Default ``--sim-speed``: the simulated instruments run this many times faster than real ones.
 DEFAULT_SIM_SPEED = 1000.0
@@ -44,58 +55,77 @@ DEFAULT_SIM_SPEED = 1000.0
 _FACTOR_STREAM = 0x5EA7
 
 
+def session_factors(noise: NoiseModel, n_weights: int, repeats: int, seed: int) -> np.ndarray:
+    """The contact factors f_b of one session, blocks 0 … n_weights·repeats − 1 in plan order (weight index ×
+    repeats + repeat − 1) [-]: ``noise.factors`` for one session, seeded by ``seed`` on a stream of its own."""
+    rng = np.random.default_rng([int(seed), _FACTOR_STREAM])
+    return noise.factors(rng, (1, n_weights, repeats)).reshape(-1)
+
+
 def repeat_factors(n_blocks: int, sd: float, seed: int) -> np.ndarray:
-    """Mean-one log-normal contact factors f_b = exp(σ·z_b − σ²/2) for blocks 0 … n_blocks − 1 (σ = ``sd``).
-
-    ``sd`` is the SD of ln f (for small σ, the relative SD of f). Seeded by ``seed`` on a stream of its own, and
-    drawn in block order, so factor b depends only on (seed, b) and not on which blocks are measured.
-    """
-    if sd == 0:
-        return np.ones(n_blocks)
-    z = np.random.default_rng([int(seed), _FACTOR_STREAM]).standard_normal(n_blocks)
-    return np.exp(sd * z - 0.5 * sd * sd)
+    """Independent mean-one log-normal factors f_b = exp(σ·z_b − σ²/2) for blocks 0 … n_blocks − 1 (σ = ``sd``, the
+    SD of ln f): :func:`session_factors` of ``NoiseModel.iid(sd)``; factor b depends only on (seed, b)."""
+    return session_factors(NoiseModel.iid(sd), n_blocks, 1, seed)
 
 
-def simulated_resistances(plan: SessionPlan) -> dict[str, Any]:
+def simulated_resistances(plan: SessionPlan, terms: Any = None) -> dict[str, Any]:
     """Contact area (m²) per weight and bench resistance (Ω) per planned block, for ``[session].sim_model``.
 
-    Per weight: ``contact_area_m2``, ``contact_resistance_ohm`` (ζh/A, seed eq. 23) and ``resistance_ohm``
-    (R_s + ζh/A, the expected value). Per block (position in the plan): ``contact_factor`` f_b and
-    ``block_resistance_ohm`` R_b. Recorded as the start record's ``simulation``.
+    Per weight: ``contact_area_m2``, ``film_resistance_ohm`` σ_f/A, ``clean_terms_ohm`` (Barber, macro) and
+    ``resistance_ohm`` (R_s + σ_f/A + R_clean, the expected value). Per block (position in the plan):
+    ``contact_factor`` f_b and ``block_resistance_ohm`` R_b; ``noise`` the noise model's parameters. Recorded as the
+    start record's ``simulation``. ``terms``: the model's :class:`analysis.resistance_model.SpecimenTerms` at the
+    plan's weights when already computed (many seeds of one plan; the rig's warnings are then not collected).
     """
     from analysis.circuit import CircuitSettings
+    from analysis.resistance_model import bench_resistance_ohm, specimen_resistance_terms
     from sims.config import SimConfig
     from sims.specimen import sweep_specimen
 
     model = plan.session.sim_model
     weights = list(plan.session.weights_kg)
-    result = sweep_specimen(SimConfig.from_scene(plan.scene), models=[model], weights_kg=weights)
-    area = np.asarray(result.models[model].contact_area_m2, dtype=float)
+    config = SimConfig.from_scene(plan.scene)
+    from sims.database import build_database
+
+    notes: list[str] = []
+    if terms is None:
+        laws = build_database(config, models=[model])
+        notes = list(sweep_specimen(config, models=[model], weights_kg=weights, database=laws).warnings)
+        terms = specimen_resistance_terms(config, [model], weights, laws=laws, require=False)[model]
+    area = np.asarray(terms.area_m2, dtype=float)
     if area.shape != (len(weights),) or not np.all(np.isfinite(area)) or np.any(area <= 0):
         raise RuntimeError(
             f"the specimen simulation gave no positive contact area for every weight with model {model!r} "
-            f"(areas {area.tolist()} m²): the simulated bench cannot compute R = R_s + ζh/A"
+            f"(areas {area.tolist()} m²): the simulated bench cannot compute R = R_s + σ_f/A"
         )
     circuit = CircuitSettings.from_scene(plan.scene)
-    contact = np.asarray(circuit.contact_resistance_ohm(area), dtype=float)
-    sd = plan.session.sim_repeat_sd
-    factors = repeat_factors(plan.blocks_planned, sd, plan.session.sim_seed)
-    per_block_contact = np.repeat(contact, plan.session.repeats)
+    film = circuit.resistivity_ohm_m * circuit.contact_height_m  # σ_f = ζh [Ω·m²], seed eq. 23 read as a film
+    noise = noise_model(plan.session.sim_noise, plan.session.sim_repeat_sd)
+    factors = session_factors(noise, len(weights), plan.session.repeats, plan.session.sim_seed)
+    blocks = bench_resistance_ohm(
+        circuit.series_resistance_ohm, film, area, terms.clean_ohm, factors.reshape(len(weights), -1)
+    ).reshape(-1)
+    if not terms.terms:
+        notes.append("no clean-metal terms (the scene gives no resistivities): R = R_s + σ_f/A only")
     return {
         "model": model,
         "weights_kg": weights,
         "contact_area_m2": area.tolist(),
-        "contact_resistance_ohm": contact.tolist(),
-        "resistance_ohm": np.asarray(circuit.measured_resistance_ohm(area), dtype=float).tolist(),
-        "repeat_sd": sd,
+        "film_resistance_ohm": (film / area).tolist(),
+        "contact_resistance_ohm": (film / area + terms.clean_ohm).tolist(),
+        "clean_terms_ohm": {k: np.asarray(v, dtype=float).tolist() for k, v in terms.terms.items()},
+        "resistance_ohm": (circuit.series_resistance_ohm + film / area + terms.clean_ohm).tolist(),
+        "noise": {"name": plan.session.sim_noise, **noise.as_dict()},
+        "repeat_sd": plan.session.sim_repeat_sd,
         "contact_factor": factors.tolist(),
-        "block_resistance_ohm": (circuit.series_resistance_ohm + factors * per_block_contact).tolist(),
+        "block_resistance_ohm": blocks.tolist(),
         "circuit": {
             "resistivity_ohm_m": circuit.resistivity_ohm_m,
             "contact_height_m": circuit.contact_height_m,
+            "film_ohm_m2": film,
             "series_resistance_ohm": circuit.series_resistance_ohm,
         },
-        "rig_warnings": list(result.warnings),
+        "rig_warnings": notes,
     }
 
 

@@ -17,7 +17,9 @@ A session gives two tables:
 
 A fit (the JSON that ``contactrig fit … --json`` prints, :func:`fit_tables`) gives **fits** (one row per model in
 ranking order: R_s, s, their standard errors and t-intervals, χ², AIC, ΔAIC, Akaike weight, RMSE, physical or
-not) and **points** (per model and weight: area, measured, σ, fitted, residual).
+not; ``delta_aic`` is the Δ of the fit's criterion, QAIC when over-dispersed, named in ``about``), **points** (per
+model and weight: area, measured, σ, fitted, residual) and **shares** (per model, weight and term: the term's share of
+the measured mean, e.g. the physical conversion's series, film, barber and macro; one row each, so any term fits).
 
 CSV: one file per table, the first at the output path, the others beside it (``out.csv``, ``out-readings.csv``).
 Numbers are unquoted (negative ones too: they stay numbers); every text field is quoted, and one that a spreadsheet
@@ -264,8 +266,25 @@ def _point_rows(name: str, fit: Mapping[str, Any]) -> list[list[Any]]:
     return rows
 
 
+_SHARE_COLUMNS = ("model", "weight_kg", "term", "share_of_measured_mean")
+
+
+def _share_rows(name: str, fit: Mapping[str, Any]) -> list[list[Any]]:
+    """One row per weight and term of the fit's ``shares`` (each term's share of the measured mean) [-]."""
+    shares, weights = fit.get("shares"), _get(fit, "points", "weight_kg")
+    if not isinstance(shares, Mapping) or not isinstance(weights, list):
+        return []
+    rows = []
+    for i, w in enumerate(weights):
+        for term, values in shares.items():
+            if isinstance(values, list) and i < len(values):
+                rows.append([name, _number(w), str(term), _number(values[i])])
+    return rows
+
+
 def fit_tables(fit_json: Mapping[str, Any], source: str = "") -> tuple[list[Table], list[tuple[str, str]]]:
-    """The fits and points tables of a fit (the dict ``contactrig fit … --json`` prints), and its ``about`` lines."""
+    """The fits, points and shares tables of a fit (the dict ``contactrig fit … --json`` prints), and its ``about``
+    lines."""
     models = fit_json.get("models") if isinstance(fit_json, Mapping) else None
     if not isinstance(models, Mapping) or not models:
         raise SettingError("fit", source or "<fit>", "the JSON of `contactrig fit … --json` (a 'models' object)")
@@ -273,14 +292,18 @@ def fit_tables(fit_json: Mapping[str, Any], source: str = "") -> tuple[list[Tabl
     ranking += [m for m in models if m not in ranking]
     fits = [_fit_row(i + 1, m, models[m], fit_json) for i, m in enumerate(ranking) if isinstance(models[m], Mapping)]
     points = [row for m in ranking if isinstance(models[m], Mapping) for row in _point_rows(m, models[m])]
+    shares = [row for m in ranking if isinstance(models[m], Mapping) for row in _share_rows(m, models[m])]
     about = [
         ("source", source),
         ("measured", str(_get(fit_json, "measured", "path") or "")),
         ("simulation", str(fit_json.get("simulation") or "")),
         ("statement", str(fit_json.get("statement") or "")),
+        ("criterion", f"delta_aic and akaike_weight are {fit_json.get('criterion') or 'AIC'} (c_hat = "
+                      f"{_number(fit_json.get('c_hat'))})"),
         ("exported by", "contactrig export"),
-    ]
-    return [Table("fits", _FIT_COLUMNS, fits), Table("points", _POINT_COLUMNS, points)], about
+    ]  # fmt: skip
+    tables = [Table("fits", _FIT_COLUMNS, fits), Table("points", _POINT_COLUMNS, points)]
+    return [*tables, Table("shares", _SHARE_COLUMNS, shares)], about
 
 
 # ---- writing -------------------------------------------------------------------------------------------------------
@@ -424,7 +447,7 @@ def export_fit(
     source: str = "",
     force: bool = False,
 ) -> list[Path]:
-    """Export a fit (the dict ``contactrig fit … --json`` prints): fits and points tables. Returns the paths."""
+    """Export a fit (the dict ``contactrig fit … --json`` prints): fits, points and shares tables. Returns the paths."""
     check_choice("--to", to, FORMATS)
     tables, about = fit_tables(fit_json, source)
     return write_tables(tables, about, output, to, force=force)

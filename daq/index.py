@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import os
 import warnings
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, MutableMapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -137,10 +137,13 @@ def index_sessions(
     sort: str = "start",
     include_other: bool = False,
     timeout: float | None = None,
+    cache: MutableMapping[str, Any] | None = None,
 ) -> list[SessionEntry]:
     """Every session file under ``folder`` (recursively; ``.h5``, ``.hdf5``, ``.nxs``), one :class:`SessionEntry`
     each, sorted by ``sort`` (one of :data:`SORT_KEYS`; unreadable files last). ``sample``: keep the sessions whose
-    sample contains it (case-insensitive). A file that is ``folder`` itself is indexed alone."""
+    sample contains it (case-insensitive). A file that is ``folder`` itself is indexed alone. ``cache`` (a dict kept
+    by the caller, e.g. the console) keeps each file's row by its size and time of change: a file read once is not
+    read again until it changes (a running session's rows are not kept)."""
     from contactrig.core.validation import SettingError, check_choice
 
     check_choice("--sort", sort, SORT_KEYS)
@@ -151,13 +154,31 @@ def index_sessions(
         files = _session_files(root)
     else:
         raise SettingError("DIR", str(root), "an existing folder")
-    entries = [session_entry(f, timeout=timeout) for f in files]
+    entries = [_cached_entry(f, timeout, cache) for f in files]
     if not include_other:
         entries = [e for e in entries if e.status != "other"]
     if sample is not None:
         needle = sample.casefold()
         entries = [e for e in entries if needle in e.sample.casefold()]
     return sorted(entries, key=lambda e: _sort_key(e, sort))
+
+
+def _cached_entry(path: Path, timeout: float | None, cache: MutableMapping[str, Any] | None) -> SessionEntry:
+    """The row of ``path``, from ``cache`` when the file has not changed (same size, time of change, inode)."""
+    if cache is None:
+        return session_entry(path, timeout=timeout)
+    try:
+        st = os.stat(path)
+    except OSError:
+        return session_entry(path, timeout=timeout)
+    stamp = (st.st_size, st.st_mtime_ns, st.st_ino)
+    kept = cache.get(str(path))
+    if kept is not None and kept[0] == stamp:
+        return kept[1]
+    entry = session_entry(path, timeout=timeout)
+    if entry.status != "running":
+        cache[str(path)] = (stamp, entry)
+    return entry
 
 
 def _sort_key(e: SessionEntry, sort: str) -> tuple[int, str, str]:

@@ -35,9 +35,14 @@ the pair's settings table — ``[delta]`` for the Keithley pair
     ``rig``         free-text rig description
     ``sim_model``   contact model whose simulated contact area drives ``--sim`` (one of ``[database].models``)
     ``sim_seed``    seed of the simulated bench's noise and re-seating factors (whole number ≥ 0; default 1)
-    ``sim_repeat_sd``  ``--sim``: repeat-to-repeat scatter of the contact term, the SD of ln f of the mean-one
-                    log-normal factor f applied to ζh/A(W) for each block (0 … 1; default 0.15, from the
-                    scatter of Tab. 1's independent repeats M1–M3; 0 = instrument noise only). See
+    ``sim_noise``   ``--sim``: the noise model of the contact term (the mean-one log-normal factor f applied to
+                    σ_f/A(W) + the clean-metal terms for each block), ``"tab1"`` (default: Tab. 1's structure —
+                    per-series offset 9.6 %, per-weight re-seating 13.2 %, lack of fit common to every series
+                    14.5 %, estimated from Tab. 1's independent series; a fit's χ²/ν ≈ 5 with six repeats, as on
+                    the real rig) or ``"iid"`` (independent re-seating of SD ``sim_repeat_sd`` only; χ²/ν ≈ 1).
+                    The same noise model as ``contactrig design`` (:mod:`analysis.noise_model`).
+    ``sim_repeat_sd``  ``sim_noise = "iid"`` only: the SD of ln f (0 … 1; default 0.15, from the scatter of
+                    Tab. 1's independent repeats M1–M3; 0 = instrument noise only). See
                     :mod:`analysis.simulated_session`.
 """
 
@@ -56,6 +61,7 @@ from instruments.transport import SerialSettings
 __all__ = [
     "INSTRUMENT_KEYS",
     "SESSION_KEYS",
+    "SIM_NOISE_KINDS",
     "DurationEstimate",
     "InstrumentSettings",
     "Measure",
@@ -74,8 +80,10 @@ INSTRUMENT_KEYS = (
 )
 SESSION_KEYS = (
     *("repeats", "weights_kg", "operator", "sample", "notes", "rig"),
-    *("sim_model", "sim_seed", "sim_repeat_sd"),
+    *("sim_model", "sim_seed", "sim_noise", "sim_repeat_sd"),
 )
+#: ``[session].sim_noise`` choices (the models of :data:`analysis.noise_model.NOISE_MODELS`; daq may not import it).
+SIM_NOISE_KINDS = ("tab1", "iid")
 #: Default ``[session].sim_repeat_sd``: Tab. 1's repeats M1–M3 scatter by 15–16 % at each weight
 #: (analysis.simulated_session).
 DEFAULT_SIM_REPEAT_SD = 0.15
@@ -143,7 +151,7 @@ class InstrumentSettings:
 @dataclass(frozen=True)
 class SessionSettings:
     """The ``[session]`` table: repeats per weight, weights (kg) in order, who and what, simulated-bench options
-    (``sim_model``, ``sim_seed``, ``sim_repeat_sd``: see the module docstring)."""
+    (``sim_model``, ``sim_seed``, ``sim_noise``, ``sim_repeat_sd``: see the module docstring)."""
 
     weights_kg: tuple[float, ...]
     repeats: int = 6
@@ -153,6 +161,7 @@ class SessionSettings:
     rig: str = ""
     sim_model: str = "greenwood_tripp"
     sim_seed: int = 1
+    sim_noise: str = "tab1"
     sim_repeat_sd: float = DEFAULT_SIM_REPEAT_SD
 
     def __post_init__(self) -> None:
@@ -170,6 +179,7 @@ class SessionSettings:
             _check_str(f"session.{name}", getattr(self, name))
         _check_str("session.sim_model", self.sim_model, nonempty=True)
         object.__setattr__(self, "sim_seed", check_int("session.sim_seed", self.sim_seed, 0, 2**63 - 1))
+        check_choice("session.sim_noise", self.sim_noise, SIM_NOISE_KINDS)
         object.__setattr__(self, "sim_repeat_sd", check_range("session.sim_repeat_sd", self.sim_repeat_sd, 0.0, 1.0))
 
 

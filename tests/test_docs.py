@@ -199,8 +199,8 @@ def check_command(command: str) -> list[str]:
 def _check_option(word: str, following: str | None, parsers: list, names: list[str], problems: list[str]) -> int:
     """Check ``word`` (one or more ``|`` alternatives) against the current parsers; return the words consumed."""
     consumed = 1
-    for alternative in word.split("|"):
-        name = alternative.split("=", 1)[0]
+    for alternative in re.split(r"[|/](?=-)", word):  # --a|--b, -o/--output
+        name = re.sub(r"/?(…|\.\.\.)$", "", alternative.split("=", 1)[0])  # --sample/… (and more)
         actions = [a for p in parsers if (a := _options(p).get(name)) is not None]
         if len(actions) < len(parsers):
             problems.append(f"{' '.join(names)}: no option {name}")
@@ -267,6 +267,7 @@ def _join_continuations(lines: list[str]) -> Iterator[str]:
         ("report s.h5 [--compare-models|--no-compare-model]", "no option --no-compare-model"),
         ("fit s.h5 --conversion=bulkk", "'bulkk' is not one of"),
         ("fit s.h5 [--sim sim.h5 | --databse db.h5]", "no option --databse"),
+        ("acquire --address/--sampel/…", "no option --sampel"),
     ],
 )
 def test_the_command_check_finds_stale_names(command, problem):

@@ -23,7 +23,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description=(
             "Simulates many bench sessions per candidate plan (loads, repeats) for every contact model of the "
             "scene, fits each with every model, and reports the probability of ranking the true model first by "
-            "ΔAIC >= 10; writes the report, the discrimination map and the chosen plan as a scene."
+            "Δ(Q)AIC >= 10 (QAIC when over-dispersed, as in fit); writes the report, the discrimination map and "
+            "the chosen plan as a scene."
         ),
     )
     p.add_argument("scene", nargs="?", default=None, help="scene TOML file (rig or press; default: the paper scene)")
@@ -45,21 +46,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=_design)
 
 
-def _noise(source: str, repeat_sd: float, curves: Any) -> Any:
+def _noise(source: str, repeat_sd: float) -> Any:
     """The noise model of ``--noise-from``: Tab. 1, iid re-seating, or a session file's own repeats."""
-    from analysis.design import NoiseModel, estimate_noise
+    from analysis.noise_model import NOISE_MODELS, estimate_noise, noise_model
 
-    if source == "iid":
-        return NoiseModel.iid(repeat_sd)
-    if source == "tab1":
-        from analysis.measured import load_tab1
-
-        return estimate_noise(load_tab1(), curves, "seed paper Tab. 1")
+    if source in NOISE_MODELS:  # "tab1" (default, the simulated bench's too) or "iid"
+        return noise_model(source, repeat_sd)
     from analysis.measured import MeasuredCurve
     from daq import load_session
 
     curve = MeasuredCurve.from_summary(load_session(source).summary, source=source)
-    return estimate_noise(curve, curves, source)
+    return estimate_noise(curve, None, source)  # lack of fit about a power law, as for Tab. 1
 
 
 def _design(args: argparse.Namespace) -> int:
@@ -78,7 +75,9 @@ def _design(args: argparse.Namespace) -> int:
     repeat_sd = check_range("--repeat-sd", args.repeat_sd, 0.0, 1.0)
     out = output_folder(args.output)
     paths = refuse_existing([out / "design.md", out / "discrimination.png", out / "plan.toml"], force=args.force)
-    if args.noise_from not in ("tab1", "iid") and not Path(args.noise_from).is_file():  # before the slow build
+    from analysis.noise_model import NOISE_MODELS
+
+    if args.noise_from not in NOISE_MODELS and not Path(args.noise_from).is_file():  # before the slow build
         raise FileNotFoundError(f"--noise-from {args.noise_from}: no such session file (or 'tab1', 'iid')")
     scene = load_scene(args.scene)
     config = SimConfig.from_scene(scene)  # the scene parsed once: rig or press, validated
@@ -87,7 +86,7 @@ def _design(args: argparse.Namespace) -> int:
     block_s = block.count * (block.delay_s + block.nplc / block.line_frequency_hz)
     w_min, w_max = (min(config.weights_kg), max(config.weights_kg)) if config.press is not None else (2.0, 26.0)
     curves = model_curves(scene, np.geomspace(w_min, w_max, 10))
-    noise = _noise(args.noise_from, repeat_sd, curves)
+    noise = _noise(args.noise_from, repeat_sd)
     with progress_bar("design: plans", quiet=args.quiet) as progress:
         result = design(curves, candidate_plans(w_min, w_max, block_s), n_sessions=sessions, seed=args.seed,
                         repeat_sd=repeat_sd, noise=noise, progress=progress)  # fmt: skip
@@ -108,9 +107,9 @@ def _design(args: argparse.Namespace) -> int:
         f"# Experiment design: {scene.name}\n\n{text}\n\nChosen plan: {len(plan.weights_kg)} loads "
         f"{list(plan.weights_kg)} kg × {plan.repeats} repeats ({plan.cost_s / 60:.0f} min), written to plan.toml"
         f"{'' if result.discriminating else ' (marked NOT A DISCRIMINATING PLAN)'}.\n\n"
-        "With this plan, the probability that a session's fit puts the true model ahead of the other by ΔAIC ≥ 10 "
+        "With this plan, the probability that a session's fit puts the true model ahead of the other by Δ(Q)AIC ≥ 10 "
         f"({sessions} simulated sessions each; Monte-Carlo SE ≤ {50 / np.sqrt(sessions):.1f} %):\n\n"
-        "| true model | other | P(ΔAIC ≥ 10) |\n|---|---|---|\n" + "\n".join(rows) + "\n\n"
+        "| true model | other | P(Δ(Q)AIC ≥ 10) |\n|---|---|---|\n" + "\n".join(rows) + "\n\n"
         "![discrimination map](discrimination.png)\n",
         force=args.force,
     )

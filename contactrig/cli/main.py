@@ -33,6 +33,7 @@ _COMMAND_MODULES = (
     "contactrig.cli.compare",
     "contactrig.cli.live",
     "contactrig.cli.surface",
+    "contactrig.cli.console",
 )
 
 

@@ -19,12 +19,14 @@ def _curves(exponent_b: float) -> ModelCurves:
 
 
 def test_identical_models_are_never_told_apart_and_distinct_ones_always() -> None:
-    """Same A(W): Δχ² = 0 exactly (never ≥ 10). A ∝ W against A ∝ W^0.3 over two decades: always told apart."""
+    """Same A(W): Δχ² = 0 exactly (never ≥ 10). A ∝ W against A ∝ W^0.3 over two decades: told apart in ≥ 95 % of
+    sessions — not every one: with the true R_s = 0 the true model's 95 % upper limit of R_s falls below zero by
+    chance in 2.5 % of sessions, and the fit then ranks it last as unphysical (as `fit` does)."""
     plan = Plan(tuple(np.geomspace(1.0, 100.0, 8)), 6, 1.0)
     same = design(_curves(1.0), [plan], n_sessions=200, film_ohm_m2=2e-9)
     assert same.pair_score[("a", "b")][0] == 0.0 and same.cheapest[("a", "b")] is None
     far = design(_curves(0.3), [plan], n_sessions=200, film_ohm_m2=2e-9)
-    assert far.pair_score[("a", "b")][0] == 1.0 and far.cheapest[("a", "b")] == 0
+    assert far.pair_score[("a", "b")][0] >= 0.95 and far.cheapest[("a", "b")] == 0
 
 
 def test_plan_scene_is_a_valid_scene_with_the_plan() -> None:
@@ -83,44 +85,44 @@ def test_lack_of_fit_lowers_the_discrimination_as_qaic_does_in_fit() -> None:
 
 def test_design_prediction_holds_when_its_sessions_are_replayed_through_fit() -> None:
     """Calibration: 150 sessions per direction, replayed in-process from the design's own random factors through
-    `fit` (compare_models, physical conversion): by the fit's χ² and the ĉ/QAIC rule every session's decision is the
-    design's, so the observed rate lies in the binomial 95 % interval of the prediction. The fit also ranks a fit
-    whose R_s is significantly negative last (unphysical), which the design does not model: with that rule the rate
-    is lower (measured 0.947 against 0.993 for one direction here) — the design is optimistic by those sessions."""
-    from analysis.design import DELTA_AIC, NoiseModel, simulate_plan
+    `fit` (compare_models, physical conversion). The design judges every session as the fit does — ĉ/QAIC, and an
+    unphysical or load-independent fit ranked last by the fit's own t-intervals — so the session decisions agree
+    (all but a rounding case at an interval's edge) and the observed rate lies in the binomial 95 % interval of the
+    prediction, in both directions. (Before the design modelled the unphysical flag: 0.947 observed against 0.993
+    predicted in one direction.)"""
+    from analysis.design import DELTA_AIC, NoiseModel, simulate_plan, told_apart
     from analysis.fit import compare_models
     from analysis.measured import MeasuredCurve
+    from analysis.resistance_model import bench_resistance_ohm
 
     curves = _curves(0.75)
     plan = Plan(tuple(np.geomspace(1.0, 100.0, 8)), 6, 1.0)
     noise = NoiseModel(0.05, 0.10, 0.04)
     film, series, block_sd, n = 2e-9, 1e-5, 1e-7, 150
     w = np.asarray(plan.weights_kg)
+    unphysical_seen = 0
     for truth, other in (("a", "b"), ("b", "a")):
-        chi2 = simulate_plan(curves, plan, truth, film, series, np.random.default_rng(7), n, 0.15, block_sd, noise)
-        c_hat = np.minimum(chi2["a"], chi2["b"]) / (w.size - 2)
-        predicted = np.mean((chi2[other] - chi2[truth]) / np.where(c_hat > 1.5, c_hat, 1.0) >= DELTA_AIC)
+        fits = simulate_plan(curves, plan, truth, film, series, np.random.default_rng(7), n, 0.15, block_sd, noise)
+        decided = told_apart(fits, truth, other, w.size - 2)
+        predicted = float(decided.mean())
+        unphysical_seen += int(fits[other].unphysical.sum() + fits[truth].unphysical.sum())
         rng = np.random.default_rng(7)  # the same factors, drawn again in the same order
         a_t, c_t = curves.at(truth, w)
         f = noise.factors(rng, (n, w.size, plan.repeats))
-        values = series + f * (film / a_t + c_t)[None, :, None] + block_sd * rng.standard_normal(f.shape)
-        told = same_rule = 0
+        values = bench_resistance_ohm(series, film, a_t, c_t, f) + block_sd * rng.standard_normal(f.shape)
+        told = np.zeros(n, dtype=bool)
         for k in range(n):
             cmp = compare_models(
                 MeasuredCurve(w, values[k], paired=True),
                 {m: curves.at(m, w)[0] for m in ("a", "b")}, height_m=1.0, conversion="physical", n_boot=0,
                 offset_terms={m: {"clean": curves.at(m, w)[1]} for m in ("a", "b")},
             )  # fmt: skip
-            told += cmp.ranking[0] == truth and cmp.delta_aic[other] >= DELTA_AIC
-            x2 = {m: cmp.fits[m].goodness.chi2 for m in ("a", "b")}
-            c = min(x2.values()) / (w.size - 2)
-            decided = (x2[other] - x2[truth]) / (c if c > 1.5 else 1.0) >= DELTA_AIC
-            assert decided == ((chi2[other][k] - chi2[truth][k]) / max(c_hat[k] if c_hat[k] > 1.5 else 1.0, 1.0)
-                               >= DELTA_AIC)  # fmt: skip
-            same_rule += decided
+            told[k] = cmp.ranking[0] == truth and cmp.delta_aic[other] >= DELTA_AIC
+            assert cmp.fits[other].physical == (not fits[other].unphysical[k]), (truth, k)
+        assert np.sum(told != decided) <= 1, (truth, np.flatnonzero(told != decided))
         half = 1.96 * np.sqrt(max(predicted * (1 - predicted), 1e-4) / n)
-        assert abs(same_rule / n - predicted) <= half, (truth, same_rule / n, predicted)
-        assert told / n <= predicted + half  # the unphysical rule only removes sessions
+        assert abs(told.mean() - predicted) <= half, (truth, told.mean(), predicted)
+    assert unphysical_seen > 0  # the unphysical rule is exercised, not vacuous
 
 
 def test_design_refuses_a_missing_noise_session_in_one_line(tmp_path, capsys) -> None:

@@ -94,11 +94,11 @@ def test_fit_figure_has_fits_and_residual_bars():
     cmp = compare_models(CURVE, AREAS, height_m=5e-3, n_boot=50)
     fig = F.figure_fit(cmp)
     top, bottom = fig.axes[:2]
-    fitted = [ln for ln in top.get_lines() if "ΔAIC" in str(ln.get_label())]
+    fitted = [ln for ln in top.get_lines() if f"Δ{cmp.criterion}" in str(ln.get_label())]
     assert len(fitted) == 2
     assert {model_label(n) for n in AREAS} == {str(ln.get_label()).split(":")[0] for ln in fitted}
     assert len(bottom.patches) == 2 * W.size
-    assert all("ΔAIC" in t or "measured" in t or "coincide" in t for t in _legend_texts(fig))
+    assert all(f"Δ{cmp.criterion}" in t or "measured" in t or "coincide" in t for t in _legend_texts(fig))
     assert _units(bottom) and "mΩ" in top.get_ylabel()
 
 
@@ -148,7 +148,7 @@ def test_a_model_looks_the_same_in_every_figure_and_models_differ():
     assert len({(F.model_style(n)["linestyle"], F.model_style(n)["marker"]) for n in known}) == len(known)
     area = F.figure_simulated_area({k: (W, a) for k, a in AREAS.items()}).axes[0].get_lines()
     cmp = compare_models(CURVE, AREAS, height_m=5e-3, n_boot=0)
-    fit_lines = [ln for ln in F.figure_fit(cmp).axes[0].get_lines() if "ΔAIC" in str(ln.get_label())]
+    fit_lines = [ln for ln in F.figure_fit(cmp).axes[0].get_lines() if f"Δ{cmp.criterion}" in str(ln.get_label())]
     by_label = {str(ln.get_label()).split(":")[0]: ln.get_color() for ln in fit_lines}
     for ln in area:
         assert by_label[ln.get_label()] == ln.get_color()

@@ -96,3 +96,31 @@ def test_overdispersed_errors_are_the_chi2_scaled_ones_when_larger():
     expected = scaled if scaled[1] > se_series[1] else se_series
     assert np.allclose([f.estimate.R_series_se, f.estimate.scale_se], expected, rtol=1e-5)
     assert f.estimate.error_rule.startswith("χ²-scaled" if scaled[1] > se_series[1] else "paired-series")
+
+
+def test_fit_figure_of_tab1_uses_the_fits_series_and_criterion():
+    """Fig. fit of Tab. 1: the legend names the fit's criterion (QAIC: ĉ ≈ 3 > 1.5) and the error bars are the SEM of
+    the independent series M1–M3 the fit counts (not of all six columns, three of them copies)."""
+    from analysis.figures import get_figure
+    from analysis.pipeline import analyse_tab1
+
+    a = analyse_tab1(n_boot=0, models=["greenwood_tripp", "hertz"])
+    assert a.comparison.criterion == "QAIC"
+    top = get_figure("fit_residuals").draw(a).axes[0]
+    labels = [t.get_text() for t in top.get_legend().get_texts()]
+    assert any("ΔQAIC" in t for t in labels) and not any("ΔAIC" in t for t in labels)
+    (bars,) = top.containers[0].lines[2]
+    half = np.array([abs(seg[1, 1] - seg[0, 1]) / 2 for seg in bars.get_segments()])
+    m13 = load_tab1().values_ohm[:, :3]
+    np.testing.assert_allclose(half, 1e3 * m13.std(axis=1, ddof=1) / math.sqrt(3), rtol=1e-9)
+
+
+def test_tab1_integrity_notes_are_the_series_detectors():
+    """One implementation: the report's Tab. 1 notes are the detector's findings and name what the fit counts."""
+    from analysis.pipeline import tab1_integrity_notes
+
+    curve = load_tab1()
+    notes = tab1_integrity_notes(curve)
+    dep = find_dependence(curve.values_ohm, curve.repeat_labels)
+    assert [n.rstrip(".") for n in notes[: len(dep.notes)]] == list(dep.notes)
+    assert "M4, M5, M6 are not independent repeats" in notes[-1] and "3 independent series (M1, M2, M3)" in notes[-1]

@@ -43,29 +43,6 @@ def test_load_independent_data_are_not_a_contact_area_measurement():
     assert "discriminate between" not in cmp.statement
 
 
-def test_physical_fit_recovers_film_and_series_within_honest_intervals():
-    """200 simulated sessions (the bench's noise: log-normal re-seating, 15 %, every weight and repeat), the clean
-    terms known: the t-intervals of σ_f and R_s contain the truth in ≥ 90 % of them (stated level 95 %)."""
-    area = 2e-7 * (W / W[0]) ** 0.9
-    barber, macro = 5e-5 * (W[0] / W) ** 0.9, np.full(W.size, 1.5e-5)
-    r_s, film = 2e-4, 1.2e-9
-    truth = r_s + film / area + barber + macro
-    rng = np.random.default_rng(11)
-    hits = np.zeros(2)
-    n = 200
-    for _ in range(n):
-        f = rng.lognormal(-0.5 * 0.15**2, 0.15, (W.size, 6))
-        curve = MeasuredCurve(W, truth[:, None] * f, paired=True)
-        fit = compare_models(
-            curve, {"m": area}, height_m=1.0, conversion="physical", n_boot=0,
-            offset_terms={"m": {"barber": barber, "macro": macro}},
-        ).fits["m"]  # fmt: skip
-        t = fit.intervals.t
-        hits += [t.scale[0] <= film <= t.scale[1], t.R_series_ohm[0] <= r_s <= t.R_series_ohm[1]]
-    assert fit.estimate.scale_units == "ohm*m2" and set(fit.shares) == {"series", "film", "barber", "macro"}
-    assert np.all(hits / n >= 0.90), hits / n
-
-
 def test_fit_tab1_physical_json_has_the_shares(capsys):
     from contactrig.cli.main import main
 
@@ -83,3 +60,34 @@ def test_fit_tab1_physical_json_has_the_shares(capsys):
     fitted, measured = np.array(fit["points"]["fitted_ohm"]), np.array(fit["points"]["measured_ohm"])
     assert np.allclose(total, fitted / measured, rtol=1e-9)  # shares of the measured mean add up to fitted/measured
     assert 0.003 < min(shares["barber"]) and max(shares["barber"]) < 0.03
+
+
+def test_fit_of_a_simulated_session_file_brackets_the_simulated_film_and_series(tmp_path, capsys):
+    """End to end: ``acquire --sim`` (default scene, Tab. 1 noise, R_s = 0.2 mΩ) then ``fit --conversion physical``:
+    the bench's clean-metal terms are the ones the fit subtracts, so the 95 % t-intervals bracket the simulated σ_f
+    and R_s (before, the bench had no clean-metal terms and the physical fit of a simulated session found R_s ≈ −0.23
+    mΩ). One seeded session; the coverage over many is tests/analysis/test_simulated_session.py."""
+    import re
+
+    from contactrig.cli.main import main
+    from contactrig.core.scene import default_scene_text
+
+    text = re.sub(r"(?m)^count = .*$", "count = 8", default_scene_text())
+    text = re.sub(r"(?m)^series_resistance_ohm = .*$", "series_resistance_ohm = 2e-4", text)
+    scene = tmp_path / "scene.toml"
+    scene.write_text(text)
+    session = tmp_path / "s.h5"
+    assert main(["acquire", str(scene), "--sim", "--yes", "--sim-speed", "inf", "-o", str(session)]) == 0
+    capsys.readouterr()
+    argv = ["fit", str(session), "--conversion", "physical", "--bootstrap", "0", "--models", "greenwood_tripp"]
+    assert main([*argv, "--json"]) == 0
+    fit = json.loads(capsys.readouterr().out)["models"]["greenwood_tripp"]
+    t = fit["intervals"]["t"]
+    from daq import load_session
+
+    circuit = load_session(session).start["simulation"]["circuit"]
+    film = circuit["resistivity_ohm_m"] * circuit["contact_height_m"]  # ζ·h of the scene's [circuit]
+    assert circuit["series_resistance_ohm"] == 2e-4
+    assert t["scale"][0] <= film <= t["scale"][1], (t["scale"], film)
+    assert t["R_series_ohm"][0] <= 2e-4 <= t["R_series_ohm"][1], t["R_series_ohm"]
+    assert fit["goodness"]["reduced_chi2"] > 1.5  # Tab. 1's over-dispersion, not iid scatter

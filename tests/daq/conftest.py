@@ -46,7 +46,7 @@ sim_seed = 7
 
 def sim_scene_text(repeat_sd: float | None = None) -> str:
     """The packaged default scene (materials, surfaces, rig, circuit) with a small session: 3 weights × 2 × 8;
-    ``repeat_sd`` replaces ``[session].sim_repeat_sd``."""
+    ``repeat_sd`` replaces ``[session].sim_repeat_sd`` and selects ``sim_noise = "iid"`` (independent re-seating)."""
     import re
 
     from contactrig.core.scene import default_scene_text
@@ -57,6 +57,8 @@ def sim_scene_text(repeat_sd: float | None = None) -> str:
     text = re.sub(r"(?m)^timeout_ms = .*$", "timeout_ms = 1000", text)
     if repeat_sd is not None:
         text, n = re.subn(r"(?m)^sim_repeat_sd = .*$", f"sim_repeat_sd = {repeat_sd!r}", text)
+        assert n == 1
+        text, n = re.subn(r'(?m)^sim_noise = .*$', 'sim_noise = "iid"', text)
         assert n == 1
     return text.replace("[session]\n", "[session]\nweights_kg = [5.44, 10.526, 25.966]\n")
 

@@ -92,13 +92,15 @@ def _sim_session(tmp_path, capsys, repeat_sd):
     table = tomllib.loads(sim_scene_text())["circuit"]
     c = sim["circuit"]
     assert all(c[k] == table[k] for k in ("resistivity_ohm_m", "contact_height_m", "series_resistance_ohm"))
-    # seed eq. 23 by hand from the recorded areas: contact term ζ·h/A per weight
-    contact = c["resistivity_ohm_m"] * c["contact_height_m"] / np.array(sim["contact_area_m2"])
+    # the physical model by hand from the recorded areas and clean-metal terms: contact term ζ·h/A + R_clean
+    clean = np.sum([np.array(v) for v in sim["clean_terms_ohm"].values()], axis=0)
+    assert set(sim["clean_terms_ohm"]) == {"barber", "macro"} and np.all(clean > 0)
+    contact = c["resistivity_ohm_m"] * c["contact_height_m"] / np.array(sim["contact_area_m2"]) + clean
     return out, s, c["series_resistance_ohm"], contact
 
 
 def test_simulated_session_follows_eq23_from_the_rig(tmp_path, capsys):
-    """--sim without re-seating scatter: mean R at each weight = R_s + ζ·h/A(W) (eq. 23) within the noise."""
+    """--sim without re-seating scatter: mean R at each weight = R_s + ζ·h/A(W) + R_clean(W) within the noise."""
     out, s, r_s, contact = _sim_session(tmp_path, capsys, 0.0)
     means = s.summary.groupby("weight_kg").mean_ohm.mean()
     assert list(means.index) == s.start["simulation"]["weights_kg"]
@@ -221,8 +223,31 @@ def test_simulated_session_resumes_with_sim_and_only_with_sim(tmp_path, capsys):
     sigma, seed = 0.3, tomllib.loads(sim_scene_text())["session"]["sim_seed"]
     z = np.random.default_rng([seed, 0x5EA7]).standard_normal(6)
     c = sim["circuit"]
-    contact = c["resistivity_ohm_m"] * c["contact_height_m"] / np.array(sim["contact_area_m2"])
+    clean = np.sum([np.array(v) for v in sim["clean_terms_ohm"].values()], axis=0)
+    contact = c["resistivity_ohm_m"] * c["contact_height_m"] / np.array(sim["contact_area_m2"]) + clean
     expected = c["series_resistance_ohm"] + np.repeat(contact, 2) * np.exp(sigma * z - sigma**2 / 2)
+    np.testing.assert_allclose(s.summary.mean_ohm.to_numpy(), expected, rtol=1e-3)
+    capsys.readouterr()
+    assert main(["replay", str(out), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["identical"] is True
+
+
+def test_simulated_session_with_tab1_noise_records_its_factors_and_replays(tmp_path, capsys):
+    """The default ``sim_noise = "tab1"``: each block is R_s + f_b·(ζh/A + R_clean) with f_b the seeded factors of the
+    design's noise model (analysis.noise_model), recorded with its parameters; replay reproduces every block."""
+    import tomllib
+
+    from analysis.noise_model import tab1_noise
+    from analysis.simulated_session import session_factors
+
+    out, s, r_s, contact = _sim_session(tmp_path, capsys, None)
+    sim = s.start["simulation"]
+    assert sim["noise"]["name"] == "tab1" and sim["noise"]["lack_sd"] == tab1_noise().lack_sd
+    seed = tomllib.loads(sim_scene_text())["session"]["sim_seed"]
+    f = session_factors(tab1_noise(), 3, 2, seed)
+    np.testing.assert_array_equal(sim["contact_factor"], f)
+    expected = r_s + np.repeat(contact, 2) * f
+    np.testing.assert_allclose(sim["block_resistance_ohm"], expected, rtol=1e-12)
     np.testing.assert_allclose(s.summary.mean_ohm.to_numpy(), expected, rtol=1e-3)
     capsys.readouterr()
     assert main(["replay", str(out), "--json"]) == 0

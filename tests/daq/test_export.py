@@ -4,6 +4,7 @@ the summary imports back to the same numbers."""
 from __future__ import annotations
 
 import csv
+import importlib.util
 import json
 import math
 import re
@@ -273,3 +274,32 @@ def test_csv_export_of_a_fit_quotes_text_and_keeps_negative_numbers_numbers(tmp_
     assert ',"\'=1+1",' in line  # a text cell: quoted, neutralised
     rows = list(csv.reader(ln for ln in paths[0].open(encoding="utf-8") if ln[0] != "#"))
     assert float(rows[2][2]) == -4e-3
+
+
+def test_export_fit_writes_the_physical_conversions_shares(tmp_path, capsys):
+    """``export SESSION --fit --conversion physical``: a shares table (CSV beside the fits, a sheet in xlsx) with each
+    term's share of the measured mean per weight, the numbers of ``fit --json``; term names are text cells, quoted and
+    neutralised like every other."""
+    src = tmp_path / "t.h5"
+    assert main(["import", "--tab1", "-o", str(src)]) == 0
+    opts = ["--bootstrap", "0", "--models", "greenwood_tripp", "--conversion", "physical"]
+    assert main(["fit", str(src), "--json", *opts]) == 0
+    shares = json.loads(capsys.readouterr().out)["models"]["greenwood_tripp"]["shares"]
+    assert main(["export", str(src), "--fit", *opts, "-o", str(tmp_path / "fit.csv")]) == 0
+    rows = list(csv.DictReader(ln for ln in (tmp_path / "fit-shares.csv").open(encoding="utf-8") if ln[0] != "#"))
+    assert {r["term"] for r in rows} == {"series", "film", "barber", "macro"} and len(rows) == 4 * 8
+    for r in rows:
+        assert r["model"] == "greenwood_tripp"
+    barber = [float(r["share_of_measured_mean"]) for r in rows if r["term"] == "barber"]
+    np.testing.assert_allclose(barber, shares["barber"], rtol=1e-15)
+    fit = json.loads(json.dumps(FIT))
+    fit["models"]["hertz"]["shares"] = {"=cmd|' /C calc'!A0": [0.5, 0.5]}
+    paths = export_fit(fit, "csv", tmp_path / "h.csv")
+    assert paths[-1].name == "h-shares.csv"
+    for p in paths:
+        _assert_inert(p)
+    if importlib.util.find_spec("openpyxl") is not None:
+        import openpyxl
+
+        export_fit(fit, "xlsx", tmp_path / "h.xlsx")
+        assert "shares" in openpyxl.load_workbook(tmp_path / "h.xlsx").sheetnames

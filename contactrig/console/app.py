@@ -1,0 +1,611 @@
+"""The console's web application (Starlette): pages, the JSON API, server-sent events, and the guards.
+
+Every request passes :class:`Guard` first (token, Host, Origin on state changes, security headers). The pages are one
+static HTML shell with its script and stylesheet served from this package (no CDN, no inline script; the page
+builds its DOM with ``textContent``, so a string from a file is never markup). Sessions are listed by
+:func:`daq.index.index_sessions` (the one index, as ``contactrig sessions``); a session is acquired by
+:class:`~contactrig.console.runner.SessionRun` (``daq.acquire.acquire`` in a child process); fit, report and export
+run the ``contactrig`` commands themselves, so the page shows what the terminal prints.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import re
+import secrets
+import subprocess
+import sys
+import threading
+import warnings
+from collections.abc import AsyncIterator, Awaitable, Callable, MutableMapping
+from dataclasses import dataclass, field
+from http.cookies import SimpleCookie
+from importlib import resources
+from pathlib import Path
+from typing import Any
+from urllib.parse import parse_qs
+
+from starlette.applications import Starlette
+from starlette.requests import Request
+from starlette.responses import (
+    FileResponse,
+    JSONResponse,
+    PlainTextResponse,
+    RedirectResponse,
+    Response,
+    StreamingResponse,
+)
+from starlette.routing import Route
+
+from contactrig.console.runner import RunState, SessionRun
+from contactrig.console.security import check_token, resolve_under, same_origin
+
+__all__ = ["Console", "build_app"]
+
+Scope = MutableMapping[str, Any]
+Message = MutableMapping[str, Any]
+Receive = Callable[[], Awaitable[Message]]
+Send = Callable[[Message], Awaitable[None]]
+ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
+
+COOKIE = "contactrig_console"
+#: the pages' policy: scripts, styles, images and connections only from the console itself; nothing inline
+PAGE_CSP = (
+    "default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' data:; connect-src 'self'; "
+    "base-uri 'none'; form-action 'self'; frame-ancestors 'none'"
+)
+#: files from DIR (report.html, figures, exports): a sandbox without scripts; the report's own styles and images
+FILE_CSP = "sandbox; default-src 'none'; img-src 'self' data:; style-src 'unsafe-inline'; frame-ancestors 'self'"
+SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,120}\.(h5|hdf5|nxs)$")
+STATIC = {"app.js": "text/javascript", "style.css": "text/css", "index.html": "text/html"}
+SUBPROCESS_TIMEOUT_S = 600
+#: past sessions overlaid at most (the latest)
+MAX_OVERLAID = 10
+#: seconds between the two SIGINTs of "stop now" (POSIX does not queue a second pending SIGINT)
+STOP_GAP_S = 0.2
+
+
+@dataclass
+class Console:
+    """The console's state: its folder, token, the hosts it answers to, its runs and the index cache."""
+
+    root: Path
+    token: str
+    allowed_hosts: frozenset[str]
+    #: bound to every interface (``--host 0.0.0.0``): any Host header is answered (token and Origin still checked)
+    any_host: bool = False
+    runs: dict[str, SessionRun] = field(default_factory=dict)
+    index_cache: dict[Any, Any] = field(default_factory=dict)
+    lock: threading.Lock = field(default_factory=threading.Lock)
+
+    def running_on(self, address: str) -> SessionRun | None:
+        return next((r for r in self.runs.values() if r.running and r.state.address == address), None)
+
+    def close(self) -> None:
+        for run in list(self.runs.values()):
+            run.close()
+
+
+class Guard:
+    """ASGI middleware: 403 without the token (cookie, ``X-Contactrig-Token`` header or ``?token=`` — the last
+    sets the cookie and redirects to the bare URL), 403 for a Host the console does not answer to (DNS rebinding),
+    403 for a state-changing request from another origin; security headers on every response."""
+
+    def __init__(self, app: ASGIApp, console: Console) -> None:
+        self.app, self.console = app, console
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        headers = {k.decode("latin-1").lower(): v.decode("latin-1") for k, v in scope["headers"]}
+        query = parse_qs(scope.get("query_string", b"").decode("latin-1"))
+        host = headers.get("host")
+        if host is None or (host not in self.console.allowed_hosts and not self.console.any_host):
+            await _deny("unknown Host", scope, receive, send)
+            return
+        from_query = (query.get("token") or [None])[0]
+        cookie = SimpleCookie()
+        try:
+            cookie.load(headers.get("cookie", ""))
+        except Exception:
+            cookie = SimpleCookie()
+        given = headers.get("x-contactrig-token") or (cookie[COOKIE].value if COOKIE in cookie else None)
+        if not check_token(given, self.console.token):
+            if scope["method"] == "GET" and check_token(from_query, self.console.token):
+                await _set_cookie_and_redirect(self.console.token, scope, receive, send)
+                return
+            await _deny("token missing or wrong", scope, receive, send)
+            return
+        hosts = frozenset({host}) if self.console.any_host else self.console.allowed_hosts
+        if scope["method"] not in ("GET", "HEAD") and not same_origin(headers.get("origin"), host, hosts):
+            await _deny("cross-origin request refused", scope, receive, send)
+            return
+        await self.app(scope, receive, _with_headers(send, scope["path"]))
+
+
+def _with_headers(send: Send, path: str) -> Send:
+    csp = FILE_CSP if path.startswith("/files/") else PAGE_CSP
+
+    async def wrapped(message: Message) -> None:
+        if message["type"] == "http.response.start":
+            extra = [
+                (b"content-security-policy", csp.encode()),
+                (b"x-content-type-options", b"nosniff"),
+                (b"referrer-policy", b"no-referrer"),
+                (b"cache-control", b"no-store"),
+            ]
+            if not path.startswith("/files/"):
+                extra.append((b"x-frame-options", b"DENY"))
+            message["headers"] = [*message.get("headers", []), *extra]
+        await send(message)
+
+    return wrapped
+
+
+async def _deny(why: str, scope: Scope, receive: Receive, send: Send) -> None:
+    headers = {"content-security-policy": PAGE_CSP}
+    response = PlainTextResponse(f"403 forbidden: {why}", status_code=403, headers=headers)
+    await response(scope, receive, send)
+
+
+async def _set_cookie_and_redirect(token: str, scope: Scope, receive: Receive, send: Send) -> None:
+    response = RedirectResponse(scope["path"] if scope["path"] == "/" else "/", status_code=303)
+    response.set_cookie(COOKIE, token, httponly=True, samesite="strict", path="/")
+    await response(scope, receive, send)
+
+
+# -- pages and static files ---------------------------------------------------------------------------------------
+
+
+def _static(name: str) -> Response:
+    data = resources.files("contactrig.console").joinpath("static", name).read_bytes()
+    return Response(data, media_type=STATIC[name])
+
+
+async def page(request: Request) -> Response:
+    return _static("index.html")
+
+
+async def static(request: Request) -> Response:
+    name = request.path_params["name"]
+    if name not in STATIC:
+        return PlainTextResponse("not found", status_code=404)
+    return _static(name)
+
+
+async def files(request: Request) -> Response:
+    """A file under DIR (report, figure, export), sandboxed; anything else 404."""
+    console: Console = request.app.state.console
+    path = resolve_under(console.root, request.path_params["path"])
+    if path is None:
+        return PlainTextResponse("not found", status_code=404)
+    kinds = {".html": "text/html", ".png": "image/png", ".svg": "image/svg+xml", ".csv": "text/csv",
+             ".md": "text/plain", ".json": "application/json"}  # fmt: skip
+    media = kinds.get(path.suffix.lower(), "application/octet-stream")
+    download = media == "application/octet-stream" or path.suffix.lower() == ".csv"
+    return FileResponse(path, media_type=media, filename=path.name if download else None)
+
+
+# -- the sessions index -------------------------------------------------------------------------------------------
+
+
+def _relative(console: Console, path: str) -> str:
+    try:
+        return Path(path).relative_to(console.root).as_posix()
+    except ValueError:
+        return path
+
+
+async def sessions(request: Request) -> Response:
+    """The index of DIR (:func:`daq.index.index_sessions`, cached per file by size and time of change)."""
+    from daq.index import SORT_KEYS, index_sessions
+
+    console: Console = request.app.state.console
+    sort = request.query_params.get("sort", "start")
+    sort = sort if sort in SORT_KEYS else "start"
+    sample = request.query_params.get("sample") or None
+    entries = await asyncio.to_thread(index_sessions, console.root, sort=sort, sample=sample, cache=console.index_cache)
+    rows = []
+    for e in entries:
+        d = e.as_dict()
+        d["path"] = _relative(console, e.path)
+        rows.append(d)
+    return JSONResponse({"sessions": rows})
+
+
+# -- a new session ------------------------------------------------------------------------------------------------
+
+
+def _scene_choices(console: Console) -> list[dict[str, str]]:
+    choices = [{"id": "", "label": "packaged default scene (what `contactrig scene init` writes)"}]
+    for p in sorted(console.root.glob("*.toml")):
+        if resolve_under(console.root, p.name) is not None:
+            choices.append({"id": p.name, "label": p.name})
+    return choices
+
+
+async def scenes(request: Request) -> Response:
+    return JSONResponse({"scenes": _scene_choices(request.app.state.console)})
+
+
+async def overrides_form(request: Request) -> Response:
+    """The per-run overrides the New-session form offers: the declared table :data:`daq.overrides.OVERRIDES`."""
+    from contactrig.core.validation import scene_key
+    from daq.overrides import OVERRIDES
+
+    rows = [{"key": o.key, "option": o.option, "help": o.help, "sim_only": o.sim_only, "on_resume": o.on_resume,
+             "scene_key": scene_key(o.key)} for o in OVERRIDES]  # fmt: skip
+    return JSONResponse({"overrides": rows})
+
+
+class BadRequest(ValueError):
+    """A form value the console refuses (one line, shown in the page)."""
+
+
+def _scene_path(console: Console, scene_id: object) -> Path | None:
+    if scene_id in (None, ""):
+        return None
+    if not isinstance(scene_id, str) or resolve_under(console.root, scene_id) is None or "/" in scene_id:
+        raise BadRequest(f"scene {scene_id!r}: not a scene file in the console's folder")
+    return console.root / scene_id
+
+
+def _speed(body: dict[str, Any]) -> float | None:
+    value = body.get("sim_speed")
+    if value in (None, ""):
+        return None
+    try:
+        speed = float(value)
+    except (TypeError, ValueError):
+        raise BadRequest(f"sim_speed {value!r}: expected a number > 0 (1 = real pace) or inf") from None
+    if not speed > 0:
+        raise BadRequest(f"sim_speed {value!r}: expected a number > 0 (1 = real pace) or inf")
+    return speed
+
+
+def _plan(console: Console, body: dict[str, Any]) -> tuple[Any, list[str]]:
+    """The scene's plan and the lines ``acquire`` prints for it (weights, repeats, estimated duration)."""
+    from analysis.simulated_session import DEFAULT_SIM_SPEED
+    from contactrig.core.scene import load_scene
+    from daq.acquire import plan_lines
+    from daq.overrides import check_bench, plan_with_overrides
+    from daq.plan import session_steps
+
+    scene = load_scene(_scene_path(console, body.get("scene")))
+    overrides = _overrides(body)
+    check_bench(overrides, simulated=bool(body.get("sim")))
+    plan = plan_with_overrides(scene, overrides)
+    speed = _speed(body) or DEFAULT_SIM_SPEED
+    time_scale = (0.0 if speed == float("inf") else 1.0 / speed) if body.get("sim") else 1.0
+    steps = list(session_steps(plan))
+    return plan, plan_lines(plan, steps, attended=True, time_scale=time_scale)
+
+
+async def plan_preview(request: Request) -> Response:
+    console: Console = request.app.state.console
+    body = await _json_body(request)
+    try:
+        plan, lines = await asyncio.to_thread(_plan, console, body)
+    except (ValueError, OSError) as exc:
+        return JSONResponse({"error": _one_line(exc)}, status_code=400)
+    return JSONResponse({"lines": lines, "address": plan.instrument.address, "blocks_planned": plan.blocks_planned})
+
+
+async def _json_body(request: Request) -> dict[str, Any]:
+    try:
+        body = await request.json()
+    except (json.JSONDecodeError, UnicodeDecodeError):
+        return {}
+    return body if isinstance(body, dict) else {}
+
+
+def _one_line(exc: BaseException) -> str:
+    from contactrig.core.text import bound_error_line
+
+    return bound_error_line(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+
+
+def _start(console: Console, body: dict[str, Any]) -> SessionRun:
+    """Check the form and start the acquisition child (refused: a session already running on the address)."""
+    resume = bool(body.get("resume"))
+    output = body.get("output")
+    if resume:
+        if not isinstance(output, str) or resolve_under(console.root, output) is None:
+            raise BadRequest(f"resume {output!r}: not a session file in the console's folder")
+        scene_path = None
+        address, blocks_planned, before, weights, sample = _recorded(console.root / output)
+    else:
+        if not isinstance(output, str) or not SAFE_NAME.match(output):
+            raise BadRequest(
+                f"file name {output!r}: expected a plain name ending in .h5 (letters, digits, '.', '_', '-')"
+            )
+        if (console.root / output).exists() or (console.root / output).is_symlink():
+            raise BadRequest(f"{output} exists: choose another name, or resume it from the sessions page")
+        scene_path = _scene_path(console, body.get("scene"))
+        plan, _ = _plan(console, body)
+        blocks_planned, address = plan.blocks_planned, plan.instrument.address
+        before, weights, sample = 0, len(plan.session.weights_kg), plan.session.sample
+    overrides = _overrides(body)
+    if resume:
+        from daq.overrides import check_bench
+
+        check_bench(overrides, simulated=bool(body.get("sim")))
+        address = str(overrides.get("instrument.address", address))
+        sample = str(overrides.get("session.sample", sample))
+    request = {"scene": None if scene_path is None else str(scene_path), "output": str(console.root / output),
+               "sim": bool(body.get("sim")), "sim_speed": _speed(body), "resume": resume, "overrides": overrides,
+               "allow_change": bool(body.get("allow_change"))}  # fmt: skip
+    client = str(body.get("client") or "")[:64]
+    with console.lock:
+        busy = console.running_on(address)
+        if busy is not None:
+            raise BadRequest(f"a session is running on {address} already ({busy.state.file}): one at a time per bench")
+        state = RunState(id=secrets.token_hex(8), file=output, address=address, controller=client,
+                         sim=bool(body.get("sim")), resume=resume, blocks_planned=blocks_planned,
+                         blocks_before=before, weights_left=weights, sample=sample)  # fmt: skip
+        run = SessionRun(state, request, cwd=str(console.root))
+        console.runs[state.id] = run
+    return run
+
+
+def _overrides(body: dict[str, Any]) -> dict[str, Any]:
+    """The form's per-run overrides of the scene, ``{scene key: text}`` → ``{scene key: value}``, parsed by their
+    declarations (:data:`daq.overrides.OVERRIDES`, as ``acquire --address/--sample/…``); empty fields are left out."""
+    from daq.overrides import OVERRIDES
+
+    given = body.get("overrides") or {}
+    if not isinstance(given, dict):
+        raise BadRequest("overrides: expected an object {scene key: text}")
+    known = {o.key: o for o in OVERRIDES}
+    for key in given:
+        if key not in known:
+            raise BadRequest(f"overrides: {str(key)[:60]!r} is not one of {', '.join(known)}")
+    out = {}
+    for key, text in given.items():
+        if text in (None, ""):
+            continue
+        if not isinstance(text, str) or len(text) > 100_000:
+            raise BadRequest(f"{known[key].option}: expected text of at most 100000 characters")
+        out[key] = known[key].parse(text)
+    return out
+
+
+def _recorded(path: Path) -> tuple[str, int, int, int, str]:
+    """A session to resume: its bench address, blocks planned, blocks on file, weights not yet measured, sample."""
+    from daq.session_file import load_session
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the notes of an unfinished session: resuming is the point
+            session = load_session(path, timeout=30)
+    except Exception as exc:
+        raise BadRequest(f"{path.name}: {exc}") from None
+    start = session.start
+    plan = start.get("plan") or {}
+    planned = int(plan.get("blocks_planned") or 0)
+    done = len(session.summary)
+    weights = (plan.get("session") or {}).get("weights_kg") or []
+    measured = set(session.summary["weight_kg"].tolist())
+    address = str((start.get("instrument") or {}).get("address", ""))
+    return address, planned, done, len(set(weights) - measured), str(start.get("sample") or "")
+
+
+async def start_run(request: Request) -> Response:
+    body = await _json_body(request)
+    try:
+        run = await asyncio.to_thread(_start, request.app.state.console, body)
+    except (ValueError, OSError) as exc:
+        status = 409 if "running on" in str(exc) else 400
+        return JSONResponse({"error": _one_line(exc)}, status_code=status)
+    return JSONResponse(run.snapshot())
+
+
+def _run(request: Request) -> SessionRun | None:
+    return request.app.state.console.runs.get(request.path_params["run"])
+
+
+async def runs(request: Request) -> Response:
+    console: Console = request.app.state.console
+    return JSONResponse({"runs": [_brief(r) for r in console.runs.values()]})
+
+
+def _brief(run: SessionRun) -> dict[str, Any]:
+    s = run.state
+    blocks = s.blocks_before + len(s.blocks)
+    return {"id": s.id, "file": s.file, "phase": s.phase, "address": s.address, "blocks": blocks,
+            "blocks_planned": s.blocks_planned}  # fmt: skip
+
+
+async def run_state(request: Request) -> Response:
+    run = _run(request)
+    if run is None:
+        return JSONResponse({"error": "no such run"}, status_code=404)
+    return JSONResponse(run.snapshot())
+
+
+async def answer(request: Request) -> Response:
+    """The operator's answer: ``{"decision": "go"|"skip"|"quit"}`` to a weight, ``{"measure": bool}`` on resume."""
+    run = _run(request)
+    body = await _json_body(request)
+    if run is None:
+        return JSONResponse({"error": "no such run"}, status_code=404)
+    if "decision" in body:
+        if body["decision"] not in ("go", "skip", "quit"):
+            return JSONResponse({"error": "decision: expected go, skip or quit"}, status_code=400)
+        reply: dict[str, Any] = {"decision": body["decision"]}
+    else:
+        reply = {"measure": bool(body.get("measure"))}
+    if not run.answer(reply):
+        return JSONResponse({"error": "nothing is being asked now"}, status_code=409)
+    return JSONResponse({"ok": True})
+
+
+async def stop(request: Request) -> Response:
+    """Stop after this block (first request) or now (second): SIGINT to the acquisition, as Ctrl-C. A browser that
+    did not start the run is asked to confirm (``confirm: true``)."""
+    run = _run(request)
+    body = await _json_body(request)
+    if run is None:
+        return JSONResponse({"error": "no such run"}, status_code=404)
+    if str(body.get("client") or "") != run.state.controller and not body.get("confirm"):
+        return JSONResponse({"confirm": "this session was started from another browser: stop it anyway?"},
+                            status_code=409)  # fmt: skip
+    want = 2 if body.get("now") else 1
+    count = run.state.stop_requests
+    while count < want and run.running:
+        if count:  # two signals close together may arrive as one: give the first its time to be handled
+            await asyncio.sleep(STOP_GAP_S)
+        count = run.request_stop()
+    return JSONResponse({"stop_requests": count})
+
+
+async def events(request: Request) -> Response:
+    """Server-sent events: the run's state each time it changes (polled from memory; never touches the child)."""
+    run = _run(request)
+    if run is None:
+        return JSONResponse({"error": "no such run"}, status_code=404)
+
+    async def stream() -> AsyncIterator[str]:
+        version = -1
+        while True:
+            if run.state.version != version:
+                snap = run.snapshot()
+                version = snap["version"]
+                yield f"data: {json.dumps(snap)}\n\n"
+                if snap["phase"] == "ended":
+                    return
+            await asyncio.sleep(0.1)
+
+    return StreamingResponse(stream(), media_type="text/event-stream")
+
+
+# -- a finished session -------------------------------------------------------------------------------------------
+
+
+def _session_file(console: Console, relative: object) -> Path:
+    if not isinstance(relative, str) or resolve_under(console.root, relative) is None:
+        raise BadRequest(f"session {relative!r}: not a session file in the console's folder")
+    return console.root / relative
+
+
+def _details(path: Path) -> dict[str, Any]:
+    from daq.session_file import load_session
+
+    with warnings.catch_warnings(record=True) as notes:
+        warnings.simplefilter("always")
+        s = load_session(path, timeout=60)
+    summary = s.summary
+    cols = [c for c in ("block", "run", "weight_kg", "repeat", "mean_ohm", "sem_ohm", "n", "n_invalid", "compliance")
+            if c in summary.columns]  # fmt: skip
+    blocks = json.loads(summary[cols].to_json(orient="records"))
+    runs = [r for r in s.runs if isinstance(r, dict)] if isinstance(s.runs, list) else []
+    history = [{"run": r.get("run", i), "started": r.get("started"), "command": r.get("command"),
+                "resumed_from": r.get("resumed_from"), "stop": r.get("stop")} for i, r in enumerate(runs)]  # fmt: skip
+    said = [*s.warnings, *(str(n.message) for n in notes)]
+    return {"status": s.status, "stop": s.stop, "history": history, "blocks": blocks, "sample": s.start.get("sample"),
+            "operator": s.start.get("operator"), "warnings": said}  # fmt: skip
+
+
+async def session_details(request: Request) -> Response:
+    console: Console = request.app.state.console
+    try:
+        path = _session_file(console, request.query_params.get("path"))
+        details = await asyncio.to_thread(_details, path)
+    except (ValueError, OSError, RuntimeError) as exc:
+        return JSONResponse({"error": _one_line(exc)}, status_code=400)
+    return JSONResponse(details, headers={"cache-control": "no-store"})
+
+
+def _contactrig(args: list[str], cwd: Path) -> dict[str, Any]:
+    """Run a ``contactrig`` command as the terminal would; its output (escaped by the command) for the page."""
+    out = subprocess.run([sys.executable, "-m", "contactrig", *args], cwd=cwd, capture_output=True, text=True,
+                         timeout=SUBPROCESS_TIMEOUT_S, encoding="utf-8", errors="replace")  # fmt: skip
+    return {"code": out.returncode, "stdout": out.stdout, "stderr": out.stderr}
+
+
+async def session_action(request: Request) -> Response:
+    """``fit`` (the table and verdict as ``contactrig fit`` prints them), ``report`` (report.html, then a link to
+    it) or ``export`` (CSV or xlsx beside the session)."""
+    console: Console = request.app.state.console
+    body = await _json_body(request)
+    action = request.path_params["action"]
+    try:
+        path = _session_file(console, body.get("path"))
+    except BadRequest as exc:
+        return JSONResponse({"error": _one_line(exc)}, status_code=400)
+    rel = path.relative_to(console.root).as_posix()
+    stem = path.name.rsplit(".", 1)[0]
+    if action == "fit":
+        result = await asyncio.to_thread(_contactrig, ["fit", rel, "--bootstrap", "200"], console.root)
+    elif action == "report":
+        folder = f"{stem}-report"
+        result = await asyncio.to_thread(
+            _contactrig, ["report", rel, "-o", folder, "--force", "--bootstrap", "200", "--quiet",
+                          "--no-compare-models"], console.root)  # fmt: skip
+        result["link"] = f"/files/{Path(rel).parent.joinpath(folder, 'report.html').as_posix()}"
+    elif action == "export":
+        to = "xlsx" if body.get("to") == "xlsx" else "csv"
+        result = await asyncio.to_thread(_contactrig, ["export", rel, "--to", to, "--force"], console.root)
+        written = [ln[len("wrote "):] for ln in result["stderr"].splitlines() if ln.startswith("wrote ")]
+        result["written"] = [_relative(console, str((console.root / w).resolve())) for w in written]
+        result["links"] = [f"/files/{w}" for w in result["written"]]
+    else:
+        return JSONResponse({"error": "no such action"}, status_code=404)
+    return JSONResponse(result)
+
+
+def _overlay(console: Console, sample: str, leave_out: str) -> list[dict[str, Any]]:
+    """Past sessions of ``sample`` (the same text, case-insensitive): per weight, the mean of the block means."""
+    from daq.index import index_sessions
+    from daq.session_file import load_session
+
+    found = []
+    for e in index_sessions(console.root, cache=console.index_cache):
+        rel = _relative(console, e.path)
+        if rel == leave_out or e.sample.casefold() != sample.casefold() or e.status in ("corrupt", "newer", "other"):
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                summary = load_session(e.path, timeout=30).summary
+            except Exception:
+                continue
+        ok = summary[~summary["compliance"]] if "compliance" in summary.columns else summary
+        means = ok.groupby("weight_kg")["mean_ohm"].mean()
+        points = [{"weight_kg": float(w), "mean_ohm": float(m)} for w, m in means.items() if m == m]
+        found.append({"path": rel, "start": e.start_time, "points": points})
+    return found[-MAX_OVERLAID:]
+
+
+async def overlay(request: Request) -> Response:
+    console: Console = request.app.state.console
+    sample = request.query_params.get("sample", "")
+    found = await asyncio.to_thread(_overlay, console, sample, request.query_params.get("leave_out", ""))
+    return JSONResponse({"sessions": found})
+
+
+def build_app(console: Console) -> ASGIApp:
+    """The ASGI application of ``console`` (wrapped by :class:`Guard`)."""
+    routes = [
+        Route("/", page),
+        Route("/static/{name}", static),
+        Route("/files/{path:path}", files),
+        Route("/api/sessions", sessions),
+        Route("/api/scenes", scenes),
+        Route("/api/overrides", overrides_form),
+        Route("/api/plan", plan_preview, methods=["POST"]),
+        Route("/api/runs", runs),
+        Route("/api/runs", start_run, methods=["POST"]),
+        Route("/api/runs/{run}", run_state),
+        Route("/api/runs/{run}/answer", answer, methods=["POST"]),
+        Route("/api/runs/{run}/stop", stop, methods=["POST"]),
+        Route("/api/runs/{run}/events", events),
+        Route("/api/session", session_details),
+        Route("/api/overlay", overlay),
+        Route("/api/session/{action}", session_action, methods=["POST"]),
+    ]
+    app = Starlette(routes=routes)
+    app.state.console = console
+    return Guard(app, console)

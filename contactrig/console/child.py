@@ -1,0 +1,180 @@
+"""The console's acquisition process: :func:`daq.acquire.acquire` itself, run in a child process of the console.
+
+The console starts ``python -m contactrig.console.child`` in a process group of its own and talks to it over two
+pipes, one JSON object per line: the child's stdout carries events (the plan, each record, the question to the
+operator), its stdin the operator's answers. It runs ``acquire`` in its main thread, so acquire's own Ctrl-C
+policy (:class:`daq.engine.Interrupts`) is installed: the console's "stop after this block" is one SIGINT to this
+process, "stop now" a second one — the terminal's first and second Ctrl-C, with the same guarantees (source idle,
+stop record written).
+
+The acquisition never waits on the browser: the records go to the console as one more writer, guarded
+(:class:`analysis.watch.Guarded`: a failure of the pipe turns it off, the acquisition goes on); only the prompter
+waits, for the operator, as the terminal's does. If the console goes away while a weight is asked for, the
+operator can no longer answer: the session stops there (``OperatorQuit``), its stop record written.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from collections.abc import Callable, Sequence
+from typing import Any, TextIO
+
+from daq.engine import Decision, OperatorQuit
+from daq.plan import PlaceWeight
+from daq.records import BlockRecord, StopRecord
+
+__all__ = ["ConsoleWriter", "main", "pipe_prompter", "pipe_resume_chooser"]
+
+#: readings of a block sent to the console (the plot of the current block); more are counted, not sent
+MAX_READINGS_SENT = 2000
+
+
+def _finite(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+class _Channel:
+    """Events out (one JSON line each, flushed), answers in (one JSON line each)."""
+
+    def __init__(self, out: TextIO, inp: TextIO) -> None:
+        self.out, self.inp = out, inp
+        #: the console went away (its end of the pipe closed): events are dropped, questions end the run
+        self.gone = False
+
+    def send(self, event: dict[str, Any]) -> None:
+        """Send one event; never raises for a console that went away (the acquisition must go on)."""
+        if self.gone:
+            return
+        try:
+            self.out.write(json.dumps(event, allow_nan=False) + "\n")
+            self.out.flush()
+        except (OSError, ValueError):  # EPIPE, or the stream closed
+            self.gone = True
+
+    def ask(self, event: dict[str, Any]) -> dict[str, Any]:
+        """Send a question and wait for its answer; the console gone → ``OperatorQuit``."""
+        self.send(event)
+        if self.gone:
+            raise OperatorQuit("the console that asked the operator went away: stopped at the prompt")
+        line = self.inp.readline()
+        if not line:
+            raise OperatorQuit("the console that asked the operator went away (no answer): stopped at the prompt")
+        answer = json.loads(line)
+        return answer if isinstance(answer, dict) else {}
+
+
+class ConsoleWriter:
+    """A :class:`daq.engine.Writer` that sends each record's summary to the console (a few µs a block)."""
+
+    def __init__(self, channel: _Channel) -> None:
+        self.channel = channel
+
+    def start(self, start: dict[str, Any], scene_text: str) -> None:
+        self.channel.send({"event": "start", "run": start.get("run"), "started": start.get("started")})
+
+    def exchanges(self, exchanges: Sequence[Any], block: int) -> None:
+        return None
+
+    def block(self, rec: BlockRecord) -> None:
+        st = rec.stats
+        readings = [_finite(float(x)) for x in rec.resistance_ohm[:MAX_READINGS_SENT]]
+        self.channel.send({
+            "event": "block", "block": rec.block, "run": rec.run, "weight_kg": rec.weight_kg, "repeat": rec.repeat,
+            "mean_ohm": _finite(st.mean), "sem_ohm": _finite(st.sem), "n": st.n, "n_invalid": st.n_invalid,
+            "compliance": rec.compliance, "readings_ohm": readings, "started": rec.started,
+        })  # fmt: skip
+
+    def stop(self, stop: StopRecord) -> None:
+        self.channel.send({
+            "event": "stop", "status": stop.status, "reason": stop.reason, "stopped": stop.stopped,
+            "blocks_done": stop.blocks_done, "blocks_planned": stop.blocks_planned,
+            "weights_skipped": list(stop.weights_skipped),
+        })  # fmt: skip
+
+
+def pipe_prompter(channel: _Channel) -> Callable[[PlaceWeight], Decision]:
+    """The operator's Continue / Skip / Stop from the console (the confirmation of Skip is asked in the page)."""
+
+    def prompt(step: PlaceWeight) -> Decision:
+        answer = channel.ask({
+            "event": "prompt", "weight_kg": step.weight_kg, "weight_index": step.weight_index,
+            "repeats_left": step.repeats_left,
+        })  # fmt: skip
+        decision = answer.get("decision")
+        return decision if decision in ("go", "skip", "quit") else "quit"
+
+    return prompt
+
+
+def pipe_resume_chooser(channel: _Channel) -> Callable[[float], bool]:
+    """On resume: measure a weight an earlier run skipped now (True), or keep it skipped."""
+
+    def choose(weight_kg: float) -> bool:
+        return bool(channel.ask({"event": "resume_choice", "weight_kg": weight_kg}).get("measure", False))
+
+    return choose
+
+
+class _Lines:
+    """A text stream whose lines (acquire's plan, its live line, its notes) become ``line`` events."""
+
+    def __init__(self, channel: _Channel) -> None:
+        self.channel, self.buffer = channel, ""
+
+    def write(self, text: str) -> int:
+        self.buffer += text
+        *lines, self.buffer = self.buffer.split("\n")
+        for line in lines:
+            if line.strip():
+                self.channel.send({"event": "line", "text": line.strip("\r")})
+        return len(text)
+
+    def flush(self) -> None:
+        return None
+
+    def isatty(self) -> bool:
+        return False
+
+
+def run(request: dict[str, Any], channel: _Channel) -> int:
+    """One ``acquire`` as ``request`` says (scene, output, sim, sim_speed, resume, overrides); returns the exit
+    code of ``contactrig acquire`` (0 done, 1 stopped early, 2 error)."""
+    from analysis.simulated_session import DEFAULT_SIM_SPEED, SimulatedRigBench
+    from analysis.watch import Guarded
+    from daq.acquire import acquire
+    from daq.link import VisaBench
+
+    speed = request.get("sim_speed") or DEFAULT_SIM_SPEED
+    bench = SimulatedRigBench(float(speed)) if request.get("sim") else VisaBench()  # the plan's VISA library
+    try:
+        result = acquire(
+            request.get("scene"), request["output"], bench=bench, resume=bool(request.get("resume")),
+            prompter=pipe_prompter(channel), resume_chooser=pipe_resume_chooser(channel), stream=_Lines(channel),  # type: ignore[arg-type]
+            extra_writers=[Guarded(ConsoleWriter(channel), "console")],
+            overrides=request.get("overrides") or None, allow_change=bool(request.get("allow_change")),
+        )  # fmt: skip
+    except KeyboardInterrupt:
+        channel.send({"event": "end", "code": 1, "error": "interrupted before the session began"})
+        return 1
+    except Exception as exc:  # the one-line error, as the CLI prints it
+        channel.send({"event": "end", "code": 2, "error": f"{type(exc).__name__}: {exc}"})
+        return 2
+    code = 0 if result.status == "success" else 1 if result.status == "aborted" else 2
+    channel.send({"event": "end", "code": code, "status": result.status, "reason": result.reason})
+    return code
+
+
+def main() -> int:
+    """Read the request (first line of stdin) and run it; events go to the real stdout only."""
+    out = sys.stdout
+    sys.stdout = sys.stderr  # nothing else may write into the event pipe
+    sys.argv = ["contactrig console"]  # the start record's "command": where the session was started from
+    channel = _Channel(out, sys.stdin)
+    request = json.loads(sys.stdin.readline())
+    return run(request, channel)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,207 @@
+"""A session run from the console: the acquisition child process (:mod:`contactrig.console.child`) and its state.
+
+A reader thread takes the child's events as they come and folds them into :class:`RunState`; pages read a copy of
+that state (``snapshot``), never the pipe, so no browser — slow, closed or crashed — can hold the acquisition up.
+The operator's answers go to the child's stdin; "stop after this block" and "stop now" are the first and second
+SIGINT to the child, which runs ``acquire`` with the terminal's Ctrl-C policy.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+__all__ = ["RunState", "SessionRun"]
+
+#: state lines kept (acquire's plan and notes); older ones are dropped
+MAX_LINES = 200
+
+
+@dataclass
+class RunState:
+    """What the page shows of one run: identity, plan, the question to the operator, blocks, stop and end."""
+
+    id: str
+    file: str
+    address: str
+    controller: str
+    sim: bool
+    resume: bool
+    blocks_planned: int = 0
+    #: blocks on file before this run (a resumed session)
+    blocks_before: int = 0
+    #: weights in the plan (the operator places each of them once)
+    weights_left: int = 0
+    #: the sample (from the scene or the recorded start record): past sessions of it can be overlaid
+    sample: str = ""
+    phase: str = "starting"  # starting, prompt, resume_choice, measuring, stopping, ended
+    prompt: dict[str, Any] | None = None
+    lines: list[str] = field(default_factory=list)
+    blocks: list[dict[str, Any]] = field(default_factory=list)
+    stop: dict[str, Any] | None = None
+    end: dict[str, Any] | None = None
+    stop_requests: int = 0
+    started_at: float = field(default_factory=time.monotonic)
+    block_times: list[float] = field(default_factory=list)
+    version: int = 0
+
+    def public(self) -> dict[str, Any]:
+        """The JSON the pages get (strings from files inside are data: pages show them with textContent)."""
+        eta = _eta_s(self.block_times, self.blocks, self.blocks_planned - self.blocks_before - len(self.blocks))
+        blocks = [{k: v for k, v in b.items() if k != "readings_ohm"} for b in self.blocks[:-1]] + self.blocks[-1:]
+        return {
+            "id": self.id, "file": self.file, "address": self.address, "controller": self.controller,
+            "sim": self.sim, "resume": self.resume, "phase": self.phase, "prompt": self.prompt,
+            "lines": self.lines[-MAX_LINES:], "blocks": blocks, "blocks_planned": self.blocks_planned,
+            "blocks_before": self.blocks_before, "stop": self.stop, "end": self.end,
+            "stop_requests": self.stop_requests, "eta_s": eta, "weights_left": self.weights_left,
+            "sample": self.sample,
+            "version": self.version,
+        }  # fmt: skip
+
+
+def _eta_s(times: list[float], blocks: list[dict[str, Any]], left: int) -> float | None:
+    """Seconds of measuring left: the blocks still to take × the median time between two blocks at the same weight
+    (the operator's time to place a weight is not in it: the page says how many weights are still to place);
+    None before two blocks at one weight."""
+    if left <= 0:
+        return 0.0
+    steps = sorted(b - a for a, b, wa, wb in zip(times, times[1:], blocks, blocks[1:], strict=False)
+                   if wa.get("weight_kg") == wb.get("weight_kg"))  # fmt: skip
+    if not steps:
+        return None
+    return steps[len(steps) // 2] * left
+
+
+class SessionRun:
+    """One acquisition child process and the state its events build."""
+
+    def __init__(self, state: RunState, request: dict[str, Any], cwd: str) -> None:
+        self.state = state
+        self._lock = threading.Lock()
+        self._changed = threading.Condition(self._lock)
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "contactrig.console.child"],
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, cwd=cwd, text=True, encoding="utf-8",
+            start_new_session=True,  # its own process group: a Ctrl-C at the console's terminal is the console's
+        )  # fmt: skip
+        assert self.proc.stdin is not None
+        self.proc.stdin.write(json.dumps(request) + "\n")
+        self.proc.stdin.flush()
+        self._reader = threading.Thread(target=self._read, name=f"console-run-{state.id}", daemon=True)
+        self._reader.start()
+
+    # -- events from the child -----------------------------------------------------------------------------------
+    def _read(self) -> None:
+        assert self.proc.stdout is not None
+        for line in self.proc.stdout:
+            try:
+                event = json.loads(line)
+            except json.JSONDecodeError:
+                continue
+            if isinstance(event, dict):
+                self._apply(event)
+        code = self.proc.wait()
+        with self._lock:
+            if self.state.end is None:
+                self.state.end = {"code": code, "error": f"the acquisition process ended with exit code {code}"}
+            self.state.phase, self.state.prompt = "ended", None
+            self._bump()
+
+    def _apply(self, event: dict[str, Any]) -> None:
+        kind = event.get("event")
+        with self._lock:
+            s = self.state
+            if kind == "line":
+                s.lines.append(str(event.get("text", "")))
+                del s.lines[:-MAX_LINES]
+            elif kind == "block":
+                s.blocks.append(event)
+                s.block_times.append(time.monotonic())
+                s.phase = "stopping" if s.stop_requests else "measuring"
+            elif kind in ("prompt", "resume_choice"):
+                s.phase, s.prompt = str(kind), event
+                if kind == "prompt":
+                    s.weights_left = max(s.weights_left - 1, 0)
+            elif kind == "stop":
+                s.stop = event
+                s.blocks_planned = int(event.get("blocks_planned") or s.blocks_planned)
+            elif kind == "end":
+                s.end, s.phase, s.prompt = event, "ended", None
+            elif kind == "start" and s.phase == "starting":
+                s.phase = "measuring"
+            self._bump()
+
+    def _bump(self) -> None:
+        self.state.version += 1
+        self._changed.notify_all()
+
+    # -- the operator --------------------------------------------------------------------------------------------
+    def answer(self, answer: dict[str, Any]) -> bool:
+        """Answer the question the child asked (prompt or resume choice); False if there is none."""
+        with self._lock:
+            if self.state.prompt is None or self.proc.stdin is None:
+                return False
+            self.state.prompt = None
+            self.state.phase = "measuring"
+            self._bump()
+            try:
+                self.proc.stdin.write(json.dumps(answer) + "\n")
+                self.proc.stdin.flush()
+            except OSError:
+                return False
+        return True
+
+    def request_stop(self) -> int:
+        """One SIGINT to the child: the first stops after the block under way, the second stops now."""
+        with self._lock:
+            if self.state.phase == "ended":
+                return self.state.stop_requests
+            self.state.stop_requests += 1
+            self.state.phase = "stopping"
+            self._bump()
+            count = self.state.stop_requests
+        try:
+            os.kill(self.proc.pid, signal.SIGINT)
+        except ProcessLookupError:
+            pass
+        return count
+
+    # -- readers -------------------------------------------------------------------------------------------------
+    @property
+    def running(self) -> bool:
+        return self.state.phase != "ended"
+
+    def snapshot(self) -> dict[str, Any]:
+        with self._lock:
+            return json.loads(json.dumps(self.state.public()))
+
+    def wait_change(self, version: int, timeout: float) -> int:
+        """Block (a worker thread, never the acquisition) until the state's version passes ``version``."""
+        with self._lock:
+            self._changed.wait_for(lambda: self.state.version != version, timeout=timeout)
+            return self.state.version
+
+    def close(self, timeout: float = 30.0) -> None:
+        """The console is shutting down: stop the run as one Ctrl-C does (after the block), then wait for it."""
+        if self.proc.poll() is None:
+            self.request_stop()
+            if self.proc.stdin is not None:
+                try:
+                    self.proc.stdin.close()  # a prompt waiting for an answer ends the run
+                except OSError:
+                    pass
+            try:
+                self.proc.wait(timeout=timeout)
+            except subprocess.TimeoutExpired:
+                self.request_stop()
+                self.proc.wait(timeout=timeout)
+        self._reader.join(timeout=5)
+
