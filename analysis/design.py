@@ -196,7 +196,8 @@ def _session_fits(values: np.ndarray, sigma: np.ndarray, area: np.ndarray, clean
     per = fit_film_series(np.swapaxes(values, -1, -2), sigma[:, None, :], area, clean)  # (n, r) per series
     rep_r, rep_s = per.series_ohm.var(-1, ddof=1) / r, per.film_ohm_m2.var(-1, ddof=1) / r
     dof = m - 2
-    c_hat = fit.chi2 / dof
+    # ĉ needs ν > 0: a plan of two weights leaves no degrees of freedom, and its errors come from the repeats alone.
+    c_hat = fit.chi2 / dof if dof > 0 else np.full_like(np.asarray(fit.chi2, dtype=float), np.nan)
     scaled = scaled_errors(c_hat, dof, fit.film_se**2, rep_s)
     se_r = np.where(scaled, fit.series_se * np.sqrt(c_hat), np.sqrt(rep_r))
     se_s = np.where(scaled, fit.film_se * np.sqrt(c_hat), np.sqrt(rep_s))

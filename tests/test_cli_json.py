@@ -3,13 +3,13 @@ shipped for it (``contactrig/schemas/<command>.json``, package data) and carries
 
 from __future__ import annotations
 
-import argparse
 import json
 from importlib import resources
 
 import pytest
 
 from contactrig.cli.main import build_parser, main
+from tests.cli_tree import subcommand_parsers
 
 jsonschema = pytest.importorskip("jsonschema")
 
@@ -18,23 +18,13 @@ RESULT_COMMANDS = ("circuit", "fit", "simulate", "database", "compare-models", "
                    "instruments delta", "instruments identify", "surface")  # fmt: skip
 
 
-def _commands(parser: argparse.ArgumentParser, prefix: str = "") -> dict[str, argparse.ArgumentParser]:
-    out = {}
-    for action in parser._actions:
-        if isinstance(action, argparse._SubParsersAction):
-            for name, sub in action.choices.items():
-                out[f"{prefix}{name}"] = sub
-                out.update(_commands(sub, f"{prefix}{name} "))
-    return out
-
-
 def _schema(command: str) -> dict:
     name = command.replace(" ", "-") + ".json"
     return json.loads(resources.files("contactrig").joinpath("schemas", name).read_text(encoding="utf-8"))
 
 
 def test_result_commands_have_json_and_a_valid_schema():
-    commands = _commands(build_parser())
+    commands = subcommand_parsers(build_parser())
     with_json = {n for n, p in commands.items() if any("--json" in a.option_strings for a in p._actions)}
     assert set(RESULT_COMMANDS) <= with_json
     for name in with_json:

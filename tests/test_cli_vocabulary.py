@@ -15,16 +15,7 @@ import pytest
 
 from contactrig.cli.main import build_parser
 from contactrig.cli.options import DEPRECATED, KNOWN_CONFLICTS, OPTION_VOCABULARY
-
-
-def _commands(parser: argparse.ArgumentParser, prefix: str = "") -> dict[str, argparse.ArgumentParser]:
-    out = {}
-    for action in parser._actions:
-        if isinstance(action, argparse._SubParsersAction):
-            for name, sub in action.choices.items():
-                out[f"{prefix}{name}"] = sub
-                out.update(_commands(sub, f"{prefix}{name} "))
-    return out
+from tests.cli_tree import subcommand_parsers
 
 
 def _options(parser: argparse.ArgumentParser) -> list[argparse.Action]:
@@ -32,7 +23,7 @@ def _options(parser: argparse.ArgumentParser) -> list[argparse.Action]:
             and not isinstance(a, (argparse._HelpAction, argparse._VersionAction))]  # fmt: skip
 
 
-COMMANDS = _commands(build_parser())
+COMMANDS = subcommand_parsers(build_parser())
 
 
 def _long(action: argparse.Action) -> str:
