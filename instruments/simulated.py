@@ -289,6 +289,26 @@ class _ScpiDevice(Device):
         undeclared = [h for h in self.handlers if h not in self.actions and h.rstrip("?") not in self.table]
         assert not undeclared, f"handlers without a declaration: {undeclared}"
 
+    _calc2: float
+
+    def _calc2_readings(self) -> np.ndarray:
+        """The buffer's valid readings (overflows left out), which ``CALC2`` works on."""
+        raise NotImplementedError
+
+    def _calc2_immediate(self, cmd: Command) -> None:
+        """``CALC2:IMM``: the statistic ``CALC2:FORM`` of the buffer's valid readings (−230 when there are none)."""
+        r = self._calc2_readings()
+        if not r.size:
+            self.push_error(E_STALE)
+            return None
+        self._calc2 = float(_STATISTICS[str(self.prop("calc2_format"))](r))
+        return None
+
+    def _calc2_query(self, cmd: Command) -> str | None:
+        before = len(self.errors)
+        self._calc2_immediate(cmd)
+        return f"{self._calc2:+.8E}" if len(self.errors) == before else None
+
     def reset_settings(self) -> None:
         """``*RST``: every setting the manual resets goes back to its default."""
         for header, s in self.table.items():
@@ -499,18 +519,8 @@ class Simulated2182A(_ScpiDevice):
             return None
         return ",".join(f"{x:+.8E}" for x in self._buffer)
 
-    def _calc2_immediate(self, cmd: Command) -> None:
-        r = np.array([x for x in self._buffer if abs(x) < OVERFLOW])
-        if not r.size:
-            self.push_error(E_STALE)
-            return None
-        self._calc2 = float(_STATISTICS[str(self.prop("calc2_format"))](r))
-        return None
-
-    def _calc2_query(self, cmd: Command) -> str | None:
-        before = len(self.errors)
-        self._calc2_immediate(cmd)
-        return f"{self._calc2:+.8E}" if len(self.errors) == before else None
+    def _calc2_readings(self) -> np.ndarray:
+        return np.array([x for x in self._buffer if abs(x) < OVERFLOW])
 
     def _set_range(self, cmd: Command) -> str | None:
         if cmd.is_query:
@@ -1127,21 +1137,10 @@ class SimulatedK6221(_ScpiDevice):
             return reply  # math off, or already applied to what the buffer holds
         return f"{float(self._math(np.array([float(reply)]))[0]):+.8E}"
 
-    def _calc2_immediate(self, cmd: Command) -> None:
-        """``CALC2:IMM``: the statistic ``CALC2:FORM`` of the buffer's valid readings."""
+    def _calc2_readings(self) -> np.ndarray:
         n = self._stored()
         r = self._sweep.readings[:n] if self._sweep is not None else np.empty(0)
-        r = r[np.abs(r) < OVERFLOW]
-        if not r.size:
-            self.push_error(E_STALE)
-            return None
-        self._calc2 = float(_STATISTICS[str(self.prop("calc2_format"))](r))
-        return None
-
-    def _calc2_query(self, cmd: Command) -> str | None:
-        before = len(self.errors)
-        self._calc2_immediate(cmd)
-        return f"{self._calc2:+.8E}" if len(self.errors) == before else None
+        return r[np.abs(r) < OVERFLOW]
 
     # ---------------------------------------------------------------- serial relay
     def _relay_send(self, cmd: Command) -> None:

@@ -168,6 +168,19 @@ def self_affine(
     return _synthesise(_self_affine_psd(q2, hurst, q_roll, q_cut), n, sq_m, check_int("seed", seed, 0))
 
 
+
+def _check_map_slope(slope: float, where: str, height_unit_m: float, pixel_m: float) -> None:
+    """Refuse a map whose RMS slope [-] exceeds :data:`MAX_RMS_SLOPE`: its heights are almost surely not in the unit
+    ``height_unit_m`` [m] says (µm numbers read as metres)."""
+    if not slope <= MAX_RMS_SLOPE:
+        raise SettingError(
+            "height_unit_m",
+            height_unit_m,
+            f"the heights of {where} in units of {height_unit_m:g} m at pixel_m = {pixel_m:g} m have an RMS slope "
+            f"of {slope:.3g}; expected <= {MAX_RMS_SLOPE:g} (gentle asperities): are the numbers in that unit "
+            "(1e-6 for µm)?",
+        )
+
 def level_height_map(
     heights: ArrayLike, *, pixel_m: float, height_unit_m: float = 1.0, key: str = "heights", source: str | None = None
 ) -> NDArray[np.float64]:
@@ -195,14 +208,7 @@ def level_height_map(
     coef, *_ = np.linalg.lstsq(a, z.ravel(), rcond=None)
     levelled = z - (a @ coef).reshape(z.shape)
     slope = rms_slope(levelled, pixel_m, periodic=False)
-    if not slope <= MAX_RMS_SLOPE:
-        raise SettingError(
-            "height_unit_m",
-            height_unit_m,
-            f"the heights of {where} in units of {height_unit_m:g} m at pixel_m = {pixel_m:g} m have an RMS slope "
-            f"of {slope:.3g}; expected <= {MAX_RMS_SLOPE:g} (gentle asperities): are the numbers in that unit "
-            "(1e-6 for µm)?",
-        )
+    _check_map_slope(slope, where, height_unit_m, pixel_m)
     return levelled
 
 
@@ -304,14 +310,7 @@ def condition_height_map(
     )
     z = result.z[0] if raw.ndim == 1 else result.z
     slope = math.sqrt(2.0 * finite_difference_moments(z, pixel_m).m2)
-    if not slope <= MAX_RMS_SLOPE:
-        raise SettingError(
-            "height_unit_m",
-            height_unit_m,
-            f"the heights of {where} in units of {height_unit_m:g} m at pixel_m = {pixel_m:g} m have an RMS slope "
-            f"of {slope:.3g}; expected <= {MAX_RMS_SLOPE:g} (gentle asperities): are the numbers in that unit "
-            "(1e-6 for µm)?",
-        )
+    _check_map_slope(slope, where, height_unit_m, pixel_m)
     return z, result.record
 
 
