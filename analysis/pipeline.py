@@ -335,6 +335,19 @@ def _scene_for(session: Any) -> Any:
     return load_scene(None)
 
 
+def _names_height_maps(text: str) -> bool:
+    """Whether the scene ``text`` (TOML) has a ``[surfaces.*]`` table of ``kind = "file"`` (however it is spelled)."""
+    import tomllib
+
+    try:
+        surfaces = tomllib.loads(text).get("surfaces", {})
+    except tomllib.TOMLDecodeError:
+        return False
+    return isinstance(surfaces, dict) and any(
+        isinstance(t, dict) and t.get("kind") == "file" for t in surfaces.values()
+    )
+
+
 def _height_map_folder(session: Any, text: str) -> Path | None:
     """Where the recorded scene's measured height maps are (``kind = "file"`` paths are relative to the scene file):
     the folder of the scene file the session was started from, if that file still holds exactly the recorded text;
@@ -342,7 +355,7 @@ def _height_map_folder(session: Any, text: str) -> Path | None:
     from contactrig.core.inputs import read_text_file
     from contactrig.core.validation import SettingError
 
-    if 'kind = "file"' not in text and "kind = 'file'" not in text:
+    if not _names_height_maps(text):
         return None
     source = (getattr(session, "start", None) or {}).get("scene_source")
     if not isinstance(source, str) or not source or source.startswith("<"):
