@@ -694,8 +694,10 @@ class SurfaceSpec:
     itself).
 
     Every surface must have an RMS slope ≤ :data:`MAX_RMS_SLOPE` (a larger one is a unit slip, reported on ``sq_m``
-    or ``height_unit_m``). For ``file``, ``measured`` holds the levelled heights in metres (read-only; not part of
-    :meth:`as_dict`, equality or the repr).
+    or ``height_unit_m``). For ``file``, ``measured`` holds the levelled heights in metres, filled where ``missing``
+    is True (both read-only; not part of :meth:`as_dict`, equality or the repr); ``sq_m`` and :meth:`moments` are of
+    the measured points only (:meth:`measured_points`). A file's non-square pixels are resampled to square ones
+    (:func:`sims.surface_filter.square_pixels`, recorded as ``resampled``) unless the table gives ``pixel_m``.
     """
 
     section: str
