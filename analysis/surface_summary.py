@@ -20,18 +20,22 @@ __all__ = ["SurfaceSummary", "roughness", "summarise"]
 
 
 def roughness(z: NDArray[np.float64], pixel_m: float) -> dict[str, float]:
-    """ISO 25178-2 height and hybrid parameters of a conditioned map or profile (m, zero mean) and McCool's summit
-    statistics from its finite-difference moments. Sdq is √(2 m2) for a map (both directions), √m2 for a profile."""
+    """ISO 25178-2 height and hybrid parameters of a conditioned map or profile (m; NaN where no point was measured)
+    and McCool's summit statistics from its finite-difference moments, all of the measured points only: heights
+    from the measured points about their mean, Sdq and the moments from pairs (triples) of measured neighbours.
+    Sdq is √(2 m2) for a map (both directions), √m2 for a profile."""
     from sims.surface import finite_difference_moments, kurtosis, mccool, rms_roughness, rms_slope, skewness
 
     m = finite_difference_moments(z, pixel_m)
     sdq = rms_slope(z, pixel_m, periodic=False) if z.ndim == 2 else math.sqrt(m.m2)
+    h = z[np.isfinite(z)]
+    h = h - h.mean()
     out = {
-        "Sq_m": rms_roughness(z),
-        "Sp_m": float(np.max(z - z.mean())),
-        "Sv_m": float(-np.min(z - z.mean())),
-        "Ssk": skewness(z),
-        "Sku": kurtosis(z),
+        "Sq_m": rms_roughness(h),
+        "Sp_m": float(np.max(h)),
+        "Sv_m": float(-np.min(h)),
+        "Ssk": skewness(h),
+        "Sku": kurtosis(h),
         "Sdq": sdq,
     }
     out["Sz_m"] = out["Sp_m"] + out["Sv_m"]
@@ -59,15 +63,17 @@ class SurfaceSummary:
     def text(self) -> str:
         """A short human-readable account."""
         i = self.info
-        shape = " × ".join(str(n) for n in i["points"])
+        shape = " × ".join(str(n) for n in i["points"][::-1])  # x × y, as the size
         size = " × ".join(f"{1e3 * s:.4g}" for s in i["size_m"])
         lines = [
             f"file:        {i['path']}",
             f"format:      {i['file_format']}   instrument: {i['instrument'] or 'not given'}",
-            f"points:      {shape} ({'line profile' if i['profile'] else 'areal map'}), {size} mm",
+            f"points:      {shape} ({'line profile' if i['profile'] else 'areal map, x × y'}), {size} mm",
             f"pixel:       {1e6 * i['pixel_m']:.6g} µm (from the {i['pixel_m_from']})   height unit: "
             f"{i['height_unit_m']:g} m (from the {i['height_unit_m_from']})",
-            f"missing:     {i['missing_points']} points ({100 * i['missing_fraction']:.3g} %)",
+            *([f"resampled:   {i['resampled']}"] if i.get("resampled") else []),
+            f"missing:     {i['missing_points']} points ({100 * i['missing_fraction']:.3g} %); every statistic is "
+            "of the measured points only",
             f"conditioning: {_describe(self.conditioning)}",
             "",
             f"{'':12s}{'mean plane only':>18s}{'form + filters':>18s}",
@@ -92,7 +98,12 @@ _ROWS = (
 
 
 def _describe(c: dict[str, Any]) -> str:
-    radius = f" (radius {1e3 * c['cylinder_radius_m']:.4g} mm)" if "cylinder_radius_m" in c else ""
+    radius = (
+        f" (radius {1e3 * c['cylinder_radius_m']:.4g} mm, sagitta {1e6 * c['cylinder_sagitta_m']:.3g} µm over "
+        f"{1e3 * c['cylinder_chord_m']:.4g} mm)"
+        if "cylinder_radius_m" in c
+        else ""
+    )
     parts = [f"form {c['form']}{radius}"]
     for key, name in (("lambda_s_m", "λs"), ("lambda_c_m", "λc")):
         if c.get(key) is not None:
@@ -108,7 +119,9 @@ def summarise(path: str, table: dict[str, Any] | None = None) -> SurfaceSummary:
 
     keys = {"kind": "file", "path": str(path), **(table or {})}
     hm = read_measured_map(path, key="FILE")
-    plane_keys = {k: v for k, v in keys.items() if k in ("kind", "path", "pixel_m", "height_unit_m")}
+    plane_keys = {
+        k: v for k, v in keys.items() if k in ("kind", "path", "pixel_m", "height_unit_m", "max_missing_fraction")
+    }
     plane = SurfaceSpec.from_table("surface", plane_keys, hm.heights, path=hm.path, metadata=hm.metadata())
     spec = SurfaceSpec.from_table("surface", keys, hm.heights, path=hm.path, metadata=hm.metadata())
     assert spec.measured is not None and plane.measured is not None
@@ -124,14 +137,15 @@ def summarise(path: str, table: dict[str, Any] | None = None) -> SurfaceSummary:
         "pixel_m_from": rec.get("pixel_m_from"),
         "height_unit_m": spec.height_unit_m,
         "height_unit_m_from": rec.get("height_unit_m_from"),
-        "size_m": [n * spec.pixel_m for n in pts[::-1]],
+        "size_m": [n * spec.pixel_m for n in spec.measured.shape[::-1]],
         "missing_points": int(rec.get("missing_points", 0)),
-        "missing_fraction": float(rec.get("missing_points", 0)) / hm.heights.size,
+        "missing_fraction": float(rec.get("missing_points", 0)) / spec.measured.size,
+        "resampled": rec.get("resampled"),
     }
     return SurfaceSummary(
         info,
-        roughness(plane.measured, plane.pixel_m),
-        roughness(spec.measured, spec.pixel_m),
+        roughness(plane.measured_points(), plane.pixel_m),
+        roughness(spec.measured_points(), spec.pixel_m),
         rec,
         plane.measured,
         spec.measured,

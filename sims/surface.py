@@ -67,6 +67,10 @@ SURFACE_KINDS = ("gaussian", "self_affine", "file")
 #: asperities; real engineering surfaces have 0.01–0.3. A larger value is almost always a unit slip (mm or µm for m).
 MAX_RMS_SLOPE = 1.0
 
+#: Largest pixel a profilometer file may declare, m (a scene's ``pixel_m`` may give any): coarser is a unit slip
+#: in the file's metadata (a reader taking nm for mm), not an instrument's grid.
+MAX_FILE_PIXEL_M = 1e-3
+
 
 # ---------------------------------------------------------------------------------------------------------------
 # Generation.
@@ -244,7 +248,9 @@ class Conditioning:
             bore_axis=check_choice("bore_axis", table.get("bore_axis", "x"), ("x", "y")),
             lambda_s_m=length("lambda_s_m"),
             lambda_c_m=length("lambda_c_m"),
-            max_missing_fraction=check_range("max_missing_fraction", table.get("max_missing_fraction", 0.05), 0.0, 0.5),
+            max_missing_fraction=check_range(
+                "max_missing_fraction", table.get("max_missing_fraction", 0.05), 0.0, 1.0, hi_open=True
+            ),
             edges=check_choice("edges", table.get("edges", "mirror"), EDGES),
         )
         if out.lambda_s_m is not None and out.lambda_c_m is not None and not out.lambda_s_m < out.lambda_c_m:
@@ -309,21 +315,32 @@ def condition_height_map(
         key=key,
     )
     z = result.z[0] if raw.ndim == 1 else result.z
-    slope = math.sqrt(2.0 * finite_difference_moments(z, pixel_m).m2)
+    slope = math.sqrt(2.0 * finite_difference_moments(np.where(np.isfinite(raw), z, np.nan), pixel_m).m2)
     _check_map_slope(slope, where, height_unit_m, pixel_m)
     return z, result.record
+
+
+def _mean_measured(a: NDArray[np.float64], what: str) -> float:
+    """Mean of the finite values of ``a`` (NaN: a missing point took part); none is an error naming ``what``."""
+    finite = a[np.isfinite(a)]
+    if finite.size == 0:
+        raise SettingError("heights", what, "no measured points (or pairs of neighbours) to compute it from")
+    return float(np.mean(finite))
 
 
 def finite_difference_moments(z: ArrayLike, pixel_m: float) -> SpectralMoments:
     """m0, m2, m4 of a non-periodic map or profile from finite differences (no wrap across the edges), the
     isotropic estimate averaging x and y: m2 = ⟨z_x²⟩ by forward differences, m4 = ⟨z_xx²⟩ by 3-point second
-    differences. The definition SurfaceTopography's ``rms_slope_from_profile``/``rms_curvature_from_profile`` use."""
+    differences. The definition SurfaceTopography's ``rms_slope_from_profile``/``rms_curvature_from_profile`` use.
+
+    NaN marks a point that was not measured: m0 is taken over the measured points, m2 over the pairs and m4 over
+    the triples of neighbours that were all measured (ISO 25178-2's parameters belong to the measured surface)."""
     a = np.asarray(z, dtype=np.float64)
-    a = a - a.mean()
+    a = a - _mean_measured(a, "mean height")
     axes = range(a.ndim)
-    m2 = float(np.mean([np.mean((np.diff(a, axis=k) / pixel_m) ** 2) for k in axes]))
-    m4 = float(np.mean([np.mean((np.diff(a, 2, axis=k) / pixel_m**2) ** 2) for k in axes]))
-    return SpectralMoments(float(np.mean(a * a)), m2, m4)
+    m2 = float(np.mean([_mean_measured((np.diff(a, axis=k) / pixel_m) ** 2, "slope") for k in axes]))
+    m4 = float(np.mean([_mean_measured((np.diff(a, 2, axis=k) / pixel_m**2) ** 2, "curvature") for k in axes]))
+    return SpectralMoments(_mean_measured(a * a, "Sq"), m2, m4)
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -351,13 +368,14 @@ def kurtosis(z: ArrayLike) -> float:
 
 
 def rms_slope(z: ArrayLike, pixel_m: float, *, periodic: bool = True) -> float:
-    """RMS gradient √⟨z_x² + z_y²⟩ (Sdq) by forward differences, −; ``periodic=False``: no wrap at the edges."""
+    """RMS gradient √⟨z_x² + z_y²⟩ (Sdq) by forward differences, −; ``periodic=False``: no wrap at the edges, and
+    NaN (a point not measured) allowed: each mean is over the pairs of neighbours that were both measured."""
     a = np.asarray(z, dtype=np.float64)
     if periodic:
         dx, dy = np.roll(a, -1, axis=0) - a, np.roll(a, -1, axis=1) - a
-    else:
-        dx, dy = np.diff(a, axis=0), np.diff(a, axis=1)
-    return float(np.sqrt(np.mean(dx * dx) + np.mean(dy * dy))) / pixel_m
+        return float(np.sqrt(np.mean(dx * dx) + np.mean(dy * dy))) / pixel_m
+    dx, dy = np.diff(a, axis=0), np.diff(a, axis=1)
+    return math.sqrt(_mean_measured(dx * dx, "Sdq") + _mean_measured(dy * dy, "Sdq")) / pixel_m
 
 
 def combined_sigma(sq1_m: float, sq2_m: float) -> float:
@@ -676,8 +694,10 @@ class SurfaceSpec:
     itself).
 
     Every surface must have an RMS slope ≤ :data:`MAX_RMS_SLOPE` (a larger one is a unit slip, reported on ``sq_m``
-    or ``height_unit_m``). For ``file``, ``measured`` holds the levelled heights in metres (read-only; not part of
-    :meth:`as_dict`, equality or the repr).
+    or ``height_unit_m``). For ``file``, ``measured`` holds the levelled heights in metres, filled where ``missing``
+    is True (both read-only; not part of :meth:`as_dict`, equality or the repr); ``sq_m`` and :meth:`moments` are of
+    the measured points only (:meth:`measured_points`). A file's non-square pixels are resampled to square ones
+    (:func:`sims.surface_filter.square_pixels`, recorded as ``resampled``) unless the table gives ``pixel_m``.
     """
 
     section: str
@@ -693,6 +713,8 @@ class SurfaceSpec:
     path: str | None = None
     height_unit_m: float = 1.0
     measured: NDArray[np.float64] | None = field(default=None, repr=False, compare=False)
+    #: where ``measured`` was filled because the instrument measured no point there (True), read-only
+    missing: NDArray[np.bool_] | None = field(default=None, repr=False, compare=False)
     #: how a measured map was conditioned (form, filters, missing points, file metadata): provenance
     conditioning: dict[str, Any] | None = field(default=None, compare=False)
 
@@ -758,15 +780,32 @@ class SurfaceSpec:
             )
         meta = dict(metadata or {})
         pixel_m = check_range("pixel_m", _from_file_or_table(table, meta, "pixel_m", source), 0.0, 1.0, lo_open=True)
+        if "pixel_m" not in table and pixel_m > MAX_FILE_PIXEL_M:
+            raise SettingError(
+                "pixel_m",
+                pixel_m,
+                f"the file {source} says its pixel is {pixel_m:g} m, more than a profilometer's "
+                f"({MAX_FILE_PIXEL_M:g} m at most): its metadata are doubtful; set pixel_m (metres) in the scene",
+            )
         unit = check_range(
             "height_unit_m", _from_file_or_table(table, meta, "height_unit_m", source), 0.0, 1e3, lo_open=True
         )
         key = "path" if source is not None else "heights"
         conditioning = Conditioning.from_table(table)
+        raw = np.asarray(heights, dtype=np.float64)
+        resampled: dict[str, Any] = {}
+        pixel_y = meta.get("pixel_y_m")
+        if "pixel_m" not in table and pixel_y is not None and raw.ndim == 2:
+            from sims.surface_filter import square_pixels
+
+            raw, pixel_m, resampled = square_pixels(raw, pixel_m, check_range("pixel_y_m", pixel_y, 0.0, 1.0))
         z, record = condition_height_map(
-            heights, pixel_m=pixel_m, height_unit_m=unit, conditioning=conditioning, key=key, source=source
+            raw, pixel_m=pixel_m, height_unit_m=unit, conditioning=conditioning, key=key, source=source
         )
         z.setflags(write=False)
+        missing = ~np.isfinite(raw)
+        missing.setflags(write=False)
+        record.update(resampled)
         record.update({k: v for k, v in meta.items() if k in ("instrument", "file_format") and v is not None})
         record["edges"] = conditioning.edges
         record["pixel_m_from"] = "scene" if "pixel_m" in table else "file"
@@ -777,8 +816,9 @@ class SurfaceSpec:
             pixel_m=pixel_m,
             path=source,
             height_unit_m=unit,
-            sq_m=math.sqrt(finite_difference_moments(z, pixel_m).m0),  # as the database computes it
+            sq_m=math.sqrt(finite_difference_moments(np.where(missing, np.nan, z), pixel_m).m0),  # measured points
             measured=z,
+            missing=missing,
             conditioning=record,
         )
 
@@ -851,6 +891,14 @@ class SurfaceSpec:
 
         return treat_edges(self.measured, (self.conditioning or {}).get("edges", "mirror"))
 
+    def measured_points(self) -> NDArray[np.float64]:
+        """The conditioned measured map (m) with NaN where no point was measured: what statistics are taken on."""
+        if self.measured is None:
+            raise SettingError(f"{self.section}.path", self.path, "no height map")
+        if self.missing is None:
+            return self.measured.copy()
+        return np.where(self.missing, np.nan, self.measured)
+
     @property
     def is_profile(self) -> bool:
         """A measured line profile (1-D): statistics only."""
@@ -859,9 +907,7 @@ class SurfaceSpec:
     def moments(self) -> SpectralMoments:
         """Spectral moments without generating the surface (generated kinds); of the map for measured ones."""
         if self.kind == "file":
-            if self.measured is None:
-                raise SettingError(f"{self.section}.path", self.path, "no height map")
-            return finite_difference_moments(self.measured, self.pixel_m)
+            return finite_difference_moments(self.measured_points(), self.pixel_m)
         qx, qy = _wavenumbers(self.n, self.pixel_m)
         q2 = qx[:, None] ** 2 + qy[None, :] ** 2
         if self.kind == "gaussian":
@@ -873,7 +919,7 @@ class SurfaceSpec:
 
     def as_dict(self) -> dict[str, Any]:
         """The settings as plain values (for provenance; the measured array is left out, its ``path`` kept)."""
-        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "measured"}
+        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("measured", "missing")}
         return {k: v for k, v in out.items() if v is not None}
 
 

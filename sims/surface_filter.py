@@ -36,6 +36,7 @@ __all__ = [
     "gaussian_transmission",
     "remove_form",
     "s_l_surface",
+    "square_pixels",
     "treat_edges",
 ]
 
@@ -132,7 +133,8 @@ def _polynomial(z: NDArray[np.float64], pixel_m: float, degree: int) -> NDArray[
 @dataclass(frozen=True)
 class CylinderFit:
     """A bore's cylinder: ``radius_m``, the axis position across it ``centre_m`` and the height there ``height_m``,
-    the tilt along the axis ``tilt`` (−), ``concave`` (a bore seen from inside), RMS residual ``rms_m``."""
+    the tilt along the axis ``tilt`` (−), ``concave`` (a bore seen from inside), RMS residual ``rms_m``, and the
+    cylinder's sagitta ``sagitta_m`` = R − √(R² − (c/2)²) over the chord ``chord_m`` = c, the field across the axis."""
 
     radius_m: float
     centre_m: float
@@ -140,6 +142,15 @@ class CylinderFit:
     tilt: float
     concave: bool
     rms_m: float
+    sagitta_m: float = math.nan
+    chord_m: float = math.nan
+
+
+#: A cylinder is resolved when its sagitta over the field across the axis is at least this many times the RMS of
+#: what is left after removing it (the roughness and noise): below that, a waviness of the roughness at the field's
+#: scale sets the fitted radius (a flat map gives anything from millimetres to 10¹³ m). At the ratio 2 the radius is
+#: known to about ±50 % (δR/R = δs/s with δs ≈ the RMS left).
+MIN_SAGITTA_RATIO = 2.0
 
 
 def _cylinder_model(p: NDArray[np.float64], u: NDArray[np.float64], v: NDArray[np.float64], s: float) -> Any:
@@ -152,7 +163,8 @@ def fit_cylinder(z: NDArray[np.float64], pixel_m: float, axis: str = "x") -> tup
 
     Model z = h + b·v + s·(R − √(R² − (u − u0)²)), u across the axis, v along it, s = ±1 (concave/convex, from the
     sign of the curvature); started from a quadratic fit, refined by SciPy's ``least_squares``. Returns the fitted
-    form (m, on the whole grid) and the :class:`CylinderFit`.
+    form (m, on the whole grid) and the :class:`CylinderFit`. A cylinder the field does not resolve (sagitta below
+    :data:`MIN_SAGITTA_RATIO` × the RMS left) is an error naming ``form``.
     """
     from scipy.optimize import least_squares
 
@@ -175,9 +187,20 @@ def fit_cylinder(z: NDArray[np.float64], pixel_m: float, axis: str = "x") -> tup
 
     res = least_squares(resid, p0, x_scale=np.array([abs(zz).max() + pixel_m, 1.0, span, p0[3]]))
     form = _cylinder_model(res.x, u, v, s)
+    radius = float(res.x[3])
     fit = CylinderFit(
-        float(res.x[3]), float(res.x[2]), float(res.x[0]), float(res.x[1]), s > 0, float(np.sqrt(np.mean(res.fun**2)))
-    )
+        radius, float(res.x[2]), float(res.x[0]), float(res.x[1]), s > 0, float(np.sqrt(np.mean(res.fun**2))),
+        sagitta_m=radius - math.sqrt(max(radius * radius - (span / 2) ** 2, 0.0)), chord_m=span,
+    )  # fmt: skip
+    if not fit.sagitta_m >= MIN_SAGITTA_RATIO * fit.rms_m:
+        raise SettingError(
+            "form",
+            "cylinder",
+            f"the map does not resolve a cylinder: the fitted one (radius {radius:.4g} m) rises "
+            f"{fit.sagitta_m:.3g} m over the {span:.4g} m field across the axis, less than {MIN_SAGITTA_RATIO:g}× the "
+            f"roughness left ({fit.rms_m:.3g} m RMS), so its radius is set by the roughness, not by a form; "
+            "use form = 'plane' or 'polynomial', or measure a wider field",
+        )
     return np.asarray(form, dtype=np.float64), fit
 
 
@@ -192,8 +215,41 @@ def remove_form(
     if form == "cylinder":
         fitted, fit = fit_cylinder(z, pixel_m, axis)
         return z - fitted, {"form": "cylinder", "bore_axis": axis, "cylinder_radius_m": fit.radius_m,
-                            "cylinder_concave": fit.concave, "cylinder_rms_residual_m": fit.rms_m}
+                            "cylinder_concave": fit.concave, "cylinder_rms_residual_m": fit.rms_m,
+                            "cylinder_sagitta_m": fit.sagitta_m, "cylinder_chord_m": fit.chord_m}
     raise SettingError("form", form, "expected one of " + ", ".join(FORMS))
+
+
+def square_pixels(
+    z: NDArray[np.float64], pixel_x_m: float, pixel_y_m: float
+) -> tuple[NDArray[np.float64], float, dict[str, Any]]:
+    """A map on a rectangular grid (rows = y at ``pixel_y_m``, columns = x at ``pixel_x_m``) on a square one at the
+    coarser pitch: the finer axis is resampled by linear interpolation between its two nearest measured points (NaN
+    when either is missing), so no point is invented at a finer pitch than the instrument measured across the other
+    axis. Returns the map, its pitch (m) and what was done (provenance)."""
+    coarse = max(pixel_x_m, pixel_y_m)
+    axis = 1 if pixel_x_m < pixel_y_m else 0
+    fine = min(pixel_x_m, pixel_y_m)
+    n = z.shape[axis]
+    pos = np.arange(math.floor((n - 1) * fine / coarse * (1 + 1e-12)) + 1) * (coarse / fine)  # in fine pixels
+    lo = np.minimum(np.floor(pos).astype(int), n - 1)
+    hi = np.minimum(lo + 1, n - 1)
+    w = pos - lo
+    a = np.moveaxis(z, axis, 0)
+    shape = (-1,) + (1,) * (a.ndim - 1)
+    with np.errstate(invalid="ignore"):
+        out = a[lo] * (1.0 - w).reshape(shape) + a[hi] * w.reshape(shape)
+    exact = w < 1e-9
+    out[exact] = a[lo[exact]]  # on a measured point: that point (NaN only if it was missing)
+    out = np.ascontiguousarray(np.moveaxis(out, 0, axis))
+    record = {
+        "resampled": f"non-square pixels ({pixel_x_m:.6g} m in x × {pixel_y_m:.6g} m in y): {'xy'[1 - axis]} "
+        f"resampled to {coarse:.6g} m by linear interpolation, {z.shape[1]} × {z.shape[0]} → "
+        f"{out.shape[1]} × {out.shape[0]} points",
+        "pixel_x_m_file": pixel_x_m,
+        "pixel_y_m_file": pixel_y_m,
+    }
+    return out, coarse, record
 
 
 @dataclass(frozen=True)

@@ -50,8 +50,11 @@ def liner(n: int = 160, pixel_m: float = 8e-6, radius_m: float = 0.0425, sq_m: f
     return z
 
 
-def write(path: Path, z_m: NDArray[np.float64], pixel_m: float, unit: str = "um") -> Path:
-    """Write ``z_m`` (m, rows = y; 1-D: a profile) at ``pixel_m`` in ``unit`` with the format of ``path``'s suffix."""
+def write(
+    path: Path, z_m: NDArray[np.float64], pixel_m: float, unit: str = "um", pixel_y_m: float | None = None
+) -> Path:
+    """Write ``z_m`` (m, rows = y; 1-D: a profile) at ``pixel_m`` (along x; ``pixel_y_m`` along y, default the same)
+    in ``unit`` with the format of ``path``'s suffix."""
     from SurfaceTopography import Topography, UniformLineScan
     from SurfaceTopography.Support.UnitConversion import get_unit_conversion_factor
 
@@ -61,7 +64,8 @@ def write(path: Path, z_m: NDArray[np.float64], pixel_m: float, unit: str = "um"
         t = UniformLineScan(h, physical_sizes=z_m.size * pixel_m * f, unit=unit)
     else:
         ny, nx = z_m.shape
-        t = Topography(h.T, physical_sizes=(nx * pixel_m * f, ny * pixel_m * f), unit=unit)  # library: [x, y]
+        py = pixel_m if pixel_y_m is None else pixel_y_m
+        t = Topography(h.T, physical_sizes=(nx * pixel_m * f, ny * py * f), unit=unit)  # library: [x, y]
     writer = {".x3p": t.to_x3p, ".gwy": t.to_gwy, ".nc": t.to_netcdf}[path.suffix]
     writer(str(path))
     return path
@@ -83,3 +87,39 @@ EXAMPLE_PIXEL_M = 8e-6
 def write_example(folder: Path) -> list[Path]:
     """Write the example scene's two X3P files into ``folder`` (how contactrig/scenes/measured/ was made)."""
     return [write(folder / name, make(), EXAMPLE_PIXEL_M, "m") for name, make in EXAMPLE.items()]
+
+
+def write_gwyddion_text(path: Path, z_m: NDArray[np.float64], pixel_m: float, pixel_y_m: float | None = None) -> Path:
+    """Write ``z_m`` (m, rows = y) as Gwyddion's "ASCII data matrix" export with its metadata header: ``# Channel``,
+    ``# Width`` and ``# Height`` (the field in µm), ``# Value units: m``, then tab-separated rows."""
+    ny, nx = z_m.shape
+    py = pixel_m if pixel_y_m is None else pixel_y_m
+    head = f"# Channel: Height\n# Width: {nx * pixel_m * 1e6:.6g} µm\n# Height: {ny * py * 1e6:.6g} µm\n"
+    rows = "\n".join("\t".join(f"{v:.6e}" for v in row) for row in z_m)
+    path.write_text(head + "# Value units: m\n" + rows + "\n", encoding="utf-8")
+    return path
+
+
+#: NanoFocus NMS (the layout SurfaceTopography's reader declares): a 3468-byte header (a version block at 0, the
+#: z range at 16, point counts and spacing at 1368), the heights as uint16 rows scaled between zmin and zmax (µm),
+#: then one byte a point (as in the instrument files we saw).
+NMS_HEADER = 3468
+
+
+def write_nms(path: Path, z_um: NDArray[np.float64], spacing: float) -> NDArray[np.float64]:
+    """Write ``z_um`` (µm, rows = y) as a NanoFocus NMS file with ``spacing`` in the header's x and y spacing fields
+    (SurfaceTopography reads them as mm; an instrument file we saw holds 312.5 there); returns the heights
+    the file holds (µm, quantised to its 16 bits)."""
+    import struct
+
+    ny, nx = z_um.shape
+    zmin, zmax = float(np.min(z_um)), float(np.max(z_um))
+    counts = np.rint((z_um - zmin) / (zmax - zmin) * (2**16 - 2)).astype("<u2")
+    head = bytearray(NMS_HEADER)
+    struct.pack_into("<IIIHH", head, 0, 2, 1, 0, 0xFFFF, 0)
+    struct.pack_into("<dd", head, 16, zmin, zmax)
+    head[0x20:0x29] = b"OM_MS_2.0"
+    head[0x34:0x49] = b"Confocal Height Image"
+    struct.pack_into("<IIdd", head, 1368, nx, ny, spacing, spacing)
+    path.write_bytes(bytes(head) + counts.tobytes() + bytes(nx * ny))
+    return counts / (2**16 - 2) * (zmax - zmin) + zmin

@@ -10,14 +10,14 @@ import argparse
 __all__ = ["register"]
 
 _KEYS = (
-    ("--pixel-m", "pixel_m", float, "pixel size, m (overrides the file's)"),
+    ("--pixel-m", "pixel_m", float, "pixel size, m (overrides the file's; declares the pixels square)"),
     ("--height-unit-m", "height_unit_m", float, "metres per height unit (overrides the file's)"),
-    ("--form", "form", str, "form removal: plane (default), cylinder (a bore), polynomial"),
+    ("--form", "form", str, "form removal: plane (default), cylinder (a bore the field resolves), polynomial"),
     ("--form-degree", "form_degree", int, "polynomial degree (2)"),
     ("--bore-axis", "bore_axis", str, "x (default: the bore's axis along the map's columns) or y"),
     ("--lambda-s-m", "lambda_s_m", float, "ISO 16610-61 S-filter nesting index, m (none)"),
     ("--lambda-c-m", "lambda_c_m", float, "ISO 16610-61 L-filter nesting index (cut-off), m (none)"),
-    ("--max-missing-fraction", "max_missing_fraction", float, "most missing points allowed (0.05)"),
+    ("--max-missing-fraction", "max_missing_fraction", float, "most missing points allowed, a fraction < 1 (0.05)"),
 )
 
 
@@ -29,8 +29,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description=(
             "Reads a height map or line profile (any format SurfaceTopography reads, or a plain-text grid) as a "
             "scene's [surfaces.*] kind = 'file' does, and prints the instrument, size, pixel, units, missing points "
-            "and the ISO 25178-2 parameters with the mean plane only removed and after form removal and filtering. "
-            "The options are the scene keys of that table."
+            "and the ISO 25178-2 parameters with the mean plane only removed and after form removal and filtering, "
+            "all of the measured points only (filled dropouts never count). Non-square pixels are resampled to "
+            "square ones at the coarser pitch (said). The options are the scene keys of that table."
         ),
     )
     p.add_argument("file", help="height-map file")

@@ -31,6 +31,7 @@ data file is parsed without its files). A missing or malformed height map is an 
 
 from __future__ import annotations
 
+import contextlib
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -65,7 +66,8 @@ class HeightMap:
     """A measured height map as read from its file: ``heights`` are the file's numbers (its own unit, rows × columns,
     read-only; 1-D for a line profile; NaN where the instrument measured no point), ``path`` the file it came from
     (resolved; for provenance and messages). ``pixel_m`` and ``height_unit_m`` (m) are the file's own metadata (None
-    when it has none: a plain-text grid), ``instrument`` and ``file_format`` what the file and its reader say."""
+    when it has none: a plain-text grid), ``instrument`` and ``file_format`` what the file and its reader say;
+    ``pixel_y_m`` the pitch along y (rows) where the file's pixels are not square (``pixel_m`` is then along x)."""
 
     path: str
     heights: NDArray[np.float64] = field(repr=False, compare=False)
@@ -73,11 +75,13 @@ class HeightMap:
     height_unit_m: float | None = None
     instrument: str | None = None
     file_format: str = "plain text"
+    pixel_y_m: float | None = None
 
     def metadata(self) -> dict[str, Any]:
         """What the file says about itself (for ``sims.surface`` and provenance)."""
         return {
             "pixel_m": self.pixel_m,
+            "pixel_y_m": self.pixel_y_m,
             "height_unit_m": self.height_unit_m,
             "instrument": self.instrument,
             "file_format": self.file_format,
@@ -184,7 +188,7 @@ def read_measured_map(path: str | Path, *, key: str = "path") -> HeightMap:
     grid of numbers is a plain-text map, anything else goes to the library (a message naming the pip command when it
     is not installed). Errors are :class:`SettingError` naming ``key``.
     """
-    from contactrig.core.topography_file import read_topography_file
+    from contactrig.core.topography_file import has_metadata_header, surfaces_library_available
 
     p = Path(path)
     raw = read_input_bytes(key, p, max_bytes=HEIGHT_MAP_MAX_BYTES)
@@ -192,16 +196,25 @@ def read_measured_map(path: str | Path, *, key: str = "path") -> HeightMap:
         text = raw.decode("utf-8")
     except UnicodeDecodeError:
         text = None
+    if text is not None and has_metadata_header(text) and surfaces_library_available():
+        with contextlib.suppress(SettingError):  # the header's pixel size and unit; else the numbers alone
+            return _library_map(raw, p, key)
     if text is not None:
         try:
             return HeightMap(path=str(p), heights=_parse_grid(text, p, key))
         except SettingError:
             if not _looks_like_a_header(text):
                 raise
+    return _library_map(raw, p, key)
+
+
+def _library_map(raw: bytes, p: Path, key: str) -> HeightMap:
+    from contactrig.core.topography_file import read_topography_file
+
     m = read_topography_file(raw, key=key, path=str(p))
     heights = m.heights
     heights.setflags(write=False)
-    return HeightMap(str(p), heights, m.pixel_m, m.height_unit_m, m.instrument, m.file_format)
+    return HeightMap(str(p), heights, m.pixel_m, m.height_unit_m, m.instrument, m.file_format, m.pixel_y_m)
 
 
 def _looks_like_a_header(text: str) -> bool:

@@ -32,7 +32,14 @@ from numpy.typing import NDArray
 from contactrig.core.inputs import HEIGHT_MAP_MAX_SIDE
 from contactrig.core.validation import SettingError
 
-__all__ = ["PARSE_TIMEOUT_S", "PIP_HINT", "Measured", "read_topography_file", "surfaces_library_available"]
+__all__ = [
+    "PARSE_TIMEOUT_S",
+    "PIP_HINT",
+    "Measured",
+    "has_metadata_header",
+    "read_topography_file",
+    "surfaces_library_available",
+]
 
 #: Longest time the library may take to parse one file, s.
 PARSE_TIMEOUT_S = 60.0
@@ -49,9 +56,10 @@ class Measured:
     """A measured topography as its file holds it.
 
     ``heights``: the file's numbers in its height unit (2-D rows = y × columns = x, or 1-D for a line profile; NaN
-    where no point was measured); ``pixel_m``: the grid pitch in m (None: the file gives none); ``height_unit_m``:
-    metres per unit of ``heights`` (None: the file gives no unit); ``instrument`` and ``file_format`` as named by the
-    file and the library.
+    where no point was measured); ``pixel_m``: the grid pitch in m (along x, the columns; None: the file gives none);
+    ``pixel_y_m``: the pitch along y (the rows) when it differs from ``pixel_m`` (non-square pixels), else None;
+    ``height_unit_m``: metres per unit of ``heights`` (None: the file gives no unit); ``instrument`` and
+    ``file_format`` as named by the file and the library.
     """
 
     heights: NDArray[np.float64] = field(repr=False, compare=False)
@@ -59,6 +67,7 @@ class Measured:
     height_unit_m: float | None
     instrument: str | None
     file_format: str
+    pixel_y_m: float | None = None
 
 
 def surfaces_library_available() -> bool:
@@ -75,22 +84,67 @@ def _instrument(info: dict[str, Any]) -> str | None:
     return None
 
 
-def _pixel(sizes: Any, pts: tuple[int, ...], factor: float | None) -> float | None:
-    """The square pixel in m, or None (no sizes or no unit); non-square pixels are an error text (a str)."""
+def _pixel(sizes: Any, pts: tuple[int, ...], factor: float | None) -> tuple[float | None, float | None]:
+    """The pitch in m along x and, for non-square pixels, along y (else None); (None, None): no sizes or no unit."""
     if sizes is None or factor is None:
-        return None
+        return None, None
     pitch = [float(s) / n * factor for s, n in zip(sizes, pts, strict=False)]
     if len(pitch) == 2 and abs(pitch[0] - pitch[1]) > 1e-6 * max(pitch):
-        raise ValueError(f"non-square pixels ({pitch[0]:g} m × {pitch[1]:g} m); expected a square grid")
-    return pitch[0]
+        return pitch[0], pitch[1]
+    return pitch[0], None
+
+
+def has_metadata_header(text: str) -> bool:
+    """Whether a plain-text grid names its metadata in ``#`` lines before the numbers (``# Width: 10.00 µm``, as
+    Gwyddion and other programs export): such a file is the library's to read, so its pixel size and unit count."""
+    for line in text.splitlines():
+        stripped = line.strip()
+        if not stripped:
+            continue
+        if not stripped.startswith("#"):
+            return False
+        name, colon, value = stripped.lstrip("#").partition(":")
+        if colon and name.strip() and value.strip():
+            return True
+    return False
+
+
+class _Named(bytes):
+    """A file's bytes with the suffix of its name (``"nms"``): the format hint the library takes from a path."""
+
+    suffix: str = ""
+
+
+def _open(raw: bytes) -> Any:
+    """The library's reader for ``raw``: detected from the content; where that finds no reader or one that gives no
+    channel (a format without magic bytes, such as NanoFocus NMS, can be taken for another), the readers of the
+    file's suffix are tried, as the library does for a path."""
+    from SurfaceTopography.IO import open_topography, readers
+
+    try:
+        reader = open_topography(io.BytesIO(raw))
+        if reader.channels:
+            return reader
+        problem: Exception = ValueError(f"the {type(reader).name()} reader finds no data channel in it")
+    except Exception as exc:  # the suffix's readers get their chance; this one is re-raised
+        problem = exc
+    suffix = getattr(raw, "suffix", "").lower()
+    for cls in readers:
+        if suffix and suffix in (cls.file_extensions() or ()):
+            try:
+                reader = open_topography(io.BytesIO(raw), format=cls.format())
+            except Exception:  # not this reader
+                continue
+            if reader.channels:
+                return reader
+    raise problem
 
 
 def _parse(raw: bytes) -> Measured:
     """Runs in the child: the library parses ``raw`` (size checked before the heights are decoded)."""
-    from SurfaceTopography import open_topography
     from SurfaceTopography.Support.UnitConversion import get_unit_conversion_factor
 
-    reader = open_topography(io.BytesIO(raw))
+    reader = _open(raw)
     channel = reader.default_channel
     pts = tuple(int(n) for n in channel.nb_grid_pts)
     limit = HEIGHT_MAP_MAX_SIDE if len(pts) == 2 else PROFILE_MAX_POINTS
@@ -107,7 +161,8 @@ def _parse(raw: bytes) -> Measured:
     topo = reader.topography(channel_index=channel.index, **kwargs)
     h = np.ma.filled(np.ma.masked_invalid(topo.heights()).astype(np.float64), np.nan)
     heights = np.ascontiguousarray(h.T if h.ndim == 2 else h)  # the library's [x, y] → rows = y
-    return Measured(heights, _pixel(sizes, pts, factor), factor, _instrument(channel.info), type(reader).name())
+    pixel_x, pixel_y = _pixel(sizes, pts, factor)
+    return Measured(heights, pixel_x, factor, _instrument(channel.info), type(reader).name(), pixel_y)
 
 
 def _child(conn: Any, raw: bytes) -> None:
@@ -126,9 +181,12 @@ def _child(conn: Any, raw: bytes) -> None:
 def read_topography_file(raw: bytes, *, key: str, path: str, timeout_s: float = PARSE_TIMEOUT_S) -> Measured:
     """Parse the bytes ``raw`` of the file ``path`` with SurfaceTopography in a child process within ``timeout_s``.
 
-    Errors (library missing, unknown format, a damaged file, too many points, non-square pixels) are a
-    :class:`SettingError` naming ``key`` and ``path``.
+    Errors (library missing, unknown format, a damaged file, too many points) are a :class:`SettingError` naming
+    ``key`` and ``path``. The suffix of ``path`` is the library's format hint where the content does not decide.
     """
+    named, name = _Named(raw), path.rpartition("/")[2]
+    named.suffix = name.rpartition(".")[2] if "." in name else ""
+    raw = named
     if not surfaces_library_available():
         raise SettingError(
             key, path, f"is not a plain-text grid; reading profilometer formats needs SurfaceTopography: {PIP_HINT}"

@@ -134,9 +134,10 @@ def test_edges_are_never_wrapped_into_a_cliff(how):
     seed=st.integers(0, 2**16),
 )
 def test_any_map_within_the_dropout_limit_comes_out_complete(shape, fraction, form, lambda_c, seed):
-    """Whatever the grid, dropout pattern (≤ the limit), form and cut-off: a finite surface, the dropouts counted."""
+    """Whatever the grid, dropout pattern (≤ the limit), form and cut-off: a finite surface, the dropouts counted.
+    (The bore, R = 100 µm, rises ≥ 6× the roughness over the narrowest field: a cylinder the field resolves.)"""
     rng = np.random.default_rng(seed)
-    z = rng.normal(0, 1e-7, shape) + mk.bore(*shape, 1e-6, 0.01)
+    z = rng.normal(0, 1e-8, shape) + mk.bore(*shape, 1e-6, 1e-4)
     holes = np.zeros(shape, dtype=bool)
     holes.flat[rng.permutation(holes.size)[: int(fraction * holes.size)]] = True
     z[holes] = np.nan
