@@ -204,3 +204,32 @@ def test_a_session_started_in_a_terminal_is_followed_live(browser, console, fold
         assert "block 9/9" in text_of(browser, "#follow-line")
     finally:
         proc.wait(timeout=60)
+
+
+def test_compliance_blocks_are_marked_named_and_left_out_of_the_mean(browser, console):
+    """plot.js with blocks as the server sends them (view.block_row), one of them taken in compliance: it has no
+    point and no part in the mean, the note under the chart names its number, the tooltip says it was excluded."""
+    from contactrig.console.view import block_row
+
+    rows = [block_row(0, 0, 5.44, 1, 8.1e-3, 1.2e-8, 10, 0, False),
+            block_row(1, 0, 5.44, 2, 8.3e-3, 1.1e-8, 10, 0, False),
+            block_row(2, 0, 10.526, 1, float("nan"), float("nan"), 0, 10, True),
+            block_row(3, 0, 10.526, 2, 5.0e-3, 9e-9, 10, 0, False)]  # fmt: skip
+    open_console(browser, console)
+    wait(browser, lambda d: d.execute_script("return typeof Plot") == "object")
+    got = browser.execute_script("""
+        const holder = document.createElement("div"); holder.id = "plot-test"; document.body.append(holder);
+        Plot.draw(holder, { blocks: arguments[0], weights: [5.44, 10.526, 25.966] });
+        const u = holder._uplot, m = holder._model;
+        return { compliance: holder.getAttribute("data-compliance"), points: holder.getAttribute("data-points"),
+                 note: holder.querySelector(".plot-note").textContent, data: u.data,
+                 labels: u.series.map((s) => s.label), tip: Plot.tooltipLines(m, 1) };
+    """, rows)  # fmt: skip
+    assert got["compliance"] == "1" and got["points"] == "3"
+    assert got["note"].startswith("✕ compliance in block(s) 3: excluded")
+    assert got["data"][0] == [5.44, 10.526, 25.966]
+    mean = got["data"][got["labels"].index("mean ± 1 SEM")]
+    assert mean[1] == pytest.approx(5.0) and mean[0] == pytest.approx(8.2)  # mΩ; the compliance block left out
+    assert got["data"][got["labels"].index("repeat 1")][1] is None
+    assert "block 3 (run 0, repeat 1): COMPLIANCE: excluded" in got["tip"]
+    assert "mean of 1 repeat(s): 5.0000 mΩ" in got["tip"]

@@ -248,5 +248,5 @@ const Plot = (() => {
     }, data, holder);
   }
 
-  return { draw, drawReadings, formatOhm, unitFor };
+  return { draw, drawReadings, formatOhm, tooltipLines, unitFor };
 })();
