@@ -153,6 +153,7 @@ def test_the_chart_has_ticks_units_tooltips_zoom_and_the_fitted_curves(browser, 
     wait(browser, lambda d: int(plot_attr(d, "curves") or 0) >= 4, timeout=240)
     series = browser.execute_script(f"return {u}.series.map((s) => s.label)")
     assert "fit: Greenwood–Tripp" in series and "mean ± 1 SEM" in series and "repeat 2" in series, series
+    browser.execute_script("document.getElementById('plot').scrollIntoView()")
     shot(browser, "plot-fit", tmp_path)
 
 

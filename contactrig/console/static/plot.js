@@ -8,7 +8,7 @@
 
 const Plot = (() => {
   const REPEAT_COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22"];
-  const CURVE_COLOURS = ["#d62728", "#000000", "#7f7f7f", "#9467bd", "#2ca02c", "#ff7f0e"];
+  const CURVE_COLOURS = ["#d62728", "#006d2c", "#7f7f7f", "#6a3d9a", "#b15928", "#01665e"];
   // Display units of resistance, largest first (as analysis.resistance.resistance_unit: the largest in which the
   // median magnitude is ≥ 1; mΩ with no value).
   const UNITS = [[1, "Ω"], [1e3, "mΩ"], [1e6, "µΩ"]];
