@@ -63,7 +63,8 @@ def _command(session: Any) -> str:
 def follow(path: Path, now: float | None = None) -> dict[str, Any]:
     """The state of the session file ``path`` as ``contactrig watch`` sees it, read lock-free while another process
     writes it (:func:`daq.session_file.load_session`): status, the watch status line, blocks so far, blocks planned,
-    the ETA [s] (None: not yet known, or not running), the last block's readings and the command that writes it."""
+    the ETA [s] (None: not yet known, or not running), the last block's readings, the command that writes it and what
+    the reader said (``warnings``)."""
     from analysis.watch import state_from_session, status_line
     from daq.session_file import load_session
 
@@ -77,7 +78,7 @@ def follow(path: Path, now: float | None = None) -> dict[str, Any]:
         "status_line": status_line(state, now), "eta_s": state.eta_s(now), "blocks": summary_rows(session.summary),
         "blocks_planned": state.blocks_planned, "readings_ohm": readings, "command": _command(session),
         "host": str(session.start.get("host") or ""), "sample": str(session.start.get("sample") or ""),
-        "notes": list(session.warnings),
+        "warnings": list(session.warnings),
     }  # fmt: skip
 
 

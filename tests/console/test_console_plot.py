@@ -8,6 +8,7 @@ Browser setup (system Chromium, Selenium, the console as a child process) as tes
 from __future__ import annotations
 
 import itertools
+import os
 import re
 import subprocess
 import sys
@@ -34,22 +35,15 @@ LIVE_LINE = re.compile(r"block (\d+)/\d+\s+([\d.]+) kg\s+repeat (\d+)\s+R = ([\d
 
 
 def acquire_in_terminal(folder: Path, *args: str, stdin: str | None = None,
-                        wait_for: bool = True) -> subprocess.Popen[str] | str:  # fmt: skip
+                        wait_for: bool = True) -> subprocess.Popen[bytes] | str:  # fmt: skip
     """``contactrig acquire`` as an operator types it, in its own process (the console does not start it)."""
     cmd = [sys.executable, "-m", "contactrig", "acquire", *args]
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
     if not wait_for:
-        return subprocess.Popen(cmd, cwd=folder, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                                env={"PYTHONPATH": str(ROOT), **_env()})  # fmt: skip
-    out = subprocess.run(cmd, cwd=folder, input=stdin or "", capture_output=True, text=True, timeout=120,
-                         env={"PYTHONPATH": str(ROOT), **_env()})  # fmt: skip
+        return subprocess.Popen(cmd, cwd=folder, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+    out = subprocess.run(cmd, cwd=folder, input=stdin or "", capture_output=True, text=True, timeout=120, env=env)
     assert out.returncode in (0, 1), out.stderr
     return out.stdout + out.stderr
-
-
-def _env() -> dict[str, str]:
-    import os
-
-    return {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
 
 
 @pytest.fixture(scope="module")

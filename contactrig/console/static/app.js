@@ -302,8 +302,8 @@ function showFollow(path) {
   const who = el("p", { id: "follow-who", class: "small" });
   const holder = el("div", { id: "plot", "data-points": 0 });
   const readingsBox = el("div", { id: "readings" });
-  const notes = el("pre", { id: "follow-notes" });
-  main(el("h1", { id: "follow-title", text: `Following ${path}` }), status, who, line, holder, readingsBox, notes);
+  const said = el("pre", { id: "follow-warnings" });
+  main(el("h1", { id: "follow-title", text: `Following ${path}` }), status, who, line, holder, readingsBox, said);
   let weights = [];
   const poll = async () => {
     followTimer = null;
@@ -315,7 +315,7 @@ function showFollow(path) {
       ? el("a", { id: "follow-run", href: `#/run/${encodeURIComponent(s.run)}`, text: "started from this console: its page has the controls" })
       : `written by: ${s.command}${s.host ? ` on ${s.host}` : ""} — control stays with that process (its terminal: Enter / s / q, Ctrl-C)`);
     line.textContent = s.status_line;
-    notes.textContent = s.notes.join("\n");
+    said.textContent = s.warnings.join("\n");
     if (!weights.length) {
       const d = await api(`/api/session?path=${encodeURIComponent(path)}`);
       weights = d.weights || [];
