@@ -71,3 +71,19 @@ def test_a_session_acquired_in_another_process_is_followed_from_its_file(client:
 def test_follow_refuses_a_path_outside_the_folder(client: Client):
     r = client.get("/api/follow?path=../x.h5")
     assert r.status_code == 400 and "not a session file" in r.json()["error"]
+
+
+def test_the_vendored_chart_library_and_its_licence_are_package_data():
+    """uPlot is served from the package (no CDN): its script, stylesheet and licence are in console/static and the
+    package-data globs of pyproject.toml take them into the wheel."""
+    import fnmatch
+    import tomllib
+
+    static = ROOT / "contactrig" / "console" / "static"
+    globs = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["tool"]["setuptools"]["package-data"]
+    for name in ("uPlot.iife.min.js", "uPlot.min.css", "uPlot.LICENSE", "plot.js"):
+        assert (static / name).is_file(), name
+        assert any(fnmatch.fnmatch(f"console/static/{name}", g) for g in globs["contactrig"]), name
+    assert "MIT License" in (static / "uPlot.LICENSE").read_text(encoding="utf-8")
+    page = (static / "index.html").read_text(encoding="utf-8")
+    assert re.findall(r'src="([^"]+)"', page) == ["/static/uPlot.iife.min.js", "/static/plot.js", "/static/app.js"]
