@@ -304,7 +304,7 @@ function showFollow(path) {
   const readingsBox = el("div", { id: "readings" });
   const said = el("pre", { id: "follow-warnings" });
   main(el("h1", { id: "follow-title", text: `Following ${path}` }), status, who, line, holder, readingsBox, said);
-  let weights = [];
+  let weights = null; // the plan's weights, read once from the file's start record
   const poll = async () => {
     followTimer = null;
     const s = await api(`/api/follow?path=${encodeURIComponent(path)}`);
@@ -316,10 +316,7 @@ function showFollow(path) {
       : `written by: ${s.command}${s.host ? ` on ${s.host}` : ""} — control stays with that process (its terminal: Enter / s / q, Ctrl-C)`);
     line.textContent = s.status_line;
     said.textContent = s.warnings.join("\n");
-    if (!weights.length) {
-      const d = await api(`/api/session?path=${encodeURIComponent(path)}`);
-      weights = d.weights || [];
-    }
+    if (weights === null) weights = (await api(`/api/session?path=${encodeURIComponent(path)}`)).weights || [];
     drawPlot(holder, { blocks: s.blocks, weights });
     if (s.readings_ohm.length) Plot.drawReadings(readingsBox, s.readings_ohm);
     if (s.running) followTimer = setTimeout(poll, 1000);
