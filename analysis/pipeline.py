@@ -478,6 +478,7 @@ def analyse_session(
         "warnings": list(session.warnings) + [str(w.message) for w in caught if not _session_note(w)],
         "scene_source": scene.source,
         "history": session_history(session),  # loading order, skips, resumes, interruptions (text from the file)
+        "runs": session.runs,  # every run's start record: the report counts them and shows each run's notes
     }
     kw.setdefault("title", f"Session {Path(session_path).name}")
     return analyse(curve, sweep_result, scene, measured_info=measured_info, sim_info=sim_info, database=database, **kw)

@@ -529,7 +529,24 @@ def _simulated_truth(a: Any) -> list[Any]:
     return [Para(parts)]
 
 
-_START_KEYS = ("started", "operator", "host", "command", "sim", "imported", "sample", "rig", "scene_name", "run")
+_START_KEYS = ("started", "operator", "host", "command", "sim", "imported", "sample", "rig", "scene_name")
+
+
+def _runs_and_notes(info: dict[str, Any]) -> list[Any]:
+    """The number of runs on file (``measured_info["runs"]``: a resumed session has several; the start record's own
+    ``run`` is the first run's, 0) and the session's notes — once when every run kept them, else per run (``acquire
+    --resume --notes`` records a change). The notes are the operator's text: shown as data."""
+    start = info.get("start") or {}
+    runs = [r for r in info.get("runs") or () if isinstance(r, dict)]
+    items: list[Any] = []
+    if runs:
+        items.append(["session runs: ", Data(len(runs)), f" ({len(runs) - 1} resume(s))"])
+    notes = [(r.get("run", k), r.get("notes")) for k, r in enumerate(runs)] or [(start.get("run", 0),
+                                                                                  start.get("notes"))]  # fmt: skip
+    texts = [str(text) for _, text in notes if text]
+    if texts and len(set(texts)) == 1 and len(texts) == len(notes):
+        return [*items, ["session notes: ", Data(texts[0])]]
+    return items + [[f"session notes, run {run}: ", Data(text)] for run, text in notes if text]
 
 
 def _provenance(a: Any) -> list[Any]:
@@ -541,6 +558,7 @@ def _provenance(a: Any) -> list[Any]:
     ]  # fmt: skip
     start = info.get("start") or {}
     items += [[f"session {k}: ", Data(start[k])] for k in _START_KEYS if k in start]
+    items += _runs_and_notes(info)
     for k in sorted(start):
         if k in ("software", "versions") or "ident" in k:
             items.append(["session ", Data(k), ": ", Code(to_json(start[k], sort_keys=True))])

@@ -37,6 +37,8 @@ __all__ = [
     "RunOutcome",
     "Writer",
     "answer_yes",
+    "format_mean_ohm",
+    "format_ohm",
 ]
 
 Decision = Literal["go", "skip", "quit"]
@@ -361,14 +363,20 @@ def format_live_line(rec: BlockRecord, index: int, total: int) -> str:
     if st.n == 0:
         value = "no valid readings"
     else:
-        sem = "" if math.isnan(st.sem) else f" ± {_ohm(st.sem)}"
-        value = f"R = {st.mean * 1e3:.4f} mΩ{sem} (SEM, n = {st.n})"
+        sem = "" if math.isnan(st.sem) else f" ± {format_ohm(st.sem)}"
+        value = f"R = {format_mean_ohm(st.mean)}{sem} (SEM, n = {st.n})"
     invalid = f", {st.n_invalid} invalid" if st.n_invalid else ""
     return f"{where}  {rec.weight_kg:g} kg  repeat {rec.repeat}  {value}{invalid}"
 
 
-def _ohm(x: float) -> str:
-    """A resistance with an SI prefix chosen so that three significant digits show (e.g. ``5.12 nΩ``)."""
+def format_mean_ohm(x: float) -> str:
+    """A block's mean resistance [Ω] as the live line prints it: mΩ with four decimals (``8.0913 mΩ``)."""
+    return f"{x * 1e3:.4f} mΩ"
+
+
+def format_ohm(x: float) -> str:
+    """A resistance [Ω] with an SI prefix chosen so that three significant digits show (e.g. ``5.12 nΩ``): the
+    live line's SEM, and the console's (one rule for the terminal and the page)."""
     for factor, unit in ((1.0, "Ω"), (1e-3, "mΩ"), (1e-6, "µΩ"), (1e-9, "nΩ")):
         if abs(x) >= factor:
             return f"{x / factor:.3g} {unit}"

@@ -498,6 +498,19 @@ def test_the_site_builds_strictly(tmp_path):
     api = (site / "api" / "daq" / "index.html").read_text(encoding="utf-8")
     assert 'id="daq.session_file.load_session"' in api  # the API pages are rendered from the docstrings
     assert (site / "img" / "fig02_database.png").exists()
+    # the manual works offline: every script and stylesheet it loads is served from the site itself (issue 26 item 5:
+    # the theme's highlight.js came from a CDN, `hljs is not defined` without a network)
+    pages = sorted(site.rglob("*.html"))
+    external = {
+        f"{page.relative_to(site)}: {src}"
+        for page in pages
+        for src in re.findall(r'<(?:script[^>]*\ssrc|link[^>]*\shref)="([^"]+)"', page.read_text(encoding="utf-8"))
+        if re.match(r"(?i)(https?:)?//", src)
+    }
+    assert not external, sorted(external)[:5]
+    index = (site / "index.html").read_text(encoding="utf-8")
+    assert "assets/highlight/highlight.min.js" in index
+    assert (site / "assets" / "highlight" / "highlight.min.js").exists()
 
 
 def _absent(module: str) -> bool:

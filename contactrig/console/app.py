@@ -58,7 +58,8 @@ PAGE_CSP = (
 #: files from DIR (report.html, figures, exports): a sandbox without scripts; the report's own styles and images
 FILE_CSP = "sandbox; default-src 'none'; img-src 'self' data:; style-src 'unsafe-inline'; frame-ancestors 'self'"
 SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,120}\.(h5|hdf5|nxs)$")
-STATIC = {"app.js": "text/javascript", "style.css": "text/css", "index.html": "text/html"}
+STATIC = {"app.js": "text/javascript", "style.css": "text/css", "index.html": "text/html", "plot.js": "text/javascript",
+          "uPlot.iife.min.js": "text/javascript", "uPlot.min.css": "text/css"}  # fmt: skip
 SUBPROCESS_TIMEOUT_S = 600
 #: past sessions overlaid at most (the latest)
 MAX_OVERLAID = 10
@@ -491,21 +492,34 @@ def _session_file(console: Console, relative: object) -> Path:
 
 
 def _details(path: Path) -> dict[str, Any]:
+    """A session file for its page (read lock-free, so a session another process is writing shows too): status,
+    stop record, the runs (each with its start, command and notes), every block on file (:func:`view.summary_rows`:
+    1-based numbers and the terminal's formatting), sample, operator, notes and what the reader said."""
+    from contactrig.console.view import summary_rows
     from daq.session_file import load_session
 
     with warnings.catch_warnings(record=True) as notes:
         warnings.simplefilter("always")
         s = load_session(path, timeout=60)
-    summary = s.summary
-    cols = [c for c in ("block", "run", "weight_kg", "repeat", "mean_ohm", "sem_ohm", "n", "n_invalid", "compliance")
-            if c in summary.columns]  # fmt: skip
-    blocks = json.loads(summary[cols].to_json(orient="records"))
     runs = [r for r in s.runs if isinstance(r, dict)] if isinstance(s.runs, list) else []
     history = [{"run": r.get("run", i), "started": r.get("started"), "command": r.get("command"),
-                "resumed_from": r.get("resumed_from"), "stop": r.get("stop")} for i, r in enumerate(runs)]  # fmt: skip
+                "resumed_from": r.get("resumed_from"), "stop": r.get("stop"), "notes": r.get("notes")}
+               for i, r in enumerate(runs)]  # fmt: skip
     said = [*s.warnings, *(str(n.message) for n in notes)]
-    return {"status": s.status, "stop": s.stop, "history": history, "blocks": blocks, "sample": s.start.get("sample"),
-            "operator": s.start.get("operator"), "warnings": said}  # fmt: skip
+    return {"status": s.status, "stop": s.stop, "history": history, "blocks": summary_rows(s.summary),
+            "sample": s.start.get("sample"), "operator": s.start.get("operator"), "notes": s.start.get("notes"),
+            "runs": len(runs), "weights": _planned_weights(s.start), "warnings": said}  # fmt: skip
+
+
+def _planned_weights(start: dict[str, Any]) -> list[float]:
+    """The plan's weights [kg] (the plot's weight axis covers them from the first block on)."""
+    plan = start.get("plan")
+    session = plan.get("session") if isinstance(plan, dict) else None
+    weights = session.get("weights_kg") if isinstance(session, dict) else None
+    try:
+        return sorted(float(w) for w in weights or [])
+    except (TypeError, ValueError):
+        return []
 
 
 async def session_details(request: Request) -> Response:
@@ -539,6 +553,7 @@ async def session_action(request: Request) -> Response:
     stem = path.name.rsplit(".", 1)[0]
     if action == "fit":
         result = await asyncio.to_thread(_contactrig, ["fit", rel, "--bootstrap", "200"], console.root)
+        result["curves"] = await asyncio.to_thread(_fit_curves, rel, console.root) if result["code"] == 0 else []
     elif action == "report":
         folder = f"{stem}-report"
         result = await asyncio.to_thread(
@@ -554,6 +569,36 @@ async def session_action(request: Request) -> Response:
     else:
         return JSONResponse({"error": "no such action"}, status_code=404)
     return JSONResponse(result)
+
+
+def _fit_curves(rel: str, cwd: Path) -> list[dict[str, Any]]:
+    """The models' fitted curves for the plot, from ``contactrig fit --json`` (point estimates: no bootstrap)."""
+    from contactrig.console.view import fit_curves
+
+    out = _contactrig(["fit", rel, "--bootstrap", "0", "--json"], cwd)
+    try:
+        return fit_curves(json.loads(out["stdout"])) if out["code"] == 0 else []
+    except json.JSONDecodeError:
+        return []
+
+
+async def follow(request: Request) -> Response:
+    """A session followed from its file (``contactrig acquire`` in a terminal, or any other process): its state as
+    ``contactrig watch`` sees it (:func:`view.follow`), read lock-free; no control — that stays with the process
+    that writes it. ``run``: the id of this console's run on the file, when it is one (its page has the controls)."""
+    from contactrig.console.view import follow as follow_file
+
+    console: Console = request.app.state.console
+    try:
+        path = _session_file(console, request.query_params.get("path"))
+        state = await asyncio.to_thread(follow_file, path)
+    except (ValueError, OSError, RuntimeError) as exc:
+        return JSONResponse({"error": _one_line(exc)}, status_code=400)
+    rel = path.relative_to(console.root).as_posix()
+    here = next((r for r in console.runs.values() if r.state.file == rel and r.running), None)
+    state["run"] = None if here is None else here.state.id
+    state["path"] = rel
+    return JSONResponse(state)
 
 
 def _overlay(console: Console, sample: str, leave_out: str) -> list[dict[str, Any]]:
@@ -604,6 +649,7 @@ def build_app(console: Console) -> ASGIApp:
         Route("/api/runs/{run}/events", events),
         Route("/api/session", session_details),
         Route("/api/overlay", overlay),
+        Route("/api/follow", follow),
         Route("/api/session/{action}", session_action, methods=["POST"]),
     ]
     app = Starlette(routes=routes)

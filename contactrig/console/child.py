@@ -21,6 +21,7 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import Any, TextIO
 
+from contactrig.console.view import block_row
 from daq.engine import Decision, OperatorQuit
 from daq.plan import PlaceWeight
 from daq.records import BlockRecord, StopRecord
@@ -80,11 +81,10 @@ class ConsoleWriter:
     def block(self, rec: BlockRecord) -> None:
         st = rec.stats
         readings = [_finite(float(x)) for x in rec.resistance_ohm[:MAX_READINGS_SENT]]
-        self.channel.send({
-            "event": "block", "block": rec.block, "run": rec.run, "weight_kg": rec.weight_kg, "repeat": rec.repeat,
-            "mean_ohm": _finite(st.mean), "sem_ohm": _finite(st.sem), "n": st.n, "n_invalid": st.n_invalid,
-            "compliance": rec.compliance, "readings_ohm": readings, "started": rec.started,
-        })  # fmt: skip
+        # the page's row: the 1-based number and the terminal's formatting
+        row = block_row(rec.block, rec.run, rec.weight_kg, rec.repeat, st.mean, st.sem, st.n, st.n_invalid,
+                        rec.compliance)  # fmt: skip
+        self.channel.send({"event": "block", **row, "readings_ohm": readings, "started": rec.started})
 
     def stop(self, stop: StopRecord) -> None:
         self.channel.send({

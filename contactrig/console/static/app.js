@@ -33,11 +33,6 @@ async function api(path, body) {
   return data;
 }
 
-function fmtOhm(x) {
-  if (x === null || x === undefined) return "—";
-  return (x * 1e3).toFixed(4) + " mΩ";
-}
-
 function fmtDuration(s) {
   if (s === null || s === undefined) return "—";
   if (s < 60) return `${Math.round(s)} s`;
@@ -74,6 +69,7 @@ async function showSessions() {
       if (s.status === "aborted" || s.status === "incomplete" || s.status === "failed") {
         action.append(el("button", { class: "resume", onclick: () => resume(s.path, s.kind === "simulated"), text: "Resume" }));
       }
+      if (s.status === "running") action.append(el("a", { class: "follow", href: `#/follow/${encodeURIComponent(s.path)}`, text: "Follow live" }));
       const status = ["corrupt", "newer"].includes(s.status) ? s.status.toUpperCase() : s.status;
       const row = el("tr", {}, el("td", { text: (s.start_time || "").slice(0, 19).replace("T", " ") }),
         el("td", { class: s.status, text: status }), el("td", { text: blocks }), el("td", { text: s.kind }),
@@ -157,14 +153,18 @@ function showRun(id) {
   const stops = el("div", { class: "buttons" },
     el("button", { id: "btn-stop-after", onclick: () => stop(id, false), text: "Stop after this block" }),
     el("button", { id: "btn-stop-now", class: "danger", onclick: () => stop(id, true), text: "Stop now" }));
-  const canvas = el("canvas", { id: "plot", width: 720, height: 360, "data-points": 0 });
+  const canvas = el("div", { id: "plot", "data-points": 0 });
+  const readingsBox = el("div", { id: "readings" });
   const info = el("p", { id: "info" });
   const block = el("p", { id: "block" });
   const ended = el("div", { id: "ended" });
   const lines = el("pre", { id: "lines" });
   let overlays = [], last = { blocks: [], readings: [] };
+  // the blocks on file before this run (a resumed session: the plot shows every block, not only this run's)
+  let onFile = { blocks: [], weights: [] }, asked = false;
+  const redraw = () => drawPlot(canvas, { blocks: merged(onFile.blocks, last.blocks), weights: onFile.weights, overlays });
   const toggle = el("span");
-  main(el("h1", { id: "run-title", text: "Session" }), status, weight, ask, stops, info, toggle, canvas, block, ended,
+  main(el("h1", { id: "run-title", text: "Session" }), status, weight, ask, stops, info, toggle, canvas, readingsBox, block, ended,
     el("h2", { text: "Plan and notes" }), lines);
   let answered = -1;
   source = new EventSource(`/api/runs/${encodeURIComponent(id)}/events`);
@@ -176,10 +176,15 @@ function showRun(id) {
     const invalid = s.blocks.reduce((a, b) => a + b.n_invalid, 0);
     info.textContent = `ETA ${fmtDuration(s.eta_s)} measuring + ${s.weights_left} weight(s) still to place · invalid readings ${invalid}` + (s.sim ? " · simulated bench" : ` · ${s.address}`);
     const b = lastBlock;
-    block.textContent = b ? `last block #${b.block}: ${b.weight_kg} kg repeat ${b.repeat}: R = ${fmtOhm(b.mean_ohm)} ± ${fmtOhm(b.sem_ohm)} (n = ${b.n}, ${b.n_invalid} invalid)` + (b.compliance ? " COMPLIANCE: excluded" : "") : "";
+    block.textContent = b ? `last block ${b.number}/${s.blocks_planned}: ${b.weight_kg} kg repeat ${b.repeat}: ` + (b.compliance ? "COMPLIANCE: excluded" : `R = ${b.mean_text || "—"}${b.sem_text ? ` ± ${b.sem_text}` : ""} (SEM, n = ${b.n}, ${b.n_invalid} invalid)`) : "";
     last = { blocks: s.blocks, readings: lastBlock ? lastBlock.readings_ohm : [] };
-    if (!toggle.firstChild) toggle.append(overlayToggle(s.sample, s.file, (o) => { overlays = o; drawPlot(canvas, last.blocks, last.readings, overlays); }));
-    drawPlot(canvas, s.blocks, last.readings, overlays);
+    if (!toggle.firstChild) toggle.append(overlayToggle(s.sample, s.file, (o) => { overlays = o; redraw(); }));
+    if (!asked && (s.resume || s.blocks.length)) { // the file exists: read what it holds (lock-free, while written)
+      asked = true;
+      api(`/api/session?path=${encodeURIComponent(s.file)}`).then((d) => { if (!d.error) { onFile = d; redraw(); } });
+    }
+    redraw();
+    if (last.readings && last.readings.length) Plot.drawReadings(readingsBox, last.readings);
     if (s.prompt && s.version !== answered) renderAsk(ask, weight, id, s, () => { answered = s.version; });
     if (!s.prompt) { ask.replaceChildren(); weight.textContent = s.phase === "ended" ? "" : weight.textContent; }
     lines.textContent = s.lines.join("\n");
@@ -225,60 +230,16 @@ async function stop(id, now, confirm) {
   }
 }
 
-// R against weight: every block (a repeat) as a dot, mean ± 1 SEM over the repeats per weight as a bar, blocks in
-// compliance as red crosses on the axis; the current block's readings as a strip on the right.
-function drawPlot(canvas, blocks, readings, overlays) {
-  const ctx = canvas.getContext("2d");
-  const W = canvas.width, H = canvas.height, left = 70, right = 150, top = 15, bottom = 35;
-  ctx.clearRect(0, 0, W, H);
-  const ok = blocks.filter((b) => !b.compliance && b.mean_ohm !== null);
-  canvas.setAttribute("data-points", String(ok.length));
-  ctx.strokeStyle = "#333"; ctx.fillStyle = "#333"; ctx.font = "12px sans-serif";
-  ctx.strokeRect(left, top, W - left - right, H - top - bottom);
-  ctx.fillText("weight [kg]", (W - right) / 2, H - 5);
-  ctx.save(); ctx.translate(12, H / 2); ctx.rotate(-Math.PI / 2); ctx.fillText("R [mΩ]", 0, 0); ctx.restore();
-  const past = (overlays || []).flatMap((o) => o.points);
-  if (!blocks.length && !past.length) return;
-  const ws = [...blocks.map((b) => b.weight_kg), ...past.map((p) => p.weight_kg)];
-  const rs = [...ok.map((b) => b.mean_ohm), ...past.map((p) => p.mean_ohm)];
-  const wmin = Math.min(...ws), wmax = Math.max(...ws) === wmin ? wmin + 1 : Math.max(...ws);
-  const rmin = rs.length ? Math.min(...rs) : 0, rmax0 = rs.length ? Math.max(...rs) : 1, rmax = rmax0 === rmin ? rmin * 1.01 + 1e-9 : rmax0;
-  const x = (w) => left + 10 + (w - wmin) / (wmax - wmin) * (W - left - right - 20);
-  const y = (r) => H - bottom - 10 - (r - rmin) / (rmax - rmin) * (H - top - bottom - 20);
-  ctx.fillText((rmax * 1e3).toPrecision(4), 2, top + 10); ctx.fillText((rmin * 1e3).toPrecision(4), 2, H - bottom - 5);
-  ctx.fillText(String(wmin), left, H - bottom + 14); ctx.fillText(String(wmax), W - right - 30, H - bottom + 14);
-  ctx.strokeStyle = "#bbb"; ctx.lineWidth = 1;
-  for (const o of overlays || []) {
-    ctx.beginPath();
-    o.points.forEach((p, i) => (i ? ctx.lineTo(x(p.weight_kg), y(p.mean_ohm)) : ctx.moveTo(x(p.weight_kg), y(p.mean_ohm))));
-    ctx.stroke();
-  }
-  canvas.setAttribute("data-overlaid", String((overlays || []).length));
-  ctx.fillStyle = "#48c";
-  for (const b of ok) { ctx.beginPath(); ctx.arc(x(b.weight_kg), y(b.mean_ohm), 3, 0, 2 * Math.PI); ctx.fill(); }
-  const byW = new Map();
-  for (const b of ok) byW.set(b.weight_kg, [...(byW.get(b.weight_kg) || []), b.mean_ohm]);
-  ctx.strokeStyle = "#000"; ctx.lineWidth = 2;
-  for (const [w, v] of byW) {
-    const m = v.reduce((a, c) => a + c, 0) / v.length;
-    const sd = v.length > 1 ? Math.sqrt(v.reduce((a, c) => a + (c - m) ** 2, 0) / (v.length - 1)) : 0;
-    const sem = sd / Math.sqrt(v.length);
-    ctx.beginPath(); ctx.moveTo(x(w) + 6, y(m - sem)); ctx.lineTo(x(w) + 6, y(m + sem)); ctx.stroke();
-    ctx.beginPath(); ctx.moveTo(x(w) + 2, y(m)); ctx.lineTo(x(w) + 10, y(m)); ctx.stroke();
-  }
-  ctx.strokeStyle = "#c00"; ctx.lineWidth = 2;
-  for (const b of blocks.filter((b) => b.compliance)) {
-    const cx = x(b.weight_kg), cy = H - bottom - 5;
-    ctx.beginPath(); ctx.moveTo(cx - 4, cy - 4); ctx.lineTo(cx + 4, cy + 4); ctx.moveTo(cx + 4, cy - 4); ctx.lineTo(cx - 4, cy + 4); ctx.stroke();
-  }
-  const vals = (readings || []).filter((v) => v !== null);
-  if (vals.length) {
-    const lo = Math.min(...vals), hi = Math.max(...vals) === lo ? lo + 1e-12 : Math.max(...vals);
-    ctx.fillStyle = "#333"; ctx.fillText("current block", W - right + 20, top + 10);
-    ctx.fillStyle = "#888";
-    vals.forEach((v, i) => ctx.fillRect(W - right + 20 + i / vals.length * (right - 30), H - bottom - 10 - (v - lo) / (hi - lo) * (H - top - bottom - 40), 2, 2));
-  }
-  ctx.lineWidth = 1;
+// R against weight (plot.js, uPlot): every block, mean ± 1 SEM per weight, compliance marked, past sessions and the
+// fitted models' curves; `view` = { blocks, weights (planned), overlays, curves }.
+function drawPlot(holder, view) {
+  Plot.draw(holder, view);
+}
+
+// The blocks on file and this run's live blocks, each once (by run and block), in the order of the file.
+function merged(fileBlocks, liveBlocks) {
+  const seen = new Set(fileBlocks.map((b) => `${b.run}:${b.block}`));
+  return [...fileBlocks, ...liveBlocks.filter((b) => !seen.has(`${b.run}:${b.block}`))];
 }
 
 // Past sessions of the same sample, overlaid on request (grey lines: per weight, the mean of their block means).
@@ -301,39 +262,80 @@ async function showSession(path) {
     out.textContent = `running contactrig ${name}…`;
     const r = await api(`/api/session/${name}`, { path, ...(extra || {}) });
     out.textContent = r.error || [r.stdout, r.stderr].filter((t) => t).join("\n");
+    if (r.curves) { view.curves = r.curves; drawPlot(canvas, view); } // the models' fitted curves over the data
     if (r.link && r.code === 0) links.replaceChildren(el("a", { id: "report-link", href: r.link, target: "_blank", rel: "noopener", text: "open report.html" }));
     (r.written || []).forEach((w, i) => links.append(el("a", { class: "export", href: r.links[i], text: w }), " "));
   };
   if (d.error) { main(el("h1", { text: path }), el("p", { class: "error", text: d.error })); return; }
   const stop = d.stop ? `${d.stop.status}: ${d.stop.reason} — ${d.stop.blocks_done} of ${d.stop.blocks_planned} blocks, stopped ${d.stop.stopped}` : "no stop record (incomplete or running)";
-  const history = el("table", { id: "history" }, el("tr", {}, el("th", { text: "run" }), el("th", { text: "started" }), el("th", { text: "stop" })),
-    ...d.history.map((h) => el("tr", {}, el("td", { text: h.run }), el("td", { text: h.started || "" }), el("td", { text: h.stop ? `${h.stop.status}: ${h.stop.reason}` : "" }))));
+  const history = el("table", { id: "history" }, el("tr", {}, el("th", { text: "run" }), el("th", { text: "started" }), el("th", { text: "stop" }), el("th", { text: "notes" })),
+    ...d.history.map((h) => el("tr", {}, el("td", { text: h.run }), el("td", { text: h.started || "" }), el("td", { text: h.stop ? `${h.stop.status}: ${h.stop.reason}` : "" }), el("td", { class: "text", text: h.notes || "" }))));
   const blocks = el("table", { id: "blocks" }, el("tr", {}, ...["block", "run", "weight [kg]", "repeat", "R", "SEM", "n", "invalid", "compliance"].map((h) => el("th", { text: h }))),
-    ...d.blocks.map((b) => el("tr", {}, el("td", { text: b.block }), el("td", { text: b.run ?? "" }), el("td", { text: b.weight_kg }), el("td", { text: b.repeat }),
-      el("td", { text: fmtOhm(b.mean_ohm) }), el("td", { text: fmtOhm(b.sem_ohm) }), el("td", { text: b.n }), el("td", { text: b.n_invalid }), el("td", { text: b.compliance ? "yes" : "" }))));
-  const canvas = el("canvas", { id: "plot", width: 720, height: 300 });
+    ...d.blocks.map((b) => el("tr", {}, el("td", { text: b.number }), el("td", { text: b.run ?? "" }), el("td", { text: b.weight_kg }), el("td", { text: b.repeat }),
+      el("td", { text: b.mean_text || "—" }), el("td", { text: b.sem_text || "—" }), el("td", { text: b.n }), el("td", { text: b.n_invalid }), el("td", { text: b.compliance ? "yes" : "" }))));
+  const canvas = el("div", { id: "plot", "data-points": 0 });
+  const view = { blocks: d.blocks, weights: d.weights || [], overlays: [], curves: [] };
   main(el("h1", { id: "session-title", text: path }),
-    el("p", {}, "status ", el("strong", { id: "session-status", text: d.status }), " · sample ", el("span", { id: "session-sample", text: d.sample ?? "" }), " · operator ", el("span", { text: d.operator ?? "" })),
+    el("p", {}, "status ", el("strong", { id: "session-status", text: d.status }), " · sample ", el("span", { id: "session-sample", text: d.sample ?? "" }), " · operator ", el("span", { text: d.operator ?? "" }),
+      ` · ${d.runs} run(s)`),
+    el("p", {}, "notes: ", el("span", { id: "session-notes", class: "text", text: d.notes || "(none)" })),
+    d.status === "running" ? el("p", {}, el("a", { id: "to-follow", href: `#/follow/${encodeURIComponent(path)}`, text: "being written by another process: follow it live" })) : "",
     el("h2", { text: "Stop record" }), el("p", { id: "session-stop", text: stop }),
     el("p", { class: "buttons" },
       el("button", { id: "btn-fit", onclick: action("fit"), text: "Fit" }),
       el("button", { id: "btn-report", onclick: action("report"), text: "Report" }),
       el("button", { id: "btn-csv", onclick: action("export", { to: "csv" }), text: "Export CSV" }),
       el("button", { id: "btn-xlsx", onclick: action("export", { to: "xlsx" }), text: "Export xlsx" })),
-    links, out, overlayToggle(d.sample, path, (o) => drawPlot(canvas, d.blocks, [], o)), canvas,
+    links, out, overlayToggle(d.sample, path, (o) => { view.overlays = o; drawPlot(canvas, view); }), canvas,
     el("h2", { text: "History" }), history, el("h2", { text: "Blocks" }), blocks);
-  drawPlot(canvas, d.blocks, []);
+  drawPlot(canvas, view);
+}
+
+// ---- a session written by another process (`contactrig acquire` in a terminal), followed from its file ----------
+// Status, plot and ETA as `contactrig watch` sees them; no Continue/Stop: control stays with the process that writes
+// it (Enter / s / q and Ctrl-C at its terminal).
+let followTimer = null;
+
+function showFollow(path) {
+  const status = el("p", { class: "status", id: "follow-status" });
+  const line = el("pre", { id: "follow-line" });
+  const who = el("p", { id: "follow-who", class: "small" });
+  const holder = el("div", { id: "plot", "data-points": 0 });
+  const readingsBox = el("div", { id: "readings" });
+  const said = el("pre", { id: "follow-warnings" });
+  main(el("h1", { id: "follow-title", text: `Following ${path}` }), status, who, line, holder, readingsBox, said);
+  let weights = null; // the plan's weights, read once from the file's start record
+  const poll = async () => {
+    followTimer = null;
+    const s = await api(`/api/follow?path=${encodeURIComponent(path)}`);
+    if (location.hash !== `#/follow/${encodeURIComponent(path)}`) return; // left the page meanwhile
+    if (s.error) { status.textContent = s.error; followTimer = setTimeout(poll, 2000); return; }
+    status.textContent = `${s.status} — ${s.blocks.length} of ${s.blocks_planned ?? "?"} blocks` + (s.running ? ` — ETA ${fmtDuration(s.eta_s)}` : "");
+    who.replaceChildren(s.run
+      ? el("a", { id: "follow-run", href: `#/run/${encodeURIComponent(s.run)}`, text: "started from this console: its page has the controls" })
+      : `written by: ${s.command}${s.host ? ` on ${s.host}` : ""} — control stays with that process (its terminal: Enter / s / q, Ctrl-C)`);
+    line.textContent = s.status_line;
+    said.textContent = s.warnings.join("\n");
+    if (weights === null) weights = (await api(`/api/session?path=${encodeURIComponent(path)}`)).weights || [];
+    drawPlot(holder, { blocks: s.blocks, weights });
+    if (s.readings_ohm.length) Plot.drawReadings(readingsBox, s.readings_ohm);
+    if (s.running) followTimer = setTimeout(poll, 1000);
+    else document.getElementById("main").prepend(el("p", { id: "follow-ended" }, `${s.status}: `, el("a", { href: `#/session/${encodeURIComponent(path)}`, text: "the session's page" })));
+  };
+  poll();
 }
 
 // ---- routing -----------------------------------------------------------------------------------------------
 function route() {
   if (source) { source.close(); source = null; }
+  if (followTimer) { clearTimeout(followTimer); followTimer = null; }
   const hash = location.hash || "#/sessions";
   const [, page, ...rest] = hash.split("/");
   const arg = decodeURIComponent(rest.join("/"));
   if (page === "new") showNew();
   else if (page === "run") showRun(arg);
   else if (page === "session") showSession(arg);
+  else if (page === "follow") showFollow(arg);
   else showSessions();
 }
 
