@@ -98,7 +98,7 @@ class Client:
                 answer = decide(s) if decide is not None else None
                 if answer is None:
                     answer = {"measure": True} if s["prompt"]["event"] == "resume_choice" else {"decision": "go"}
-                self.post(f"/api/runs/{run}/answer", answer)
+                self.post(f"/api/runs/{run}/answer", {"prompt": s["prompt"]["id"], **answer})  # names its question
             time.sleep(0.02)
         raise AssertionError(f"run {run} did not end in {timeout} s")
 
