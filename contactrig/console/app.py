@@ -340,7 +340,7 @@ def _start(console: Console, body: dict[str, Any]) -> SessionRun:
         if not isinstance(output, str) or resolve_under(console.root, output) is None:
             raise BadRequest(f"resume {output!r}: not a session file in the console's folder")
         scene_path = None
-        address, blocks_planned, before, weights, sample = _recorded(console.root / output)
+        address, blocks_planned, before, weights, sample, recorded_speed = _recorded(console.root / output)
     else:
         if not isinstance(output, str) or not SAFE_NAME.match(output):
             raise BadRequest(
@@ -352,6 +352,7 @@ def _start(console: Console, body: dict[str, Any]) -> SessionRun:
         plan, _ = _plan(console, body)
         blocks_planned, address = plan.blocks_planned, plan.instrument.address
         before, weights, sample = 0, len(plan.session.weights_kg), plan.session.sample
+        recorded_speed = None
     overrides = _overrides(body)
     if resume:
         from daq.overrides import check_bench
@@ -359,8 +360,9 @@ def _start(console: Console, body: dict[str, Any]) -> SessionRun:
         check_bench(overrides, simulated=bool(body.get("sim")))
         address = str(overrides.get("instrument.address", address))
         sample = str(overrides.get("session.sample", sample))
+    speed = _speed(body) or recorded_speed  # a resumed simulated session keeps its speed unless the form sets one
     request = {"scene": None if scene_path is None else str(scene_path), "output": str(console.root / output),
-               "sim": bool(body.get("sim")), "sim_speed": _speed(body), "resume": resume, "overrides": overrides,
+               "sim": bool(body.get("sim")), "sim_speed": speed, "resume": resume, "overrides": overrides,
                "allow_change": bool(body.get("allow_change"))}  # fmt: skip
     client = str(body.get("client") or "")[:64]
     with console.lock:
@@ -399,8 +401,9 @@ def _overrides(body: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def _recorded(path: Path) -> tuple[str, int, int, int, str]:
-    """A session to resume: its bench address, blocks planned, blocks on file, weights not yet measured, sample."""
+def _recorded(path: Path) -> tuple[str, int, int, int, str, float | None]:
+    """A session to resume: its bench address, blocks planned, blocks on file, weights not yet measured, sample, and
+    the simulated bench's speed of its last run (None: not simulated)."""
     from daq.session_file import load_session
 
     try:
@@ -416,7 +419,10 @@ def _recorded(path: Path) -> tuple[str, int, int, int, str]:
     weights = (plan.get("session") or {}).get("weights_kg") or []
     measured = set(session.summary["weight_kg"].tolist())
     address = str((start.get("instrument") or {}).get("address", ""))
-    return address, planned, done, len(set(weights) - measured), str(start.get("sample") or "")
+    last = session.runs[-1] if session.runs and isinstance(session.runs[-1], dict) else start
+    speed = (last.get("simulation") or {}).get("sim_speed") if last.get("sim") else None
+    recorded = float(speed) if isinstance(speed, (int, float)) and speed > 0 else None
+    return address, planned, done, len(set(weights) - measured), str(start.get("sample") or ""), recorded
 
 
 async def start_run(request: Request) -> Response:
