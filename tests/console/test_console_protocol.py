@@ -30,7 +30,7 @@ def _wait_prompt(client: Client, run: str, not_id: str | None = None, timeout: f
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         s = client.get(f"/api/runs/{run}").json()
-        if s["prompt"] is not None and s["prompt"]["id"] != not_id:
+        if s["prompt"] is not None and (not_id is None or s["prompt"]["id"] != not_id):
             return dict(s)
         assert s["phase"] != "ended", s
         time.sleep(0.02)
@@ -179,7 +179,7 @@ def _start_measuring(console: ConsoleProcess, output: str, scene: str, speed: st
     deadline = time.monotonic() + 60
     while (state := console.api(f"/api/runs/{run}"))["prompt"] is None and time.monotonic() < deadline:
         time.sleep(0.05)
-    console.api(f"/api/runs/{run}/answer", {"decision": "go", "prompt": state["prompt"]["id"]})
+    console.api(f"/api/runs/{run}/answer", {"decision": "go", "prompt": state["prompt"].get("id")})
     [child] = _children(console.proc.pid)
     return run, child
 
@@ -338,15 +338,24 @@ def test_allowed_host_must_be_a_name(folder: Path, capsys: pytest.CaptureFixture
 
 
 def test_the_host_check_is_never_off(tmp_path: Path):
-    """Bound to every interface, the console still answers only the names it was given."""
+    """Bound to every interface (or one address), the console answers only the names it was given (a foreign Host:
+    403, the DNS-rebinding guard), with the token still needed."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # Starlette's note on its httpx-based client
+        from starlette.testclient import TestClient
+
+    from contactrig.console.app import build_app
     from contactrig.console.server import make_console
 
-    for host in ("0.0.0.0", "::"):
-        c = make_console(tmp_path, host, 8765, allowed=["bench.lab"])
-        assert "bench.lab:8765" in c.allowed_hosts and "127.0.0.1:8765" in c.allowed_hosts
-        assert "evil.example:8765" not in c.allowed_hosts and "0.0.0.0:8765" not in c.allowed_hosts
-    c = make_console(tmp_path, "192.0.2.7", 8765)
-    assert c.allowed_hosts == {"192.0.2.7:8765"}
+    for host in ("0.0.0.0", "::", "192.0.2.7"):
+        console = make_console(tmp_path, host, 8765)
+        app = TestClient(build_app(console))
+        token = {"x-contactrig-token": console.token}
+        assert app.get("/api/runs", headers={**token, "host": "evil.example:8765"}).status_code == 403, host
+        loopback = "192.0.2.7:8765" if host == "192.0.2.7" else "127.0.0.1:8765"
+        assert app.get("/api/runs", headers={**token, "host": loopback}).status_code == 200, host
+    named = make_console(tmp_path, "0.0.0.0", 8765, allowed=["bench.lab"])
+    assert named.allowed_hosts == {"bench.lab:8765", "127.0.0.1:8765", "localhost:8765"}
 
 
 @pytest.mark.slow
@@ -384,13 +393,13 @@ def test_resume_keeps_the_sessions_sim_speed(client: Client, folder: Path):
     speed 7, as recorded in the new run's start record."""
     run = client.start("speed.h5", speed="7")
     prompt = _wait_prompt(client, run)["prompt"]
-    client.post(f"/api/runs/{run}/answer", {"prompt": prompt["id"], "decision": "quit"})
+    client.post(f"/api/runs/{run}/answer", {"prompt": prompt.get("id"), "decision": "quit"})
     client.drive(run)
     r = client.post("/api/runs", {"resume": True, "output": "speed.h5", "sim": True, "client": "tester"})
     assert r.status_code == 200, r.text
     again = r.json()["id"]
     prompt = _wait_prompt(client, again)["prompt"]
-    client.post(f"/api/runs/{again}/answer", {"prompt": prompt["id"], "decision": "quit"})
+    client.post(f"/api/runs/{again}/answer", {"prompt": prompt.get("id"), "decision": "quit"})
     client.drive(again)
     runs = _loaded(folder / "speed.h5").runs
     assert [r["simulation"]["sim_speed"] for r in runs] == [7.0, 7.0]
