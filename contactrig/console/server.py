@@ -174,9 +174,9 @@ def _supervise(console: Console, http: threading.Thread, signals: _Signals, out:
 
 
 def _outcome(run: SessionRun) -> str:
-    """``FILE: STATUS — REASON (k of n blocks on file)``, or the error the run ended with."""
+    """``FILE: STATUS, k of n blocks on file — REASON``, or the error the run ended with."""
     s = run.state
     if s.stop is not None:
-        return (f"{s.file}: {s.stop.get('status')} — {s.stop.get('reason')} ({s.stop.get('blocks_done')} of "
-                f"{s.stop.get('blocks_planned')} blocks on file)")  # fmt: skip
+        return (f"{s.file}: {s.stop.get('status')}, {s.stop.get('blocks_done')} of {s.stop.get('blocks_planned')} "
+                f"blocks on file — {s.stop.get('reason')}")  # fmt: skip
     return f"{s.file}: {(s.end or {}).get('error') or 'ended'}"
