@@ -147,15 +147,19 @@ class _Events:
     """An open event stream of a run, read in a thread: each state with its arrival time, and when it closed."""
 
     def __init__(self, console: ConsoleProcess, run: str) -> None:
-        req = urllib.request.Request(f"{console.base}/api/runs/{run}/events",
-                                     headers={"X-Contactrig-Token": console.token})  # fmt: skip
-        self.response = urllib.request.urlopen(req, timeout=120)
         self.states: list[tuple[float, dict[str, Any]]] = []
         self.closed_at: float | None = None
         self.thread = threading.Thread(target=self._read, daemon=True)
+        if not run:  # no page open
+            self.response = None
+            return
+        req = urllib.request.Request(f"{console.base}/api/runs/{run}/events",
+                                     headers={"X-Contactrig-Token": console.token})  # fmt: skip
+        self.response = urllib.request.urlopen(req, timeout=120)
         self.thread.start()
 
     def _read(self) -> None:
+        assert self.response is not None
         try:
             for line in self.response:
                 if line.startswith(b"data: "):
@@ -213,27 +217,28 @@ def _source_left_idle(path: Path) -> Any:
 
 @linux_only
 @pytest.mark.slow
-@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
-def test_first_signal_stops_every_session_after_its_block(folder: Path, tmp_path: Path, signum: int):
-    """With an event stream open: the first SIGINT or SIGTERM stops the running session after the block under way
-    (the terminal's first Ctrl-C: stop record, source idle), the stream ends, the console exits within 5 s of the
-    block's end and prints what it stopped; its acquisition child is gone."""
+@pytest.mark.parametrize(("signum", "page"), [(signal.SIGINT, True), (signal.SIGTERM, True), (signal.SIGTERM, False)])
+def test_first_signal_stops_every_session_after_its_block(folder: Path, tmp_path: Path, signum: int, page: bool):
+    """With an event stream open (or none): the first SIGINT or SIGTERM stops the running session after the block
+    under way (the terminal's first Ctrl-C: stop record, source idle), the stream ends, the console exits within 5 s
+    of the block's end and prints what it stopped; its acquisition child is gone."""
     (folder / "slow.toml").write_text(scene_text(count=60, repeats=3), encoding="utf-8")  # ≈ 1 s a block at speed 2
     console = ConsoleProcess(folder, tmp_path / "state")
     try:
         run, child = _start_measuring(console, "sig.h5", "slow.toml", "2")
-        events = _Events(console, run)
+        events = _Events(console, run if page else "")
         _wait_blocks(console, run, 1)
         console.proc.send_signal(signum)
         code, exited, said = _exit(console)
     finally:
         if console.proc.poll() is None:
             console.proc.kill()
-    assert exited - events.last_block_at() < 5.0, said
-    events.thread.join(5)
-    assert events.closed_at is not None and events.closed_at <= exited + 0.5  # the stream was closed
-    final = events.states[-1][1]
-    assert final["phase"] == "ended" and final["console_closing"], final
+    if page:
+        events.thread.join(5)
+        assert exited - events.last_block_at() < 5.0, said
+        assert events.closed_at is not None and events.closed_at <= exited + 0.5  # the stream was closed
+        final = events.states[-1][1]
+        assert final["phase"] == "ended" and final["console_closing"], final
     name = signal.Signals(signum).name
     assert f"{name}: stopping 1 running session(s) after the current block: sig.h5" in said, said
     assert "stopped sig.h5: aborted, " in said and "interrupted (Ctrl-C): stopped after the block" in said, said
@@ -241,7 +246,6 @@ def test_first_signal_stops_every_session_after_its_block(folder: Path, tmp_path
     assert not _alive(child)
     s = _source_left_idle(folder / "sig.h5")
     assert 1 <= len(s.summary) < 3 and "stopped after the block" in s.stop["reason"]
-    assert s.stop["blocks_done"] == len(final["blocks"])
 
 
 @linux_only
