@@ -213,22 +213,14 @@ class SessionRun:
             self._changed.wait_for(lambda: self.state.version != version, timeout=timeout)
             return self.state.version
 
-    def wait(self, timeout: float | None = None) -> bool:
-        """Wait for the child to end (None: as long as it takes); True once it has ended and its events are read."""
-        try:
-            self.proc.wait(timeout=timeout)
-        except subprocess.TimeoutExpired:
-            return False
-        self._reader.join(timeout=5)
-        return True
-
     def close(self) -> None:
         """The console is shutting down: stop the run as one Ctrl-C does (after the block, unless a stop was asked
         already), wait for it to end, then close the pipes. The child's stdin stays open until then: its closing is
         the child's sign that the console is gone."""
         if self.proc.poll() is None and self.state.stop_requests == 0:
             self.request_stop()
-        self.wait()
+        self.proc.wait()
+        self._reader.join(timeout=5)  # its last events read
         for pipe in (self.proc.stdin, self.proc.stdout):
             if pipe is not None:
                 try:

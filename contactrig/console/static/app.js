@@ -205,10 +205,13 @@ function renderAsk(ask, weight, id, s, refused) {
   const send = async (answer) => {
     keys = null;
     ask.replaceChildren();
-    const r = await api(`/api/runs/${encodeURIComponent(id)}/answer`, { prompt: p.id, ...answer });
-    if (r._status === 409 || r.error) {
-      refused.textContent = `Answer refused (${new Date().toLocaleTimeString()}): ${r.error}`;
+    let r;
+    try { r = await api(`/api/runs/${encodeURIComponent(id)}/answer`, { prompt: p.id, ...answer }); }
+    catch (e) { r = { error: `the console did not answer (${e})` }; }
+    if (r.error) {
+      refused.textContent = `${r._status === 409 ? "Answer refused" : "Answer not taken"} (${new Date().toLocaleTimeString()}): ${r.error}`;
       refused.hidden = false;
+      if (r._status !== 409) renderAsk(ask, weight, id, s, refused); // not refused for its question: ask again
     } else refused.hidden = true;
   };
   if (p.event === "resume_choice") {
