@@ -124,7 +124,7 @@ class Guard:
             return
         headers = {k.decode("latin-1").lower(): v.decode("latin-1") for k, v in scope["headers"]}
         query = parse_qs(scope.get("query_string", b"").decode("latin-1"))
-        host = headers.get("host")
+        host = headers.get("host", "").lower() or None  # host names are case-insensitive (browsers send lower case)
         if host is None or host not in self.console.allowed_hosts:
             await _deny("unknown Host (a name the console answers to is added with --allowed-host)", scope, receive,
                         send)  # fmt: skip

@@ -50,7 +50,8 @@ def bind(host: str, port: int) -> socket.socket:
 
 
 def _host_names(host: str, allowed: Iterable[str]) -> set[str]:
-    names = set(allowed)
+    host = host.lower()
+    names = {name.lower() for name in allowed}
     if host in LOOPBACK:
         names |= {host, "127.0.0.1", "localhost"}
     elif host in ALL_INTERFACES:  # loopback reaches it too
