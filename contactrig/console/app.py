@@ -17,6 +17,7 @@ import secrets
 import subprocess
 import sys
 import threading
+import time
 import warnings
 from collections.abc import AsyncIterator, Awaitable, Callable, MutableMapping
 from dataclasses import dataclass, field
@@ -566,11 +567,23 @@ async def session_details(request: Request) -> Response:
     return JSONResponse(details, headers={"cache-control": "no-store"})
 
 
-def _contactrig(args: list[str], cwd: Path) -> dict[str, Any]:
-    """Run a ``contactrig`` command as the terminal would; its output (escaped by the command) for the page."""
-    out = subprocess.run([sys.executable, "-m", "contactrig", *args], cwd=cwd, capture_output=True, text=True,
-                         timeout=SUBPROCESS_TIMEOUT_S, encoding="utf-8", errors="replace")  # fmt: skip
-    return {"code": out.returncode, "stdout": out.stdout, "stderr": out.stderr}
+def _contactrig(args: list[str], cwd: Path, closed: threading.Event | None = None) -> dict[str, Any]:
+    """Run a ``contactrig`` command as the terminal would; its output (escaped by the command) for the page. Ended
+    (SIGTERM) when the console goes down (``closed``), so that no command outlives it."""
+    proc = subprocess.Popen([sys.executable, "-m", "contactrig", *args], cwd=cwd, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, encoding="utf-8", errors="replace")  # fmt: skip
+    deadline = time.monotonic() + SUBPROCESS_TIMEOUT_S
+    while True:
+        try:
+            out, err = proc.communicate(timeout=0.2)
+            return {"code": proc.returncode, "stdout": out, "stderr": err}
+        except subprocess.TimeoutExpired:
+            pass
+        if (closed is not None and closed.is_set()) or time.monotonic() > deadline:
+            proc.terminate()
+            out, err = proc.communicate()
+            why = "the console is shutting down" if closed is not None and closed.is_set() else "it took too long"
+            return {"code": proc.returncode, "stdout": out, "stderr": f"{err}\nstopped: {why}".strip()}
 
 
 async def session_action(request: Request) -> Response:
@@ -586,16 +599,17 @@ async def session_action(request: Request) -> Response:
     rel = path.relative_to(console.root).as_posix()
     stem = path.name.rsplit(".", 1)[0]
     if action == "fit":
-        result = await asyncio.to_thread(_contactrig, ["fit", rel, "--bootstrap", "200"], console.root)
+        result = await asyncio.to_thread(_contactrig, ["fit", rel, "--bootstrap", "200"], console.root, console.closed)
     elif action == "report":
         folder = f"{stem}-report"
         result = await asyncio.to_thread(
             _contactrig, ["report", rel, "-o", folder, "--force", "--bootstrap", "200", "--quiet",
-                          "--no-compare-models"], console.root)  # fmt: skip
+                          "--no-compare-models"], console.root, console.closed)  # fmt: skip
         result["link"] = f"/files/{Path(rel).parent.joinpath(folder, 'report.html').as_posix()}"
     elif action == "export":
         to = "xlsx" if body.get("to") == "xlsx" else "csv"
-        result = await asyncio.to_thread(_contactrig, ["export", rel, "--to", to, "--force"], console.root)
+        result = await asyncio.to_thread(_contactrig, ["export", rel, "--to", to, "--force"], console.root,
+                                         console.closed)  # fmt: skip
         written = [ln[len("wrote "):] for ln in result["stderr"].splitlines() if ln.startswith("wrote ")]
         result["written"] = [_relative(console, str((console.root / w).resolve())) for w in written]
         result["links"] = [f"/files/{w}" for w in result["written"]]

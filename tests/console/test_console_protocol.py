@@ -407,3 +407,42 @@ def test_resume_keeps_the_sessions_sim_speed(client: Client, folder: Path):
     client.drive(again)
     runs = _loaded(folder / "speed.h5").runs
     assert [r["simulation"]["sim_speed"] for r in runs] == [7.0, 7.0]
+
+
+@linux_only
+@pytest.mark.slow
+def test_a_command_running_from_the_page_ends_with_the_console(folder: Path, tmp_path: Path):
+    """A Fit started from the page (``contactrig fit`` in a child process) when the console is stopped: the command
+    is ended, the page told why, and the console exits at once — no child left behind."""
+    from analysis.simulated_session import SimulatedRigBench
+    from daq.acquire import acquire
+
+    acquire(folder / "small.toml", folder / "done.h5", bench=SimulatedRigBench(float("inf")), yes=True, quiet=True)
+    console = ConsoleProcess(folder, tmp_path / "state")
+    answer: dict[str, Any] = {}
+    asked = threading.Thread(target=lambda: answer.update(console.api("/api/session/fit", {"path": "done.h5"})))
+    asked.start()
+    deadline = time.monotonic() + 30
+    while not (fits := _commands(console.proc.pid, b"fit")) and time.monotonic() < deadline:
+        time.sleep(0.02)
+    assert fits, "the fit did not start"
+    console.proc.send_signal(signal.SIGINT)
+    code, _, said = _exit(console, timeout=5)
+    asked.join(5)
+    assert code == 0 and "no session running" in said, said
+    assert "stopped: the console is shutting down" in answer["stderr"], answer
+    assert not any(_alive(pid) for pid in fits)
+
+
+def _commands(pid: int, name: bytes) -> list[int]:
+    """The ``contactrig NAME`` commands that process ``pid`` runs (from /proc)."""
+    found = []
+    for d in Path("/proc").iterdir():
+        try:
+            ppid = int((d / "stat").read_text().rsplit(")", 1)[1].split()[1])
+            cmd = (d / "cmdline").read_bytes().split(b"\0")
+        except (OSError, IndexError, ValueError):
+            continue
+        if ppid == pid and b"contactrig" in cmd and name in cmd:
+            found.append(int(d.name))
+    return found
