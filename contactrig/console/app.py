@@ -17,6 +17,7 @@ import secrets
 import subprocess
 import sys
 import threading
+import time
 import warnings
 from collections.abc import AsyncIterator, Awaitable, Callable, MutableMapping
 from dataclasses import dataclass, field
@@ -73,19 +74,42 @@ class Console:
 
     root: Path
     token: str
+    #: the Host headers answered (``name:port``): the listening address, loopback names, ``--allowed-host`` names
     allowed_hosts: frozenset[str]
-    #: bound to every interface (``--host 0.0.0.0``): any Host header is answered (token and Origin still checked)
-    any_host: bool = False
+    #: the token's cookie: one per port, so two consoles on one machine do not overwrite each other's
+    cookie: str = COOKIE
     runs: dict[str, SessionRun] = field(default_factory=dict)
     index_cache: dict[Any, Any] = field(default_factory=dict)
     lock: threading.Lock = field(default_factory=threading.Lock)
+    #: set by the first SIGINT/SIGTERM: running sessions stop after their block, no new one starts
+    closing: threading.Event = field(default_factory=threading.Event)
+    #: set when every session has ended and the server goes down: event streams end
+    closed: threading.Event = field(default_factory=threading.Event)
 
     def running_on(self, address: str) -> SessionRun | None:
         return next((r for r in self.runs.values() if r.running and r.state.address == address), None)
 
+    def running(self) -> list[SessionRun]:
+        """The runs whose acquisition has not ended."""
+        return [r for r in list(self.runs.values()) if r.running]
+
+    def stop_runs(self, now: bool = False) -> list[SessionRun]:
+        """Stop every running session as the terminal's Ctrl-C does: after its block, or (``now``) at once; no new
+        session starts from here on. Returns the runs asked to stop."""
+        with self.lock:
+            self.closing.set()
+            asked = self.running()
+        for run in asked:
+            if run.state.stop_requests < (2 if now else 1):
+                run.request_stop()
+        return asked
+
     def close(self) -> None:
+        """Stop every running session after its block, wait for each to end, close their pipes."""
+        self.closing.set()
         for run in list(self.runs.values()):
             run.close()
+        self.closed.set()
 
 
 class Guard:
@@ -102,9 +126,10 @@ class Guard:
             return
         headers = {k.decode("latin-1").lower(): v.decode("latin-1") for k, v in scope["headers"]}
         query = parse_qs(scope.get("query_string", b"").decode("latin-1"))
-        host = headers.get("host")
-        if host is None or (host not in self.console.allowed_hosts and not self.console.any_host):
-            await _deny("unknown Host", scope, receive, send)
+        host = headers.get("host", "").lower() or None  # host names are case-insensitive (browsers send lower case)
+        if host is None or host not in self.console.allowed_hosts:
+            await _deny("unknown Host (a name the console answers to is added with --allowed-host)", scope, receive,
+                        send)  # fmt: skip
             return
         from_query = (query.get("token") or [None])[0]
         cookie = SimpleCookie()
@@ -112,14 +137,15 @@ class Guard:
             cookie.load(headers.get("cookie", ""))
         except Exception:
             cookie = SimpleCookie()
-        given = headers.get("x-contactrig-token") or (cookie[COOKIE].value if COOKIE in cookie else None)
+        name = self.console.cookie
+        given = headers.get("x-contactrig-token") or (cookie[name].value if name in cookie else None)
         if not check_token(given, self.console.token):
             if scope["method"] == "GET" and check_token(from_query, self.console.token):
-                await _set_cookie_and_redirect(self.console.token, scope, receive, send)
+                await _set_cookie_and_redirect(name, self.console.token, scope, receive, send)
                 return
             await _deny("token missing or wrong", scope, receive, send)
             return
-        hosts = frozenset({host}) if self.console.any_host else self.console.allowed_hosts
+        hosts = self.console.allowed_hosts
         if scope["method"] not in ("GET", "HEAD") and not same_origin(headers.get("origin"), host, hosts):
             await _deny("cross-origin request refused", scope, receive, send)
             return
@@ -151,9 +177,9 @@ async def _deny(why: str, scope: Scope, receive: Receive, send: Send) -> None:
     await response(scope, receive, send)
 
 
-async def _set_cookie_and_redirect(token: str, scope: Scope, receive: Receive, send: Send) -> None:
+async def _set_cookie_and_redirect(name: str, token: str, scope: Scope, receive: Receive, send: Send) -> None:
     response = RedirectResponse(scope["path"] if scope["path"] == "/" else "/", status_code=303)
-    response.set_cookie(COOKIE, token, httponly=True, samesite="strict", path="/")
+    response.set_cookie(name, token, httponly=True, samesite="strict", path="/")
     await response(scope, receive, send)
 
 
@@ -316,7 +342,7 @@ def _start(console: Console, body: dict[str, Any]) -> SessionRun:
         if not isinstance(output, str) or resolve_under(console.root, output) is None:
             raise BadRequest(f"resume {output!r}: not a session file in the console's folder")
         scene_path = None
-        address, blocks_planned, before, weights, sample = _recorded(console.root / output)
+        address, blocks_planned, before, weights, sample, recorded_speed = _recorded(console.root / output)
     else:
         if not isinstance(output, str) or not SAFE_NAME.match(output):
             raise BadRequest(
@@ -328,6 +354,7 @@ def _start(console: Console, body: dict[str, Any]) -> SessionRun:
         plan, _ = _plan(console, body)
         blocks_planned, address = plan.blocks_planned, plan.instrument.address
         before, weights, sample = 0, len(plan.session.weights_kg), plan.session.sample
+        recorded_speed = None
     overrides = _overrides(body)
     if resume:
         from daq.overrides import check_bench
@@ -335,11 +362,14 @@ def _start(console: Console, body: dict[str, Any]) -> SessionRun:
         check_bench(overrides, simulated=bool(body.get("sim")))
         address = str(overrides.get("instrument.address", address))
         sample = str(overrides.get("session.sample", sample))
+    speed = _speed(body) or recorded_speed  # a resumed simulated session keeps its speed unless the form sets one
     request = {"scene": None if scene_path is None else str(scene_path), "output": str(console.root / output),
-               "sim": bool(body.get("sim")), "sim_speed": _speed(body), "resume": resume, "overrides": overrides,
+               "sim": bool(body.get("sim")), "sim_speed": speed, "resume": resume, "overrides": overrides,
                "allow_change": bool(body.get("allow_change"))}  # fmt: skip
     client = str(body.get("client") or "")[:64]
     with console.lock:
+        if console.closing.is_set():
+            raise BadRequest("the console is shutting down: no new session starts")
         busy = console.running_on(address)
         if busy is not None:
             raise BadRequest(f"a session is running on {address} already ({busy.state.file}): one at a time per bench")
@@ -373,8 +403,9 @@ def _overrides(body: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def _recorded(path: Path) -> tuple[str, int, int, int, str]:
-    """A session to resume: its bench address, blocks planned, blocks on file, weights not yet measured, sample."""
+def _recorded(path: Path) -> tuple[str, int, int, int, str, float | None]:
+    """A session to resume: its bench address, blocks planned, blocks on file, weights not yet measured, sample, and
+    the simulated bench's speed of its last run (None: not simulated)."""
     from daq.session_file import load_session
 
     try:
@@ -390,7 +421,10 @@ def _recorded(path: Path) -> tuple[str, int, int, int, str]:
     weights = (plan.get("session") or {}).get("weights_kg") or []
     measured = set(session.summary["weight_kg"].tolist())
     address = str((start.get("instrument") or {}).get("address", ""))
-    return address, planned, done, len(set(weights) - measured), str(start.get("sample") or "")
+    last = session.runs[-1] if session.runs and isinstance(session.runs[-1], dict) else start
+    speed = (last.get("simulation") or {}).get("sim_speed") if last.get("sim") else None
+    recorded = float(speed) if isinstance(speed, (int, float)) and speed > 0 else None
+    return address, planned, done, len(set(weights) - measured), str(start.get("sample") or ""), recorded
 
 
 async def start_run(request: Request) -> Response:
@@ -398,7 +432,7 @@ async def start_run(request: Request) -> Response:
     try:
         run = await asyncio.to_thread(_start, request.app.state.console, body)
     except (ValueError, OSError) as exc:
-        status = 409 if "running on" in str(exc) else 400
+        status = 409 if "running on" in str(exc) or "shutting down" in str(exc) else 400
         return JSONResponse({"error": _one_line(exc)}, status_code=status)
     return JSONResponse(run.snapshot())
 
@@ -427,19 +461,27 @@ async def run_state(request: Request) -> Response:
 
 
 async def answer(request: Request) -> Response:
-    """The operator's answer: ``{"decision": "go"|"skip"|"quit"}`` to a weight, ``{"measure": bool}`` on resume."""
+    """The operator's answer to one question: ``{"prompt": id, "decision": "go"|"skip"|"quit"}`` to a weight,
+    ``{"prompt": id, "measure": bool}`` on resume. 409 (and nothing done) when that question is not the one asked now
+    or was answered already: a late, duplicate or foreign answer never answers another question."""
     run = _run(request)
     body = await _json_body(request)
     if run is None:
         return JSONResponse({"error": "no such run"}, status_code=404)
+    prompt = body.get("prompt")
+    if not isinstance(prompt, str) or not prompt:
+        return JSONResponse({"error": "prompt: expected the id of the question answered"}, status_code=400)
     if "decision" in body:
         if body["decision"] not in ("go", "skip", "quit"):
             return JSONResponse({"error": "decision: expected go, skip or quit"}, status_code=400)
         reply: dict[str, Any] = {"decision": body["decision"]}
+    elif isinstance(body.get("measure"), bool):
+        reply = {"measure": body["measure"]}
     else:
-        reply = {"measure": bool(body.get("measure"))}
-    if not run.answer(reply):
-        return JSONResponse({"error": "nothing is being asked now"}, status_code=409)
+        return JSONResponse({"error": "expected decision (go, skip, quit) or measure (true, false)"}, status_code=400)
+    refused = run.answer(prompt, reply)
+    if refused is not None:
+        return JSONResponse({"error": refused, "refused": True}, status_code=409)
     return JSONResponse({"ok": True})
 
 
@@ -463,20 +505,27 @@ async def stop(request: Request) -> Response:
 
 
 async def events(request: Request) -> Response:
-    """Server-sent events: the run's state each time it changes (polled from memory; never touches the child)."""
+    """Server-sent events: the run's state each time it changes (polled from memory; never touches the child), with
+    ``console_closing`` while the console stops its sessions; the stream ends with the run, or when the console goes
+    down (an ``event: closed`` first, so the page does not reconnect)."""
+    console: Console = request.app.state.console
     run = _run(request)
     if run is None:
         return JSONResponse({"error": "no such run"}, status_code=404)
 
     async def stream() -> AsyncIterator[str]:
-        version = -1
+        version, closing = -1, False
         while True:
-            if run.state.version != version:
+            if run.state.version != version or console.closing.is_set() != closing:
                 snap = run.snapshot()
-                version = snap["version"]
+                version, closing = snap["version"], console.closing.is_set()
+                snap["console_closing"] = closing
                 yield f"data: {json.dumps(snap)}\n\n"
                 if snap["phase"] == "ended":
                     return
+            if console.closed.is_set():
+                yield 'event: closed\ndata: {"console": "closed"}\n\n'
+                return
             await asyncio.sleep(0.1)
 
     return StreamingResponse(stream(), media_type="text/event-stream")
@@ -532,11 +581,23 @@ async def session_details(request: Request) -> Response:
     return JSONResponse(details, headers={"cache-control": "no-store"})
 
 
-def _contactrig(args: list[str], cwd: Path) -> dict[str, Any]:
-    """Run a ``contactrig`` command as the terminal would; its output (escaped by the command) for the page."""
-    out = subprocess.run([sys.executable, "-m", "contactrig", *args], cwd=cwd, capture_output=True, text=True,
-                         timeout=SUBPROCESS_TIMEOUT_S, encoding="utf-8", errors="replace")  # fmt: skip
-    return {"code": out.returncode, "stdout": out.stdout, "stderr": out.stderr}
+def _contactrig(args: list[str], cwd: Path, closed: threading.Event | None = None) -> dict[str, Any]:
+    """Run a ``contactrig`` command as the terminal would; its output (escaped by the command) for the page. Ended
+    (SIGTERM) when the console goes down (``closed``), so that no command outlives it."""
+    proc = subprocess.Popen([sys.executable, "-m", "contactrig", *args], cwd=cwd, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, encoding="utf-8", errors="replace")  # fmt: skip
+    deadline = time.monotonic() + SUBPROCESS_TIMEOUT_S
+    while True:
+        try:
+            out, err = proc.communicate(timeout=0.2)
+            return {"code": proc.returncode, "stdout": out, "stderr": err}
+        except subprocess.TimeoutExpired:
+            pass
+        if (closed is not None and closed.is_set()) or time.monotonic() > deadline:
+            proc.terminate()
+            out, err = proc.communicate()
+            why = "the console is shutting down" if closed is not None and closed.is_set() else "it took too long"
+            return {"code": proc.returncode, "stdout": out, "stderr": f"{err}\nstopped: {why}".strip()}
 
 
 async def session_action(request: Request) -> Response:
@@ -552,17 +613,18 @@ async def session_action(request: Request) -> Response:
     rel = path.relative_to(console.root).as_posix()
     stem = path.name.rsplit(".", 1)[0]
     if action == "fit":
-        result = await asyncio.to_thread(_contactrig, ["fit", rel, "--bootstrap", "200"], console.root)
-        result["curves"] = await asyncio.to_thread(_fit_curves, rel, console.root) if result["code"] == 0 else []
+        result = await asyncio.to_thread(_contactrig, ["fit", rel, "--bootstrap", "200"], console.root, console.closed)
+        result["curves"] = await asyncio.to_thread(_fit_curves, rel, console.root, console.closed) if result["code"] == 0 else []
     elif action == "report":
         folder = f"{stem}-report"
         result = await asyncio.to_thread(
             _contactrig, ["report", rel, "-o", folder, "--force", "--bootstrap", "200", "--quiet",
-                          "--no-compare-models"], console.root)  # fmt: skip
+                          "--no-compare-models"], console.root, console.closed)  # fmt: skip
         result["link"] = f"/files/{Path(rel).parent.joinpath(folder, 'report.html').as_posix()}"
     elif action == "export":
         to = "xlsx" if body.get("to") == "xlsx" else "csv"
-        result = await asyncio.to_thread(_contactrig, ["export", rel, "--to", to, "--force"], console.root)
+        result = await asyncio.to_thread(_contactrig, ["export", rel, "--to", to, "--force"], console.root,
+                                         console.closed)  # fmt: skip
         written = [ln[len("wrote "):] for ln in result["stderr"].splitlines() if ln.startswith("wrote ")]
         result["written"] = [_relative(console, str((console.root / w).resolve())) for w in written]
         result["links"] = [f"/files/{w}" for w in result["written"]]
@@ -571,11 +633,11 @@ async def session_action(request: Request) -> Response:
     return JSONResponse(result)
 
 
-def _fit_curves(rel: str, cwd: Path) -> list[dict[str, Any]]:
+def _fit_curves(rel: str, cwd: Path, closed: threading.Event | None = None) -> list[dict[str, Any]]:
     """The models' fitted curves for the plot, from ``contactrig fit --json`` (point estimates: no bootstrap)."""
     from contactrig.console.view import fit_curves
 
-    out = _contactrig(["fit", rel, "--bootstrap", "0", "--json"], cwd)
+    out = _contactrig(["fit", rel, "--bootstrap", "0", "--json"], cwd, closed)
     try:
         return fit_curves(json.loads(out["stdout"])) if out["code"] == 0 else []
     except json.JSONDecodeError:

@@ -9,16 +9,28 @@ stop record written).
 
 The acquisition never waits on the browser: the records go to the console as one more writer, guarded
 (:class:`analysis.watch.Guarded`: a failure of the pipe turns it off, the acquisition goes on); only the prompter
-waits, for the operator, as the terminal's does. If the console goes away while a weight is asked for, the
-operator can no longer answer: the session stops there (``OperatorQuit``), its stop record written.
+waits, for the operator, as the terminal's does.
+
+Every question carries a fresh random id and only an answer naming it is taken (the console checks this too; here it
+is the last guard): an answer meant for an earlier question can never answer the next weight's.
+
+The console must never leave a child measuring on its own. Its stdin is the lifeline: a thread reads it, and when it
+closes (the console process ended by any path, SIGKILL included: the kernel closes the pipe) the child stops as the
+terminal's first Ctrl-C stops it — after the block under way, source idle, stop record written; a question waiting
+for an answer ends the run at once (``OperatorQuit``).
 """
 
 from __future__ import annotations
 
 import json
 import math
+import os
+import queue
+import secrets
+import signal
 import sys
-from collections.abc import Callable, Sequence
+import threading
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any, TextIO
 
 from contactrig.console.view import block_row
@@ -37,12 +49,32 @@ def _finite(x: float) -> float | None:
 
 
 class _Channel:
-    """Events out (one JSON line each, flushed), answers in (one JSON line each)."""
+    """Events out (one JSON line each, flushed), answers in (one JSON line each, read by a thread that also notices
+    the console going away)."""
 
-    def __init__(self, out: TextIO, inp: TextIO) -> None:
+    def __init__(self, out: TextIO, inp: Iterator[bytes]) -> None:
         self.out, self.inp = out, inp
         #: the console went away (its end of the pipe closed): events are dropped, questions end the run
         self.gone = False
+        self._answers: queue.Queue[dict[str, Any] | None] = queue.Queue()
+        self._asking = False
+
+    def watch(self) -> None:
+        """Read answers from here on in a thread; the end of stdin (the console gone) stops the run."""
+        threading.Thread(target=self._read, name="console-lifeline", daemon=True).start()
+
+    def _read(self) -> None:
+        for line in self.inp:
+            try:
+                answer = json.loads(line)
+            except (json.JSONDecodeError, UnicodeDecodeError):
+                continue
+            if isinstance(answer, dict):
+                self._answers.put(answer)
+        self.gone = True
+        self._answers.put(None)  # a question waiting ends the run (OperatorQuit)
+        if not self._asking:  # measuring: as the terminal's first Ctrl-C (after the block, source idle)
+            os.kill(os.getpid(), signal.SIGINT)
 
     def send(self, event: dict[str, Any]) -> None:
         """Send one event; never raises for a console that went away (the acquisition must go on)."""
@@ -55,15 +87,23 @@ class _Channel:
             self.gone = True
 
     def ask(self, event: dict[str, Any]) -> dict[str, Any]:
-        """Send a question and wait for its answer; the console gone → ``OperatorQuit``."""
-        self.send(event)
-        if self.gone:
-            raise OperatorQuit("the console that asked the operator went away: stopped at the prompt")
-        line = self.inp.readline()
-        if not line:
-            raise OperatorQuit("the console that asked the operator went away (no answer): stopped at the prompt")
-        answer = json.loads(line)
-        return answer if isinstance(answer, dict) else {}
+        """Send a question (with a fresh id) and wait for the answer that names it; the console gone →
+        ``OperatorQuit``. An answer naming another question is dropped."""
+        asked = {**event, "id": secrets.token_hex(8)}
+        self._asking = True
+        try:
+            self.send(asked)
+            while True:
+                if self.gone:
+                    raise OperatorQuit("the console that asked the operator went away: stopped at the prompt")
+                try:
+                    answer = self._answers.get(timeout=0.5)  # a timeout: a Ctrl-C (SIGINT) is handled meanwhile
+                except queue.Empty:
+                    continue
+                if answer is not None and answer.get("id") == asked["id"]:
+                    return answer
+        finally:
+            self._asking = False
 
 
 class ConsoleWriter:
@@ -166,13 +206,28 @@ def run(request: dict[str, Any], channel: _Channel) -> int:
     return code
 
 
+def _lines(fd: int) -> Iterator[bytes]:
+    """The lines read from ``fd`` with ``os.read`` (no Python file object: a fork while the lifeline thread waits in
+    a read must not inherit a held lock, as a forked bounded reader closing ``sys.stdin`` would)."""
+    buffer = b""
+    while chunk := os.read(fd, 1 << 16):
+        buffer += chunk
+        *lines, buffer = buffer.split(b"\n")
+        yield from lines
+    if buffer:
+        yield buffer
+
+
 def main() -> int:
     """Read the request (first line of stdin) and run it; events go to the real stdout only."""
     out = sys.stdout
     sys.stdout = sys.stderr  # nothing else may write into the event pipe
     sys.argv = ["contactrig console"]  # the start record's "command": where the session was started from
-    channel = _Channel(out, sys.stdin)
-    request = json.loads(sys.stdin.readline())
+    answers = _lines(sys.stdin.fileno())
+    sys.stdin = open(os.devnull, encoding="utf-8")  # nothing else reads the console's pipe
+    channel = _Channel(out, answers)
+    request = json.loads(next(answers, b"{}"))
+    channel.watch()
     return run(request, channel)
 
 

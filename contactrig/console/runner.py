@@ -4,6 +4,12 @@ A reader thread takes the child's events as they come and folds them into :class
 that state (``snapshot``), never the pipe, so no browser — slow, closed or crashed — can hold the acquisition up.
 The operator's answers go to the child's stdin; "stop after this block" and "stop now" are the first and second
 SIGINT to the child, which runs ``acquire`` with the terminal's Ctrl-C policy.
+
+Every question of the child carries an id (:mod:`contactrig.console.child`); an answer names the question it answers
+and is passed on only while that very question is asked, once: a late, duplicate or foreign answer (a second tab, a
+double click, a slow network) is refused, so it can never answer the next weight's question. The child's stdin is
+also its lifeline: when the console process ends by any path (even SIGKILL) the pipe closes and the child stops as
+the terminal's first Ctrl-C stops it (source idle, stop record written).
 """
 
 from __future__ import annotations
@@ -22,6 +28,8 @@ __all__ = ["RunState", "SessionRun"]
 
 #: state lines kept (acquire's plan and notes); older ones are dropped
 MAX_LINES = 200
+#: answered questions remembered (to say "already answered" rather than "not asked")
+MAX_ANSWERED = 1000
 
 
 @dataclass
@@ -85,6 +93,8 @@ class SessionRun:
 
     def __init__(self, state: RunState, request: dict[str, Any], cwd: str) -> None:
         self.state = state
+        #: question id → what it asked and how it was answered (for the refusal of a late or duplicate answer)
+        self._answered: dict[str, str] = {}
         self._lock = threading.Lock()
         self._changed = threading.Condition(self._lock)
         self.proc = subprocess.Popen(
@@ -144,20 +154,34 @@ class SessionRun:
         self._changed.notify_all()
 
     # -- the operator --------------------------------------------------------------------------------------------
-    def answer(self, answer: dict[str, Any]) -> bool:
-        """Answer the question the child asked (prompt or resume choice); False if there is none."""
+    def answer(self, prompt_id: str, answer: dict[str, Any]) -> str | None:
+        """Answer the question ``prompt_id`` (a weight: ``{"decision": …}``; on resume: ``{"measure": …}``) if it is
+        the one asked now and not answered yet; None when passed on, else why it was refused (one line)."""
         with self._lock:
-            if self.state.prompt is None or self.proc.stdin is None:
-                return False
+            asked = self.state.prompt
+            if prompt_id in self._answered:
+                return f"{self._answered[prompt_id]}: this answer came late or twice and was not used"
+            if asked is None or asked.get("id") != prompt_id:
+                now = "nothing is asked now" if asked is None else f"the question now is: {_question(asked)}"
+                return f"this answer names a question that is not asked ({now}): it was not used"
+            wanted = "decision" if asked.get("event") == "prompt" else "measure"
+            if wanted not in answer:
+                return f"{_question(asked)} needs {wanted!r}: the answer was not used"
+            if self.proc.stdin is None or self.proc.poll() is not None:
+                return "the acquisition process has ended: the answer was not used"
+            try:
+                self.proc.stdin.write(json.dumps({"id": prompt_id, **answer}) + "\n")
+                self.proc.stdin.flush()
+            except (OSError, ValueError):
+                return "the acquisition process has ended: the answer was not used"
+            how = answer.get("decision", "measure it now" if answer.get("measure") else "keep it skipped")
+            self._answered[prompt_id] = f"{_question(asked)} was already answered ({how})"
+            if len(self._answered) > MAX_ANSWERED:
+                del self._answered[next(iter(self._answered))]
             self.state.prompt = None
             self.state.phase = "measuring"
             self._bump()
-            try:
-                self.proc.stdin.write(json.dumps(answer) + "\n")
-                self.proc.stdin.flush()
-            except OSError:
-                return False
-        return True
+        return None
 
     def request_stop(self) -> int:
         """One SIGINT to the child: the first stops after the block under way, the second stops now."""
@@ -189,19 +213,24 @@ class SessionRun:
             self._changed.wait_for(lambda: self.state.version != version, timeout=timeout)
             return self.state.version
 
-    def close(self, timeout: float = 30.0) -> None:
-        """The console is shutting down: stop the run as one Ctrl-C does (after the block), then wait for it."""
-        if self.proc.poll() is None:
+    def close(self) -> None:
+        """The console is shutting down: stop the run as one Ctrl-C does (after the block, unless a stop was asked
+        already), wait for it to end, then close the pipes. The child's stdin stays open until then: its closing is
+        the child's sign that the console is gone."""
+        if self.proc.poll() is None and self.state.stop_requests == 0:
             self.request_stop()
-            if self.proc.stdin is not None:
+        self.proc.wait()
+        self._reader.join(timeout=5)  # its last events read
+        for pipe in (self.proc.stdin, self.proc.stdout):
+            if pipe is not None:
                 try:
-                    self.proc.stdin.close()  # a prompt waiting for an answer ends the run
+                    pipe.close()
                 except OSError:
                     pass
-            try:
-                self.proc.wait(timeout=timeout)
-            except subprocess.TimeoutExpired:
-                self.request_stop()
-                self.proc.wait(timeout=timeout)
-        self._reader.join(timeout=5)
 
+
+def _question(asked: dict[str, Any]) -> str:
+    """The question in words: ``place 5.44 kg`` or ``5.44 kg was skipped: measure it now?``."""
+    if asked.get("event") == "resume_choice":
+        return f"'{asked.get('weight_kg')} kg was skipped: measure it now?'"
+    return f"'place {asked.get('weight_kg')} kg'"

@@ -19,7 +19,6 @@ Run: python tests/benchmarks/bench_console.py [REPEATS]      python tests/benchm
 
 from __future__ import annotations
 
-import io
 import os
 import re
 import statistics
@@ -49,7 +48,7 @@ def _pipe_channel() -> tuple[_Channel, threading.Thread, int]:
 
     t = threading.Thread(target=drain, daemon=True)
     t.start()
-    return _Channel(out, io.StringIO()), t, w
+    return _Channel(out, iter(())), t, w
 
 
 def _scene(folder: Path, count: int) -> Path:

@@ -98,7 +98,7 @@ class Client:
                 answer = decide(s) if decide is not None else None
                 if answer is None:
                     answer = {"measure": True} if s["prompt"]["event"] == "resume_choice" else {"decision": "go"}
-                self.post(f"/api/runs/{run}/answer", answer)
+                self.post(f"/api/runs/{run}/answer", {"prompt": s["prompt"]["id"], **answer})  # names its question
             time.sleep(0.02)
         raise AssertionError(f"run {run} did not end in {timeout} s")
 
@@ -109,10 +109,10 @@ class Client:
 class ConsoleProcess:
     """``contactrig console`` in a child process; its URL read from what it prints."""
 
-    def __init__(self, folder: Path, state: Path) -> None:
+    def __init__(self, folder: Path, state: Path, *extra: str) -> None:
         env = {**os.environ, "XDG_RUNTIME_DIR": str(state)}
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "contactrig", "console", str(folder), "--port", "0", "--no-browser"],
+            [sys.executable, "-m", "contactrig", "console", str(folder), "--port", "0", "--no-browser", *extra],
             stderr=subprocess.PIPE, text=True, env=env, cwd=ROOT,
         )  # fmt: skip
         assert self.proc.stderr is not None

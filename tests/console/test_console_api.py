@@ -31,10 +31,11 @@ def test_token_in_the_url_becomes_a_cookie_and_leaves_the_url(client: Client):
     assert r.status_code == 303 and r.headers["location"] == "/"
     cookie = r.headers["set-cookie"]
     assert "HttpOnly" in cookie and "SameSite=strict" in cookie.replace("Strict", "strict")
-    assert client.http.get("/", headers={"cookie": f"contactrig_console={client.console.token}"}).status_code == 200
+    name = client.console.cookie  # one per port (two consoles on one machine keep their own)
+    assert client.http.get("/", headers={"cookie": f"{name}={client.console.token}"}).status_code == 200
     client.http.cookies.clear()
     assert client.http.get("/?token=nope", follow_redirects=False).status_code == 403
-    assert client.http.get("/", headers={"cookie": "contactrig_console=nope"}).status_code == 403
+    assert client.http.get("/", headers={"cookie": f"{name}=nope"}).status_code == 403
 
 
 def test_foreign_host_and_foreign_origin_are_refused(client: Client):
@@ -128,7 +129,7 @@ def test_stop_after_block_then_resume(client: Client, folder: Path):
 
     def decide(s):
         if s["prompt"]["event"] == "prompt" and not stopped["done"]:
-            client.post(f"/api/runs/{run}/answer", {"decision": "go"})
+            client.post(f"/api/runs/{run}/answer", {"decision": "go", "prompt": s["prompt"]["id"]})
             deadline = time.monotonic() + 30
             while not client.get(f"/api/runs/{run}").json()["blocks"] and time.monotonic() < deadline:
                 time.sleep(0.01)
@@ -146,7 +147,8 @@ def test_stop_after_block_then_resume(client: Client, folder: Path):
     assert s.status == "aborted" and len(s.summary) == stop["blocks_done"]
     again = client.post("/api/runs", {"resume": True, "output": "stopped.h5", "sim": True, "sim_speed": "inf",
                                       "client": "tester"}).json()  # fmt: skip
-    assert client.drive(again["id"])["stop"]["status"] == "success"
+    final = client.drive(again["id"])
+    assert final["stop"] is not None and final["stop"]["status"] == "success", (final["end"], final["lines"][-5:])
     done = load_session(folder / "stopped.h5")
     assert done.status == "success" and done.sealed and len(done.summary) == 9
 
@@ -202,7 +204,7 @@ def test_stop_now_discards_the_block_under_way(client: Client, folder: Path):
 
     def decide(s):
         if s["stop_requests"] == 0:
-            client.post(f"/api/runs/{run}/answer", {"decision": "go"})
+            client.post(f"/api/runs/{run}/answer", {"decision": "go", "prompt": s["prompt"]["id"]})
             time.sleep(0.3)  # inside the first block
             assert client.post(f"/api/runs/{run}/stop", {"client": "tester", "now": True}).json()["stop_requests"] == 2
             return {}
@@ -237,49 +239,6 @@ def test_console_command_errors_are_one_line(folder: Path, tmp_path: Path):
 
     assert main(["console", str(tmp_path / "missing"), "--no-browser"]) == 2
     assert main(["console", str(folder), "--port", "70000", "--no-browser"]) == 2
-
-
-@pytest.mark.slow
-def test_a_killed_console_leaves_the_session_sealed(folder: Path, tmp_path: Path):
-    """The console process killed (SIGKILL) while blocks are measured: the acquisition, in its own process group,
-    finishes the weight under way, finds nobody to ask for the next one and stops there, its stop record written
-    (source idle: the driver's close on every path) — a complete, sealed file."""
-    import signal
-
-    from tests.console.conftest import ConsoleProcess
-
-    (folder / "slow.toml").write_text(scene_text(count=60, repeats=3), encoding="utf-8")
-    console = ConsoleProcess(folder, tmp_path / "state")
-    try:
-        run = console.api("/api/runs", {"scene": "slow.toml", "sim": True, "sim_speed": "20", "output": "k.h5"})["id"]
-        deadline = time.monotonic() + 60
-        while console.api(f"/api/runs/{run}")["prompt"] is None and time.monotonic() < deadline:
-            time.sleep(0.05)
-        console.api(f"/api/runs/{run}/answer", {"decision": "go"})
-        time.sleep(0.2)
-    finally:
-        console.proc.send_signal(signal.SIGKILL)
-        console.proc.wait()
-    deadline = time.monotonic() + 60
-    s = _loaded(folder / "k.h5")
-    while (s is None or s.status == "running") and time.monotonic() < deadline:
-        time.sleep(0.2)
-        s = _loaded(folder / "k.h5")
-    assert s is not None and s.status == "aborted" and s.sealed, s
-    assert "went away" in s.stop["reason"] and len(s.summary) == 3  # the first weight's blocks, all of them
-
-
-def _loaded(path: Path):
-    import warnings
-
-    from daq.session_file import load_session
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        try:
-            return load_session(path)
-        except Exception:  # not there yet, or caught mid-write: asked again
-            return None
 
 
 @pytest.mark.slow

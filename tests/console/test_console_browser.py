@@ -254,7 +254,7 @@ def test_a_closed_tab_leaves_a_complete_sealed_file(browser, console, folder, tm
     deadline = time.monotonic() + 60
     while (state := console.api(f"/api/runs/{run}"))["phase"] != "ended" and time.monotonic() < deadline:
         if state["prompt"] is not None:
-            console.api(f"/api/runs/{run}/answer", {"decision": "go"})
+            console.api(f"/api/runs/{run}/answer", {"decision": "go", "prompt": state["prompt"]["id"]})
         time.sleep(0.05)
     assert state["stop"]["status"] == "success", state
     plain = tmp_path / "plain.h5"

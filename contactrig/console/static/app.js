@@ -164,14 +164,16 @@ function showRun(id) {
   let onFile = { blocks: [], weights: [] }, asked = false;
   const redraw = () => drawPlot(canvas, { blocks: merged(onFile.blocks, last.blocks), weights: onFile.weights, overlays });
   const toggle = el("span");
-  main(el("h1", { id: "run-title", text: "Session" }), status, weight, ask, stops, info, toggle, canvas, readingsBox, block, ended,
+  const refused = el("p", { class: "refused", id: "answer-refused", role: "alert", hidden: "hidden" });
+  main(el("h1", { id: "run-title", text: "Session" }), status, refused, weight, ask, stops, info, toggle, canvas, readingsBox, block, ended,
     el("h2", { text: "Plan and notes" }), lines);
-  let answered = -1;
+  let shown = null; // the id of the question shown: each question is rendered (and answered) once
   source = new EventSource(`/api/runs/${encodeURIComponent(id)}/events`);
+  source.addEventListener("closed", () => { source.close(); status.textContent += " — the console has stopped"; });
   source.onmessage = (m) => {
     const s = JSON.parse(m.data);
     document.getElementById("run-title").textContent = `Session ${s.file}`;
-    status.textContent = `${s.phase} — ${s.blocks_before + s.blocks.length} of ${s.blocks_planned} blocks` + (s.stop_requests ? ` — stop requested (${s.stop_requests})` : "");
+    status.textContent = `${s.phase} — ${s.blocks_before + s.blocks.length} of ${s.blocks_planned} blocks` + (s.stop_requests ? ` — stop requested (${s.stop_requests})` : "") + (s.console_closing ? " — the console is shutting down: sessions stop after their block" : "");
     const lastBlock = s.blocks[s.blocks.length - 1];
     const invalid = s.blocks.reduce((a, b) => a + b.n_invalid, 0);
     info.textContent = `ETA ${fmtDuration(s.eta_s)} measuring + ${s.weights_left} weight(s) still to place · invalid readings ${invalid}` + (s.sim ? " · simulated bench" : ` · ${s.address}`);
@@ -185,8 +187,8 @@ function showRun(id) {
     }
     redraw();
     if (last.readings && last.readings.length) Plot.drawReadings(readingsBox, last.readings);
-    if (s.prompt && s.version !== answered) renderAsk(ask, weight, id, s, () => { answered = s.version; });
-    if (!s.prompt) { ask.replaceChildren(); weight.textContent = s.phase === "ended" ? "" : weight.textContent; }
+    if (s.prompt && s.prompt.id !== shown) { shown = s.prompt.id; renderAsk(ask, weight, id, s, refused); }
+    if (!s.prompt) { shown = null; keys = null; ask.replaceChildren(); weight.textContent = s.phase === "ended" ? "" : weight.textContent; }
     lines.textContent = s.lines.join("\n");
     if (s.phase === "ended") {
       source.close();
@@ -199,26 +201,64 @@ function showRun(id) {
   };
 }
 
-function renderAsk(ask, weight, id, s, done) {
+// The question asked now, answered once: the answer names the question's id; the console refuses (409) an answer to
+// a question that is no longer asked (answered from another page, a double click, a late request), shown here.
+let keys = null; // the keys of the question shown (Enter / s / q, as at the terminal), or null
+
+function renderAsk(ask, weight, id, s, refused) {
   const p = s.prompt;
-  const send = async (answer) => { done(); ask.replaceChildren(); await api(`/api/runs/${encodeURIComponent(id)}/answer`, answer); };
+  const send = async (answer) => {
+    keys = null;
+    ask.replaceChildren();
+    let r;
+    try { r = await api(`/api/runs/${encodeURIComponent(id)}/answer`, { prompt: p.id, ...answer }); }
+    catch (e) { r = { error: `the console did not answer (${e})` }; }
+    if (r.error) {
+      refused.textContent = `${r._status === 409 ? "Answer refused" : "Answer not taken"} (${new Date().toLocaleTimeString()}): ${r.error}`;
+      refused.hidden = false;
+      if (r._status !== 409) renderAsk(ask, weight, id, s, refused); // not refused for its question: ask again
+    } else refused.hidden = true;
+  };
   if (p.event === "resume_choice") {
     weight.textContent = `${p.weight_kg} kg was skipped`;
+    const measure = () => send({ measure: true }), keep = () => send({ measure: false });
     ask.replaceChildren(
-      el("button", { id: "btn-measure", class: "go", onclick: () => send({ measure: true }), text: "Measure it now" }),
-      el("button", { id: "btn-keep", onclick: () => send({ measure: false }), text: "Keep it skipped" }));
+      el("button", { id: "btn-measure", class: "go", onclick: measure, text: "Measure it now" }),
+      el("button", { id: "btn-keep", onclick: keep, text: "Keep it skipped" }),
+      el("span", { class: "small", text: " (m measure it now, Enter keep it skipped)" }));
+    keys = { m: measure, Enter: keep };
     return;
   }
   weight.textContent = `Place ${p.weight_kg} kg`;
   const confirmBox = el("span");
-  ask.replaceChildren(
-    el("button", { id: "btn-continue", class: "go", onclick: () => send({ decision: "go" }), text: "Continue" }),
-    el("button", { id: "btn-skip", onclick: () => confirmBox.replaceChildren(el("span", { class: "confirm", text: `skip ${p.weight_kg} kg? ` }),
+  const go = () => send({ decision: "go" }), quit = () => send({ decision: "quit" });
+  const no = () => { confirmBox.replaceChildren(); keys = mainKeys; };
+  const skip = () => {
+    confirmBox.replaceChildren(el("span", { class: "confirm", text: `skip ${p.weight_kg} kg? [y/N] ` }),
       el("button", { id: "btn-confirm-skip", onclick: () => send({ decision: "skip" }), text: "Yes, skip" }),
-      el("button", { onclick: () => confirmBox.replaceChildren(), text: `No, ${p.weight_kg} kg stays` })), text: "Skip" }),
-    el("button", { id: "btn-quit", class: "danger", onclick: () => send({ decision: "quit" }), text: "Stop" }),
-    el("span", { class: "small", text: ` (${p.repeats_left} block(s) to measure at this weight)` }), confirmBox);
+      el("button", { id: "btn-keep-weight", onclick: no, text: `No, ${p.weight_kg} kg stays` }));
+    keys = { y: () => send({ decision: "skip" }), n: no, Enter: no, Escape: no };
+  };
+  const mainKeys = { Enter: go, s: skip, q: quit };
+  ask.replaceChildren(
+    el("button", { id: "btn-continue", class: "go", onclick: go, text: "Continue" }),
+    el("button", { id: "btn-skip", onclick: skip, text: "Skip" }),
+    el("button", { id: "btn-quit", class: "danger", onclick: quit, text: "Stop" }),
+    el("span", { class: "small", text: ` (${p.repeats_left} block(s) to measure at this weight; Enter continue, s skip, q stop)` }), confirmBox);
+  keys = mainKeys;
 }
+
+// Keys answer the question shown, as at the terminal; a held key (repeat), a key with a modifier or typed into a
+// field is not an answer. A focused button does not take Enter while a question is shown (the key answers it).
+document.addEventListener("keydown", (e) => {
+  if (!keys || e.repeat || e.ctrlKey || e.altKey || e.metaKey || e.isComposing) return;
+  if (e.target instanceof Element && e.target.closest("input, select, textarea")) return;
+  const key = e.key.length === 1 ? e.key.toLowerCase() : e.key;
+  const act = keys[key];
+  if (!act) return;
+  e.preventDefault();
+  act();
+});
 
 async function stop(id, now, confirm) {
   const r = await api(`/api/runs/${encodeURIComponent(id)}/stop`, { now, client: CLIENT, confirm: !!confirm });
@@ -329,6 +369,7 @@ function showFollow(path) {
 function route() {
   if (source) { source.close(); source = null; }
   if (followTimer) { clearTimeout(followTimer); followTimer = null; }
+  keys = null;
   const hash = location.hash || "#/sessions";
   const [, page, ...rest] = hash.split("/");
   const arg = decodeURIComponent(rest.join("/"));
