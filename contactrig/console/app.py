@@ -614,7 +614,8 @@ async def session_action(request: Request) -> Response:
     stem = path.name.rsplit(".", 1)[0]
     if action == "fit":
         result = await asyncio.to_thread(_contactrig, ["fit", rel, "--bootstrap", "200"], console.root, console.closed)
-        result["curves"] = await asyncio.to_thread(_fit_curves, rel, console.root, console.closed) if result["code"] == 0 else []
+        curves = _fit_curves if result["code"] == 0 else None
+        result["curves"] = await asyncio.to_thread(curves, rel, console.root, console.closed) if curves else []
     elif action == "report":
         folder = f"{stem}-report"
         result = await asyncio.to_thread(
