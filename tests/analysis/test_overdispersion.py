@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from analysis.fit import compare_models, fit_model
+from analysis.fit import compare_models, fit_model, series_dependence
 from analysis.measured import MeasuredCurve, load_tab1
 from analysis.series_dependence import find_dependence, print_quantum
 
@@ -123,6 +123,7 @@ def test_tab1_integrity_notes_are_the_series_detectors():
 
     curve = load_tab1()
     notes = tab1_integrity_notes(curve)
-    dep = find_dependence(curve.values_ohm, curve.repeat_labels)
+    dep = series_dependence(curve)  # the detector with the curve's weights and unit, as the fit calls it
     assert [n.rstrip(".") for n in notes[: len(dep.notes)]] == list(dep.notes)
+    assert dep.keep == find_dependence(curve.values_ohm, curve.repeat_labels).keep
     assert "M4, M5, M6 are not independent repeats" in notes[-1] and "3 independent series (M1, M2, M3)" in notes[-1]
