@@ -173,10 +173,12 @@ def _contactrig(*args: str, timeout: float = 60.0) -> tuple[int, str, str]:
 
 
 def _commands(path: Path, out: Path) -> dict[str, list[str]]:
+    # report without the boundary-element comparison: it runs on the scene's surfaces once the session has been read
+    # and reads nothing more of the file (it took most of this test's time)
     return {
         "replay": ["replay", str(path)],
         "fit": ["fit", str(path), "--bootstrap", "0", "--json"],
-        "report": ["report", str(path), "--bootstrap", "0", "-o", str(out), "--force"],
+        "report": ["report", str(path), "--bootstrap", "0", "--no-compare-models", "-o", str(out), "--force"],
     }
 
 
@@ -196,8 +198,7 @@ def test_commands_on_damaged_files_give_one_line_errors_or_the_same_results(good
         path = _variant(good, tmp_path, name, makers[name])
         for command, args in _commands(path, tmp_path / f"report-{name}").items():
             jobs[f"{name} {command}"] = args
-    for command, args in _commands(good, tmp_path / "report-good").items():
-        jobs[f"good {command}"] = args
+    jobs["good fit"] = _commands(good, tmp_path / "report-good")["fit"]  # the numbers an unharmed file must give
     results = _run_all(jobs)
     for key, (_rc, out, err) in results.items():
         assert "Traceback" not in out + err, f"{key}:\n{err}"
@@ -211,10 +212,10 @@ def test_commands_on_damaged_files_give_one_line_errors_or_the_same_results(good
                 )
                 assert name in lines[0]
             else:
-                good_rc, good_out, _ = results[f"good {command}"]
-                assert rc == good_rc == 0, f"{name} {command}: exit {rc}\n{err}"
+                assert rc == 0, f"{name} {command}: exit {rc}\n{err}"
                 if command == "fit":
-                    assert _numbers(good_out) and _numbers(out) == _numbers(good_out)
+                    good_rc, good_out, _ = results["good fit"]
+                    assert good_rc == 0 and _numbers(good_out) and _numbers(out) == _numbers(good_out)
 
 
 def _numbers(text: str) -> list[str]:
