@@ -191,19 +191,28 @@ def _run_all(jobs: dict[str, list[str]]) -> dict[str, tuple[int, str, str]]:
         return {key: f.result() for key, f in futures.items()}
 
 
+def _commands_for(name: str, expect: str) -> tuple[str, ...]:
+    """The commands run on a variant. ``report`` reads a session through the very call ``fit`` makes
+    (``contactrig.cli.analysis._analysis`` → ``analysis.pipeline.analyse_session`` → ``load_session``), so on a file
+    refused while it is read it repeats ``fit`` under another name: it runs on the harmless variant (its own output)
+    and on the library loop (its error line), ``replay`` and ``fit`` (two readers of their own) on every variant."""
+    return ("replay", "fit", "report") if expect != "error" or name == "zeroed-page-at-98%" else ("replay", "fit")
+
+
 def test_commands_on_damaged_files_give_one_line_errors_or_the_same_results(good, tmp_path):
     makers = {n: m for n, _, m in CORPUS}
     jobs = {}
-    for name, _ in CLI_SUBSET:
+    for name, expect in CLI_SUBSET:
         path = _variant(good, tmp_path, name, makers[name])
-        for command, args in _commands(path, tmp_path / f"report-{name}").items():
-            jobs[f"{name} {command}"] = args
+        commands = _commands(path, tmp_path / f"report-{name}")
+        for command in _commands_for(name, expect):
+            jobs[f"{name} {command}"] = commands[command]
     jobs["good fit"] = _commands(good, tmp_path / "report-good")["fit"]  # the numbers an unharmed file must give
     results = _run_all(jobs)
     for key, (_rc, out, err) in results.items():
         assert "Traceback" not in out + err, f"{key}:\n{err}"
     for name, expect in CLI_SUBSET:
-        for command in ("replay", "fit", "report"):
+        for command in _commands_for(name, expect):
             rc, out, err = results[f"{name} {command}"]
             if expect == "error":
                 lines = err.strip().splitlines()
