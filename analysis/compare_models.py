@@ -88,7 +88,9 @@ class ModelVerdict:
 
 
 def _pct(x: float) -> str:
-    return f"{100 * x:+.0f} %".replace("-", "−")
+    """A signed percentage to the unit; one that rounds to zero is "0 %" (no "−0 %" from round-off)."""
+    text = f"{100 * x:+.0f}"
+    return ("0" if text in ("+0", "-0") else text.replace("-", "−")) + " %"
 
 
 def _label(key: str) -> str:
@@ -223,7 +225,9 @@ def comparison_table(cmp: Comparison, width: int = TABLE_WIDTH) -> str:
                 for m in models:
                     r = rs[m]
                     flag = " " if r["mask"][:, j].all() else "*"
-                    row += " " + f"{fmt.format(scale * r[key][:, j].mean())}{flag}".rjust(_CELL)
+                    cell = fmt.format(scale * r[key][:, j].mean())
+                    cell = cell.replace("-", "+") if float(cell) == 0 else cell  # round-off: no "-0.0"
+                    row += " " + f"{cell}{flag}".rjust(_CELL)
                 lines.append(row)
     lines.append("* beyond the model's tabulated curve; full precision: --json")
     return "\n".join(line.rstrip() for line in lines)

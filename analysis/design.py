@@ -177,8 +177,8 @@ class SessionFits:
     """One model's fits of many simulated sessions, judged by :mod:`analysis.fit`'s rules: ``chi2`` [-],
     ``unphysical`` (R_s significantly < 0 or σ_f significantly ≤ 0, :func:`analysis.fit.unphysical_limits`) and
     ``load_independent`` (σ_f's t-interval reaches 0, :func:`analysis.fit.load_independent_slope`) per session, the
-    t-intervals from the fit's one error rule (paired-series covariance, or χ²-scaled when over-dispersed and larger:
-    :func:`analysis.fit.scaled_errors`) at the 95 % level."""
+    t-intervals from the fit's one error rule (paired-series covariance, or χ²-scaled when over-dispersed and larger,
+    per parameter: :func:`analysis.fit.scaled_errors`) at the 95 % level."""
 
     chi2: np.ndarray
     unphysical: np.ndarray
@@ -198,14 +198,16 @@ def _session_fits(values: np.ndarray, sigma: np.ndarray, area: np.ndarray, clean
     dof = m - 2
     # ĉ needs ν > 0: a plan of two weights leaves no degrees of freedom, and its errors come from the repeats alone.
     c_hat = fit.chi2 / dof if dof > 0 else np.full_like(np.asarray(fit.chi2, dtype=float), np.nan)
-    scaled = scaled_errors(c_hat, dof, fit.film_se**2, rep_s)
-    se_r = np.where(scaled, fit.series_se * np.sqrt(c_hat), np.sqrt(rep_r))
-    se_s = np.where(scaled, fit.film_se * np.sqrt(c_hat), np.sqrt(rep_s))
-    t = np.where(scaled, _t_quantile(0.95, dof), _t_quantile(0.95, r - 1))
+    scaled_r = scaled_errors(c_hat, dof, fit.series_se**2, rep_r)  # per parameter, as fit's rule
+    scaled_s = scaled_errors(c_hat, dof, fit.film_se**2, rep_s)
+    se_r = np.where(scaled_r, fit.series_se * np.sqrt(c_hat), np.sqrt(rep_r))
+    se_s = np.where(scaled_s, fit.film_se * np.sqrt(c_hat), np.sqrt(rep_s))
+    t_r = np.where(scaled_r, _t_quantile(0.95, dof), _t_quantile(0.95, r - 1))
+    t_s = np.where(scaled_s, _t_quantile(0.95, dof), _t_quantile(0.95, r - 1))
     return SessionFits(
         chi2=fit.chi2,
-        unphysical=unphysical_limits(fit.series_ohm + t * se_r, fit.film_ohm_m2 + t * se_s),
-        load_independent=load_independent_slope(fit.film_ohm_m2 - t * se_s),
+        unphysical=unphysical_limits(fit.series_ohm + t_r * se_r, fit.film_ohm_m2 + t_s * se_s),
+        load_independent=load_independent_slope(fit.film_ohm_m2 - t_s * se_s),
     )
 
 

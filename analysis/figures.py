@@ -805,7 +805,8 @@ def _draw_physical_terms(a: Any) -> Any:
     pts, est = f.points, f.estimate
     k_unit, unit = resistance_unit(pts.measured_ohm)
     terms = {"R_s": np.full(pts.weight_kg.shape, est.R_series_ohm), "film σ_f/A": est.scale * pts.regressor_per_m}
-    terms.update({name: share * pts.measured_ohm for name, share in f.shares.items() if name not in ("series", "film")})
+    not_terms = ("series", "film", "residual")  # residual: measured − fitted, not a term of the model
+    terms.update({name: share * pts.measured_ohm for name, share in f.shares.items() if name not in not_terms})
     fig, axes = _figure(size=(6.0, 4.0))
     ax = axes[0, 0]
     ax.stackplot(pts.weight_kg, *[v * k_unit for v in terms.values()], labels=[mathtext(t) for t in terms], alpha=0.8)

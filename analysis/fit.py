@@ -43,8 +43,9 @@ resamples (one series drawn r times has no spread, so its studentized t is infin
 **One rule for every fitted quantity** (``fit``, :mod:`analysis.resistance_model`, the report): paired series that
 are arithmetic copies of others (:func:`independent_series`, :mod:`analysis.series_dependence`) are counted once —
 left out of the fit, its degrees of freedom and its bootstrap. The errors are the covariance from the repeats above,
-unless the fit is over-dispersed (ĉ = χ²/ν > :data:`OVERDISPERSION`): then the curvature covariance scaled by ĉ is
-used when it is larger (:func:`_error_rule`; ``Estimate.error_rule`` says which), the models are ranked by QAIC =
+unless the fit is over-dispersed (ĉ = χ²/ν > :data:`OVERDISPERSION`): then each parameter's error is the larger of
+its repeats' one and its curvature error scaled by √ĉ, decided per parameter (:func:`_error_rule`;
+``Estimate.error_rule`` says which, ``Estimate.chi2_scaled`` per (R_s, s)), the models are ranked by QAIC =
 χ²/ĉ + 2(k + 1) (ĉ of the best physical fit; Burnham & Anderson 2002 §2.5) and "how often is the best first" resamples
 the residuals about the best fit instead of the repeats, which cannot show a lack of fit common to every series.
 
@@ -98,6 +99,9 @@ BOOT_INTERVALS = ("studentized", "percentile")
 BOOTSTRAPS = ("auto", "series", "within")
 #: ΔAIC below which two models are called indistinguishable.
 DELTA_AIC_INDISTINGUISHABLE = 2.0
+#: A Δ(Q)AIC within this fraction of the criterion's own size (at least 1) is round-off, a tie: stored, printed and
+#: exported as exactly 0 (two models with the same A(W) differ by ~1e-15 from the order of the arithmetic alone).
+TIE_TOLERANCE = 1e-9
 
 
 def regressor(area_m2: np.ndarray, height_m: float, conversion: str = "bulk") -> np.ndarray:
@@ -408,7 +412,8 @@ class Estimate(_Result):
     Ω·m² for the film term, ``scale_units``), their standard errors and covariance ``cov`` (order R_s, s), the
     correlation coefficient of the two estimates, ``c_hat`` ĉ = χ²/ν of this fit and ``error_rule`` which
     covariance the errors come from, in words (:func:`_error_rule`: the paired-series / repeat covariance, or the
-    curvature covariance scaled by ĉ when the data are over-dispersed)."""
+    curvature covariance scaled by ĉ when the data are over-dispersed and that is larger), and ``chi2_scaled``
+    which of (R_s, s) has the χ²-scaled error (decided per parameter)."""
 
     R_series_ohm: float
     R_series_se: float
@@ -419,6 +424,7 @@ class Estimate(_Result):
     scale_units: str = "ohm*m"
     error_rule: str = ""
     c_hat: float = math.nan
+    chi2_scaled: tuple[bool, bool] = (False, False)
 
     @property
     def params(self) -> np.ndarray:
@@ -745,7 +751,9 @@ def _fit_arrays(
     resid = y - fitted
     gof = _goodness(curve, resid, sigma, weighting)
     cov_rep, dof_rep = _parameter_covariance(curve, wls, sigma, paired=paired, weighting=weighting)
-    cov, dof_eff, rule = _error_rule(cov_rep, dof_rep, (wls * sigma**2) @ wls.T, gof, paired=paired, curve=curve)
+    cov, dof_eff, rule, scaled = _error_rule(
+        cov_rep, dof_rep, (wls * sigma**2) @ wls.T, gof, paired=paired, curve=curve
+    )
     se = np.sqrt(np.diag(cov))
     est = Estimate(
         R_series_ohm=float(p[0]),
@@ -757,6 +765,7 @@ def _fit_arrays(
         scale_units=scale_units,
         error_rule=rule,
         c_hat=gof.reduced_chi2,
+        chi2_scaled=scaled,
     )
     intervals, boot = _intervals(
         curve, wls, est, dof_eff, resamples, bootstrap=bootstrap, ci_level=ci_level, boot_interval=boot_interval,
@@ -804,13 +813,16 @@ def _shares(
     est: Estimate, x: np.ndarray, measured: np.ndarray, conversion: str, terms: Mapping[str, np.ndarray] | None
 ) -> dict[str, np.ndarray]:
     """Each term's share of the measured mean per weight [-]: "series" R_s, the area term s·x ("film" for the
-    physical model, else "area_term") and every known term (e.g. "barber", "macro")."""
+    physical model, else "area_term"), every known term (e.g. "barber", "macro") and last "residual", the part of
+    the measured mean the fit does not reach, (measured − fitted)/measured: the terms add up to fitted/measured, so
+    with the residual every weight's shares add up to 1 (100 %)."""
     out = {
         "series": np.full(x.shape, est.R_series_ohm) / measured,
         ("film" if conversion == "physical" else "area_term"): est.scale * x / measured,
     }
     for name, values in (terms or {}).items():
         out[name] = np.asarray(values, dtype=float) / measured
+    out["residual"] = 1.0 - np.sum(list(out.values()), axis=0)
     return out
 
 
@@ -827,8 +839,9 @@ def unphysical_limits(series_high_ohm: Any, scale_high: Any) -> Any:
 
 
 def scaled_errors(c_hat: Any, dof: Any, curvature_var: Any, repeat_var: Any) -> Any:
-    """True where the errors are the χ²-scaled curvature ones (:func:`_error_rule`): over-dispersed (ĉ >
-    :data:`OVERDISPERSION`, ν > 0) and ĉ·(JᵀJ)⁻¹ larger than the repeats' variance on the scale. Arrays welcome."""
+    """True where a parameter's error is the χ²-scaled curvature one (:func:`_error_rule`): over-dispersed (ĉ >
+    :data:`OVERDISPERSION`, ν > 0) and its ĉ·(JᵀJ)⁻¹ variance ``curvature_var``·ĉ larger than its repeats' variance
+    ``repeat_var``; decided for each parameter on its own. Arrays welcome."""
     c = np.asarray(c_hat, dtype=float)
     return (np.asarray(dof) > 0) & (c > OVERDISPERSION) & (np.asarray(curvature_var) * c > np.asarray(repeat_var))
 
@@ -858,14 +871,18 @@ def _error_rule(
     *,
     paired: bool,
     curve: MeasuredCurve,
-) -> tuple[np.ndarray, np.ndarray, str]:
-    """The one rule for every fitted quantity: (covariance, degrees of freedom per parameter, the rule in words).
+) -> tuple[np.ndarray, np.ndarray, str, tuple[bool, bool]]:
+    """The one rule for every fitted quantity: (covariance, degrees of freedom per parameter, the rule in words,
+    which of (R_s, s) have the χ²-scaled error).
 
     Errors come from the repeats — the paired-series covariance (series correlation across weights included) or
     each weight's own scatter — unless the fit is over-dispersed (ĉ = χ²/ν > :data:`OVERDISPERSION`): a lack of fit
     common to every series is invisible to the repeat scatter, so then the curvature covariance (JᵀJ)⁻¹ scaled by
     ĉ (quasi-likelihood, ν degrees of freedom: what ``scipy.optimize.curve_fit(absolute_sigma=False)`` gives) is
-    used when it is the larger (compared on the scale s).
+    used for each parameter whose χ²-scaled variance is the larger, parameter by parameter (so R_s and s can follow
+    different sources). The covariance is then SE_R·SE_s·ρ off the diagonal, ρ the correlation of the χ²-scaled
+    covariance when either error is χ²-scaled (the design's correlation, which the lack of fit does not change),
+    else the repeats'.
     """
     c_hat = gof.reduced_chi2
     r = curve.values_ohm.shape[1]
@@ -875,14 +892,23 @@ def _error_rule(
         base = "within-block standard errors"
     else:
         base = "each weight's own repeat scatter (Welch dof)"
-    if scaled_errors(c_hat, gof.dof, cov_curv[1, 1], cov_rep[1, 1]):
-        return (
-            cov_curv * c_hat,
-            np.full(2, float(gof.dof)),
-            f"χ²-scaled: (JᵀJ)⁻¹·χ²/ν, χ²/ν = {c_hat:.3g} ({gof.dof} dof; larger than the {base})",
-        )
+    scaled_var = np.diag(cov_curv) * c_hat
+    scaled = (
+        bool(scaled_errors(c_hat, gof.dof, cov_curv[0, 0], cov_rep[0, 0])),
+        bool(scaled_errors(c_hat, gof.dof, cov_curv[1, 1], cov_rep[1, 1])),
+    )
     extra = f"; χ²/ν = {c_hat:.3g}" if gof.dof > 0 and math.isfinite(c_hat) else ""
-    return cov_rep, dof_rep, base + extra
+    if not any(scaled):
+        return cov_rep, dof_rep, base + extra, scaled
+    if all(scaled):
+        rule = f"χ²-scaled: (JᵀJ)⁻¹·χ²/ν, χ²/ν = {c_hat:.3g} ({gof.dof} dof; larger than the {base})"
+        return cov_curv * c_hat, np.full(2, float(gof.dof)), rule, scaled
+    se = np.sqrt(np.where(scaled, scaled_var, np.diag(cov_rep)))
+    rho = cov_curv[0, 1] / math.sqrt(cov_curv[0, 0] * cov_curv[1, 1])
+    cov = np.array([[se[0] ** 2, rho * se[0] * se[1]], [rho * se[0] * se[1], se[1] ** 2]])
+    source = {True: f"χ²-scaled ((JᵀJ)⁻¹·χ²/ν, {gof.dof} dof)", False: f"from the {base}"}
+    rule = f"per parameter, the larger: R_s {source[scaled[0]]}, s {source[scaled[1]]}; χ²/ν = {c_hat:.3g}"
+    return cov, np.where(scaled, float(gof.dof), dof_rep), rule, scaled
 
 
 def _shifted(
@@ -949,17 +975,26 @@ def _prepare(
     return sigma, mode
 
 
+def series_dependence(curve: MeasuredCurve) -> Any:
+    """:func:`analysis.series_dependence.find_dependence` of ``curve``'s series, its notes naming the weights [kg]
+    and showing resistances in the unit the data call for (:func:`analysis.resistance.resistance_unit`)."""
+    from analysis.resistance import resistance_unit
+    from analysis.series_dependence import find_dependence
+
+    rows = tuple(f"{w:g} kg" for w in curve.weight_kg)
+    return find_dependence(curve.values_ohm, curve.repeat_labels, rows=rows, unit=resistance_unit(curve.values_ohm))
+
+
 def independent_series(curve: MeasuredCurve) -> tuple[MeasuredCurve, tuple[str, ...]]:
     """``curve`` with the series that are arithmetic copies of others left out (:mod:`analysis.series_dependence`:
-    Tab. 1's M4 = mean(M1..M3) and M5, M6 = M4 + offsets), and what was found, in words; unchanged (and no notes)
-    when nothing is derived or the repeats are not paired series."""
+    Tab. 1's M4 = mean(M1..M3) at 7 of 8 weights — a print error at 5.44 kg — and M5, M6 = M4 + offsets that change
+    with weight), and what was found, in words (:func:`series_dependence`); unchanged (and no notes) when nothing is
+    derived or the repeats are not paired series."""
     import dataclasses
-
-    from analysis.series_dependence import find_dependence
 
     if not curve.paired:
         return curve, ()
-    dep = find_dependence(curve.values_ohm, curve.repeat_labels)
+    dep = series_dependence(curve)
     if not dep.dropped:
         return curve, dep.notes
     keep = list(dep.keep)
@@ -1009,7 +1044,8 @@ class ModelComparison(_Result):
     """Fits of every model to the same data, ranked by AIC, with a plain statement of what the data can tell.
 
     ``fits[name]`` each model's :class:`ModelFit` (``"models"`` in :meth:`as_dict`); ``delta_aic[name]`` AIC − min
-    AIC; ``akaike_weights`` exp(−Δ/2) normalised; ``first_fraction[name]`` the share of bootstrap resamples in which
+    AIC, exactly 0 for a tie within ``tie_tolerance`` (:data:`TIE_TOLERANCE`, relative: round-off);
+    ``akaike_weights`` exp(−Δ/2) normalised; ``first_fraction[name]`` the share of bootstrap resamples in which
     the model has the lowest χ² (weights held fixed); ``decisive_fraction`` the share in which the overall best model
     is first by Δχ²/ĉ ≥ 2; ``criterion`` "AIC", or "QAIC" = χ²/ĉ + 2(k + 1) when the best physical fit is
     over-dispersed (``c_hat`` = its χ²/ν > :data:`OVERDISPERSION`; ``delta_aic`` and the Akaike weights are then
@@ -1034,6 +1070,7 @@ class ModelComparison(_Result):
     criterion: str = "AIC"
     c_hat: float = math.nan
     series_notes: tuple[str, ...] = ()
+    tie_tolerance: float = TIE_TOLERANCE
 
     @property
     def best(self) -> ModelFit:
@@ -1093,7 +1130,7 @@ def compare_models(
     # physical fits first, by (Q)AIC; an unphysical fit is never ranked above a physical one
     ranking = tuple(sorted(names, key=lambda n: (not fits[n].physical, bool(fits[n].load_independent), ic[n])))
     best = ranking[0]
-    delta = {n: ic[n] - ic[best] for n in names}
+    delta = {n: _tie_to_zero(ic[n] - ic[best], ic[n], ic[best]) for n in names}
     lowest = min(ic.values())  # an unphysical fit may have a lower AIC than the best
     raw = {n: math.exp(-0.5 * (ic[n] - lowest)) for n in names}
     total = sum(raw.values())
@@ -1201,6 +1238,12 @@ def _overdispersion(fits: Mapping[str, ModelFit]) -> tuple[float, str]:
     return c_hat, ("QAIC" if c_hat > OVERDISPERSION else "AIC")
 
 
+def _tie_to_zero(delta: float, *values: float) -> float:
+    """``delta``, or 0.0 when it is round-off: |Δ| ≤ :data:`TIE_TOLERANCE`·max(1, |values|)."""
+    scale = max([1.0, *(abs(v) for v in values if math.isfinite(v))])
+    return 0.0 if abs(delta) <= TIE_TOLERANCE * scale else delta
+
+
 def _criterion(g: GoodnessOfFit, c_hat: float) -> float:
     """AIC = χ² + 2k, or QAIC = χ²/ĉ + 2(k + 1) (ĉ counted as a parameter) when ĉ > :data:`OVERDISPERSION`."""
     if math.isfinite(c_hat) and c_hat > OVERDISPERSION:
@@ -1243,8 +1286,8 @@ def _statement(
     if criterion == "QAIC":
         parts.append(
             f"The data are over-dispersed (ĉ = χ²/ν = {c_hat:.3g} for the best fit, > {OVERDISPERSION:g}): models "
-            "are ranked by QAIC = χ²/ĉ + 2(k + 1), not by AIC on the raw χ², and every standard error is the larger "
-            "of the repeats' and the χ²-scaled one."
+            "are ranked by QAIC = χ²/ĉ + 2(k + 1), not by AIC on the raw χ², and each parameter's standard error is "
+            "the larger of its repeats' and its χ²-scaled one."
         )
     ranked, close, discriminates = _ranking_phrases(fits, physical, delta, first, decisive, n_boot, criterion)
     parts += ranked

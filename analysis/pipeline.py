@@ -536,10 +536,10 @@ def analyse_tab1(
 def tab1_integrity_notes(curve: MeasuredCurve) -> list[str]:
     """Checks of Tab. 1's series against each other, in words: columns that are arithmetic copies of others are not
     independent repeats, which shrinks the real repeat count behind any standard error. The series detector's
-    findings (:func:`analysis.series_dependence.find_dependence`, the one implementation the fit uses too)."""
-    from analysis.series_dependence import find_dependence
+    findings (:func:`analysis.fit.series_dependence`, the one implementation the fit uses too)."""
+    from analysis.fit import series_dependence
 
-    dep = find_dependence(curve.values_ohm, curve.repeat_labels)
+    dep = series_dependence(curve)
     if not dep.dropped:
         return list(dep.notes)
     labels = curve.repeat_labels or tuple(f"series {k + 1}" for k in range(curve.values_ohm.shape[1]))

@@ -374,7 +374,8 @@ class PhysicalFit:
     [Ω·m²]; its errors follow :mod:`analysis.fit`'s one rule: repeat covariance, or χ²-scaled when
     over-dispersed, copies of other series counted once); ``terms`` the computed clean-metal terms; ``measured_ohm``
     the measured mean per weight [Ω] (independent series only); ``shares`` each term's share of the **measured**
-    mean per weight: "series", "film", "barber", "macro" (they add up to fitted/measured, not exactly 1).
+    mean per weight: "series", "film", "barber", "macro" (they add up to fitted/measured) and "residual"
+    (measured − fitted)/measured, so that all five add up to 1.
     """
 
     fit: Any

@@ -1,7 +1,9 @@
 """Series that are arithmetic copies of others, found so that they are counted once.
 
 A table of repeat series can hold columns computed from other columns: the seed paper's Tab. 1 has M4 = mean(M1,
-M2, M3) (to the printed four decimals at 7 of 8 weights) and M5, M6 = M4 plus offsets with at most three decimals.
+M2, M3) (to the printed four decimals at 7 of 8 weights; at 5.44 kg M4 reads 7.8624 mΩ where the mean is 7.7624 mΩ,
+one digit off: a print error in the paper) and M5, M6 = M4 plus offsets with at most three decimals that change
+with weight (M5 − M4 from 0.2 to 1.1 mΩ).
 Such a column adds no independent scatter: counting it as a repeat shrinks every standard error, inflates the
 degrees of freedom and lets the bootstrap resample one measurement several times. Two rules, both exact in the
 table's own print resolution ``q`` (the largest power of ten of which every value is an integer multiple):
@@ -112,14 +114,86 @@ def _groups(r: int, pairs: list[tuple[int, int]]) -> list[list[int]]:
     return [sorted(c) for c in comp.values()]
 
 
-def find_dependence(values: np.ndarray, labels: tuple[str, ...] | None = None) -> SeriesDependence:
-    """Find derived columns of a complete weights × series matrix ``values`` [any unit] (module docstring)."""
+class _Shown:
+    """Values in words: ``unit`` (factor, name) scales them (e.g. (1e3, "mΩ") for values in Ω), printed to the
+    table's print resolution ``q`` when there is one, else to 6 significant digits; ``rows`` names each row."""
+
+    def __init__(self, q: float | None, unit: tuple[float, str], rows: tuple[str, ...]) -> None:
+        self.factor, self.unit = unit
+        self.decimals = None if q is None else max(0, -int(np.floor(np.log10(q * self.factor) + 1e-9)))
+        self.rows = rows
+
+    def __call__(self, value: float, coarser: int = 0) -> str:
+        """``value`` in the unit, to the print resolution (``coarser`` decimals fewer: offsets are whole 10·q)."""
+        x = float(value) * self.factor
+        text = f"{x:.6g}" if self.decimals is None else f"{x:.{max(0, self.decimals - coarser)}f}"
+        return f"{text} {self.unit}".rstrip()
+
+
+def _one_digit_differs(a: float, b: float, q: float | None) -> bool:
+    """Whether ``a`` and ``b`` printed to the resolution ``q`` differ in exactly one digit (a print error's mark)."""
+    if q is None:
+        return False
+    x, y = str(abs(round(a / q))), str(abs(round(b / q)))
+    return len(x) == len(y) and sum(c != d for c, d in zip(x, y, strict=True)) == 1
+
+
+def _mean_note(v: np.ndarray, j: int, src: tuple[int, ...], tol: np.ndarray, q: float | None, names: tuple[str, ...],
+               show: _Shown) -> str:  # fmt: skip
+    """ "X is the mean of A, B, C", and where it is not (the one row the rule allows off), by how much."""
+    text = f"{names[j]} is the mean of {', '.join(names[k] for k in src)}"
+    mean = v[:, list(src)].mean(axis=1)
+    off = np.flatnonzero(np.abs(v[:, j] - mean) > tol)
+    if off.size == 0:
+        return text + " at every weight" + (" (to the print resolution)" if q is not None else "")
+    i = int(off[0])
+    printed = show(round(mean[i] / q) * q) if q is not None else show(mean[i])
+    digit = " (one printed digit differs: a print error)" if _one_digit_differs(v[i, j], mean[i], q) else ""
+    return (
+        f"{text} at {v.shape[0] - 1} of {v.shape[0]} weights; at {show.rows[i]} it reads {show(v[i, j])} where the "
+        f"mean is {printed}, {show(abs(v[i, j] - mean[i]))} off{digit}"
+    )
+
+
+def _offset_note(v: np.ndarray, head: int, group: list[int], q: float | None, names: tuple[str, ...],
+                 show: _Shown) -> str:  # fmt: skip
+    """ "X, Y = H + offsets …": each column's offset from the group's head, constant or changing with weight."""
+    parts = []
+    for j in group:
+        if j == head:
+            continue
+        d = v[:, j] - v[:, head]
+        if np.ptp(d) <= 1e-9 * max(float(np.abs(v).max()), 1e-300):
+            parts.append(f"{names[j]} = {names[head]} + {show(d[0], 1)} at every weight")
+        else:
+            parts.append(
+                f"{names[j]} − {names[head]} changes with weight, from {show(d.min(), 1)} to {show(d.max(), 1)}"
+            )
+    step = show(10 * (q or 0.0), 1)
+    return (
+        f"{'; '.join(parts)}: offsets that are whole multiples of {step} at every weight, as a column typed in as "
+        f"{names[head]} + an offset (by chance 1 in 10^{v.shape[0]} per column)"
+    )
+
+
+def find_dependence(
+    values: np.ndarray,
+    labels: tuple[str, ...] | None = None,
+    *,
+    rows: tuple[str, ...] | None = None,
+    unit: tuple[float, str] = (1.0, ""),
+) -> SeriesDependence:
+    """Find derived columns of a complete weights × series matrix ``values`` [any unit] (module docstring).
+
+    ``labels`` name the columns, ``rows`` the rows (e.g. "5.44 kg"), ``unit`` (factor, name) how the notes show
+    values (e.g. (1e3, "mΩ") for values in Ω)."""
     v = np.asarray(values, dtype=float)
     m, r = v.shape
     names = tuple(labels) if labels and len(labels) == r else tuple(f"series {k + 1}" for k in range(r))
     if r < 3 or not np.all(np.isfinite(v)):
         return SeriesDependence(tuple(range(r)), (), ())
     q = print_quantum(v)
+    show = _Shown(q, unit, tuple(rows) if rows and len(rows) == m else tuple(f"row {i + 1}" for i in range(m)))
     tol = np.full(m, 1.0001 * q) if q is not None else 1e-12 * np.abs(v).max(axis=1)
     notes: list[str] = []
     means: dict[int, tuple[int, ...]] = {}
@@ -127,15 +201,13 @@ def find_dependence(values: np.ndarray, labels: tuple[str, ...] | None = None) -
         src = _mean_source(v, j, tol)
         if src:
             means[j] = src
-            notes.append(f"{names[j]} is the mean of {', '.join(names[k] for k in src)}")
+            notes.append(_mean_note(v, j, src, tol, q, names, show))
     pairs = _offset_pairs(v, q)
     dropped: set[int] = set()
     for group in _groups(r, pairs):
         if len(group) > 1:
             head = next((j for j in group if j in means), group[0])
-            rest = ", ".join(names[j] for j in group if j != head)
-            step = 10 * (q or 0.0)
-            notes.append(f"{rest} = {names[head]} + round offsets (whole multiples of {step:.3g}) at every weight")
+            notes.append(_offset_note(v, head, group, q, names, show))
         if any(j in means for j in group):
             dropped.update(group)
         else:

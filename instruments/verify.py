@@ -72,11 +72,28 @@ class VerifyReport:
             "|---|---|---|---|",
         ]
         for c in self.checks:
-            found = ", ".join(f"{k}: {v}" for k, v in c.found.items()) or c.error
+            found = ", ".join(f"{k}: {_for_people(v)}" for k, v in c.found.items()) or c.error
+            found = found.replace("|", "\\|")  # a "|" in a value (the "|low|" candidate) would split the cell
             load = " (needs a load)" if c.needs_load else ""
             lines.append(f"| {c.name}{load} | {c.question} | {found} | {'yes' if c.ran else 'NO: ' + c.error} |")
         lines += ["", f"Transcript: {len(self.transcript)} exchanges (JSON report)."]
         return "\n".join(lines) + "\n"
+
+
+#: Significant digits of a number in ``verify.md`` (the JSON report keeps every digit).
+PEOPLE_DIGITS = 6
+
+
+def _for_people(value: Any) -> str:
+    """A found value as people read it: floats to :data:`PEOPLE_DIGITS` significant digits (``0.103``, not
+    ``0.10299999999999998``, the binary rounding of a difference of timestamps), inside lists and dicts too."""
+    if isinstance(value, float):
+        return f"{value:.{PEOPLE_DIGITS}g}"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k!r}: {_for_people(v)}" for k, v in value.items()) + "}"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_for_people(v) for v in value) + "]"
+    return str(value)
 
 
 def _block(k: Keithley6221, current_a: float, **kw: Any) -> Any:

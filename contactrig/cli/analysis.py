@@ -290,6 +290,8 @@ def _print_fit_table(a: Any) -> None:
             f" {e.scale:>12.4g} ± {e.scale_se:<7.2g} {g.reduced_chi2:>8.3g} {g.aic:>8.5g}"
             f" {cmp.delta_aic[name]:>7.3g} {g.rmse_ohm * k:>10.3g}" + ("" if f.physical else "  UNPHYSICAL")
         )
+    if any(cmp.delta_aic[n] == 0 for n in cmp.ranking[1:]):
+        print(f"{d_head} = 0: a tie (the criteria agree within {cmp.tie_tolerance:g} of their size: round-off)")
     t_ci, b_ci = best.intervals.t.R_series_ohm, boot.R_series_ohm
     boot_text = f"[{b_ci[0] * k:.3g}, {b_ci[1] * k:.3g}] {unit}" if boot.available else boot.note
     label = escape_terminal(model_label(best.model))
@@ -308,7 +310,8 @@ def _print_shares(fit: Any) -> None:
     from sims.models import model_label
 
     names = list(fit.shares)
-    print(escape_terminal(f"{model_label(fit.model)}: share of the measured mean R per weight [%]"))
+    print(escape_terminal(f"{model_label(fit.model)}: share of the measured mean R per weight [%] (residual: "
+                          "measured − fitted, the part no term explains; each row adds up to 100 %)"))  # fmt: skip
     print(f"{'weight [kg]':>11} " + " ".join(f"{n:>9}" for n in names))
     for i, w in enumerate(fit.points.weight_kg):
         print(f"{w:11g} " + " ".join(f"{100 * float(fit.shares[n][i]):9.2f}" for n in names))

@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from analysis.fit import compare_models, fit_model
+from analysis.fit import compare_models, fit_model, series_dependence
 from analysis.measured import MeasuredCurve, load_tab1
 from analysis.series_dependence import find_dependence, print_quantum
 
@@ -93,9 +93,11 @@ def test_overdispersed_errors_are_the_chi2_scaled_ones_when_larger():
     q = np.array([np.polyfit(x, curve.values_ohm[:, k], 1, w=1 / sigma)[::-1] for k in range(6)])
     se_series = q.std(axis=0, ddof=1) / math.sqrt(6)
     scaled = np.sqrt(np.diag(pcov))
-    expected = scaled if scaled[1] > se_series[1] else se_series
+    expected = np.maximum(scaled, se_series)  # per parameter (issue 26 item 12)
     assert np.allclose([f.estimate.R_series_se, f.estimate.scale_se], expected, rtol=1e-5)
-    assert f.estimate.error_rule.startswith("χ²-scaled" if scaled[1] > se_series[1] else "paired-series")
+    assert f.estimate.chi2_scaled == tuple(bool(b) for b in scaled > se_series)
+    if np.all(scaled > se_series) or np.all(scaled <= se_series):
+        assert f.estimate.error_rule.startswith("χ²-scaled" if scaled[1] > se_series[1] else "paired-series")
 
 
 def test_fit_figure_of_tab1_uses_the_fits_series_and_criterion():
@@ -121,6 +123,7 @@ def test_tab1_integrity_notes_are_the_series_detectors():
 
     curve = load_tab1()
     notes = tab1_integrity_notes(curve)
-    dep = find_dependence(curve.values_ohm, curve.repeat_labels)
+    dep = series_dependence(curve)  # the detector with the curve's weights and unit, as the fit calls it
     assert [n.rstrip(".") for n in notes[: len(dep.notes)]] == list(dep.notes)
+    assert dep.keep == find_dependence(curve.values_ohm, curve.repeat_labels).keep
     assert "M4, M5, M6 are not independent repeats" in notes[-1] and "3 independent series (M1, M2, M3)" in notes[-1]

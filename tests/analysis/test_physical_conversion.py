@@ -55,10 +55,11 @@ def test_fit_tab1_physical_json_has_the_shares(capsys):
     assert fit["conversion"] == "physical" and fit["estimate"]["scale_units"] == "ohm*m2"
     assert 1e-9 < fit["estimate"]["scale"] < 4e-9  # σ_f [Ω·m²], the film of Tab. 1
     shares = fit["shares"]
-    assert set(shares) == {"series", "film", "barber", "macro"} and len(shares["film"]) == 8
-    total = np.sum([shares[k] for k in shares], axis=0)
+    assert set(shares) == {"series", "film", "barber", "macro", "residual"} and len(shares["film"]) == 8
+    total = np.sum([shares[k] for k in shares if k != "residual"], axis=0)
     fitted, measured = np.array(fit["points"]["fitted_ohm"]), np.array(fit["points"]["measured_ohm"])
-    assert np.allclose(total, fitted / measured, rtol=1e-9)  # shares of the measured mean add up to fitted/measured
+    assert np.allclose(total, fitted / measured, rtol=1e-9)  # the terms' shares add up to fitted/measured
+    assert np.allclose(total + np.array(shares["residual"]), 1.0, rtol=1e-12)  # the residual is the rest
     assert 0.003 < min(shares["barber"]) and max(shares["barber"]) < 0.03
 
 

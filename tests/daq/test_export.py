@@ -287,7 +287,7 @@ def test_export_fit_writes_the_physical_conversions_shares(tmp_path, capsys):
     shares = json.loads(capsys.readouterr().out)["models"]["greenwood_tripp"]["shares"]
     assert main(["export", str(src), "--fit", *opts, "-o", str(tmp_path / "fit.csv")]) == 0
     rows = list(csv.DictReader(ln for ln in (tmp_path / "fit-shares.csv").open(encoding="utf-8") if ln[0] != "#"))
-    assert {r["term"] for r in rows} == {"series", "film", "barber", "macro"} and len(rows) == 4 * 8
+    assert {r["term"] for r in rows} == {"series", "film", "barber", "macro", "residual"} and len(rows) == 5 * 8
     for r in rows:
         assert r["model"] == "greenwood_tripp"
     barber = [float(r["share_of_measured_mean"]) for r in rows if r["term"] == "barber"]

@@ -173,10 +173,12 @@ def _contactrig(*args: str, timeout: float = 60.0) -> tuple[int, str, str]:
 
 
 def _commands(path: Path, out: Path) -> dict[str, list[str]]:
+    # report without the boundary-element comparison: it runs on the scene's surfaces once the session has been read
+    # and reads nothing more of the file (it took most of this test's time)
     return {
         "replay": ["replay", str(path)],
         "fit": ["fit", str(path), "--bootstrap", "0", "--json"],
-        "report": ["report", str(path), "--bootstrap", "0", "-o", str(out), "--force"],
+        "report": ["report", str(path), "--bootstrap", "0", "--no-compare-models", "-o", str(out), "--force"],
     }
 
 
@@ -189,20 +191,28 @@ def _run_all(jobs: dict[str, list[str]]) -> dict[str, tuple[int, str, str]]:
         return {key: f.result() for key, f in futures.items()}
 
 
+def _commands_for(name: str, expect: str) -> tuple[str, ...]:
+    """The commands run on a variant. ``report`` reads a session through the very call ``fit`` makes
+    (``contactrig.cli.analysis._analysis`` → ``analysis.pipeline.analyse_session`` → ``load_session``), so on a file
+    refused while it is read it repeats ``fit`` under another name: it runs on the harmless variant (its own output)
+    and on the library loop (its error line), ``replay`` and ``fit`` (two readers of their own) on every variant."""
+    return ("replay", "fit", "report") if expect != "error" or name == "zeroed-page-at-98%" else ("replay", "fit")
+
+
 def test_commands_on_damaged_files_give_one_line_errors_or_the_same_results(good, tmp_path):
     makers = {n: m for n, _, m in CORPUS}
     jobs = {}
-    for name, _ in CLI_SUBSET:
+    for name, expect in CLI_SUBSET:
         path = _variant(good, tmp_path, name, makers[name])
-        for command, args in _commands(path, tmp_path / f"report-{name}").items():
-            jobs[f"{name} {command}"] = args
-    for command, args in _commands(good, tmp_path / "report-good").items():
-        jobs[f"good {command}"] = args
+        commands = _commands(path, tmp_path / f"report-{name}")
+        for command in _commands_for(name, expect):
+            jobs[f"{name} {command}"] = commands[command]
+    jobs["good fit"] = _commands(good, tmp_path / "report-good")["fit"]  # the numbers an unharmed file must give
     results = _run_all(jobs)
     for key, (_rc, out, err) in results.items():
         assert "Traceback" not in out + err, f"{key}:\n{err}"
     for name, expect in CLI_SUBSET:
-        for command in ("replay", "fit", "report"):
+        for command in _commands_for(name, expect):
             rc, out, err = results[f"{name} {command}"]
             if expect == "error":
                 lines = err.strip().splitlines()
@@ -211,10 +221,10 @@ def test_commands_on_damaged_files_give_one_line_errors_or_the_same_results(good
                 )
                 assert name in lines[0]
             else:
-                good_rc, good_out, _ = results[f"good {command}"]
-                assert rc == good_rc == 0, f"{name} {command}: exit {rc}\n{err}"
+                assert rc == 0, f"{name} {command}: exit {rc}\n{err}"
                 if command == "fit":
-                    assert _numbers(good_out) and _numbers(out) == _numbers(good_out)
+                    good_rc, good_out, _ = results["good fit"]
+                    assert good_rc == 0 and _numbers(good_out) and _numbers(out) == _numbers(good_out)
 
 
 def _numbers(text: str) -> list[str]:
