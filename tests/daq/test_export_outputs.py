@@ -1,6 +1,8 @@
-"""``export --force`` killed (SIGKILL) at a random moment of its writing never leaves a new summary beside old
-readings (issue 26, item 16: on 670606e it did, 5 kills of 5). Real processes on a slow disk
-(:mod:`tests.daq.slow_io`: every rename, link and unlink 0.2 s), two sessions exported over each other in turn."""
+"""Export outputs (issue 26, items 16 and 10). ``export --force`` killed (SIGKILL) at a random moment of its
+writing never leaves a new summary beside old readings (on 670606e it did, 5 kills of 5). Real processes on a slow
+disk (:mod:`tests.daq.slow_io`: every rename, link and unlink 0.2 s), two sessions exported over each other in turn.
+Output names of up to 255 bytes (multi-byte UTF-8 too) are written; a derived name that would pass the limit is a
+one-line error before anything is read or written."""
 
 from __future__ import annotations
 
@@ -34,6 +36,7 @@ def sessions(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_killed_export_force_leaves_one_export(sessions, tmp_path):
     env = {**os.environ, "PYTHONPATH": f"{ROOT}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"}
 
@@ -58,3 +61,19 @@ def test_killed_export_force_leaves_one_export(sessions, tmp_path):
         states.append(check_one_set(files_of(out), refs, ("x.csv",), {n: f"{n}.h5".encode() for n in refs}))
     export("bravo", out, None)  # a later export completes normally
     assert files_of(out) == refs["bravo"], states
+
+
+@pytest.mark.parametrize("stem", ["x" * 250, "ü" * 125], ids=["255B", "255B-utf8"])
+def test_export_to_a_name_of_255_bytes(sessions, tmp_path, capsys, stem):
+    from contactrig.cli.main import main
+
+    out = tmp_path / f"{stem}.xlsx"
+    assert len(os.fsencode(out.name)) == 255
+    assert main(["export", str(sessions["alpha"]), "--to", "xlsx", "-o", str(out)]) == 0
+    assert out.stat().st_size > 0 and sorted(os.listdir(tmp_path)) == [out.name]
+    csv = tmp_path / f"{stem[: len(stem) - 1]}.csv"  # the readings file beside it would pass 255 bytes
+    capsys.readouterr()
+    assert main(["export", str(sessions["alpha"]), "-o", str(csv)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "-readings.csv" in err and "at most 255 bytes" in err, err
+    assert sorted(os.listdir(tmp_path)) == [out.name]
