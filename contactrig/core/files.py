@@ -176,10 +176,11 @@ def replace_together(
                 _move_in(stage.path / r, top / r, force=force)
                 moved.append(top / r)
         except BaseException:
-            for m in moved:  # ours, just made: the names go back to how they were (free)
-                with contextlib.suppress(OSError):
-                    os.unlink(m)
-            raise
+            if not force:  # the names were free: they go back to how they were (what is there is ours, just made)
+                for m in moved:
+                    with contextlib.suppress(OSError):
+                        os.unlink(m)
+            raise  # with force: part of the new set without its first file, as a kill leaves it
         _sync_folder(top)
     finally:
         stage.remove()

@@ -94,6 +94,16 @@ def test_a_failed_write_changes_nothing(tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["a-readings.csv", "a.csv"]
 
 
+def test_a_name_taken_while_writing_is_refused_and_nothing_is_left(tmp_path):
+    outputs = [tmp_path / "a.csv", tmp_path / "a-readings.csv"]
+    with pytest.raises(FileExistsError, match=r"a\.csv exists"), replace_together(tmp_path, outputs) as stage:
+        for p in outputs:
+            (stage / p.name).write_text("ours")
+        outputs[0].write_text("another program's")  # the first file (moved in last) appears meanwhile
+    assert outputs[0].read_text() == "another program's" and not outputs[1].exists()
+    assert sorted(os.listdir(tmp_path)) == ["a.csv"]
+
+
 def _check(folder: Path, n: int) -> tuple[int, ...]:
     """The generations of the files there: one generation only; the head only beside all of its parts."""
     names = sorted(p.name for p in folder.iterdir() if not p.name.startswith(STAGE_PREFIX))
