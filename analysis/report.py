@@ -21,8 +21,9 @@ text, file names, status and stop reasons, model keys that are not registered, w
 and :class:`Data` is escaped by the renderer: :func:`contactrig.core.text.escape_markdown` /
 :func:`~contactrig.core.text.markdown_code_block` for Markdown, :func:`~contactrig.core.text.escape_html` for
 HTML. Records (start, stop) are shown whole, as JSON code blocks. Output files follow
-:mod:`contactrig.core.files`: the folder is created, an existing file is refused unless ``force``, every file is
-written atomically.
+:mod:`contactrig.core.files`: the folder is created, an existing file is refused unless ``force``, and the report's
+files (text and figures) replace the old ones as one set (:func:`~contactrig.core.files.replace_together`: a kill
+never leaves the old text beside new figures).
 """
 
 from __future__ import annotations
@@ -43,7 +44,7 @@ import numpy as np
 from analysis.figures import FigureSpec, figure_specs, planned_figures, write_figures
 from analysis.fit import regressor_label
 from analysis.resistance import resistance_unit
-from contactrig.core.files import output_folder, refuse_existing, write_text_atomic
+from contactrig.core.files import output_folder, refuse_existing, replace_together
 from contactrig.core.provenance import software_version, to_json
 from contactrig.core.text import escape_html, escape_markdown, escape_terminal, markdown_code_block
 from sims.models import model_label, model_names
@@ -718,11 +719,11 @@ def write_report(
 
     Every file is checked first (:func:`report_outputs`): an existing one is refused unless ``force``."""
     out = output_directory(directory)
-    refuse_existing(report_outputs(out, [a.title for a in analyses], formats), force=force)
-    figs = []
-    for a in analyses:
-        figs.append(write_figures(a, out / "figures", prefix=_slug(a.title), formats=formats, force=force))
-    blocks = report_blocks(analyses, figs, title=title, preamble=preamble)
-    write_text_atomic(out / "report.html", render_html(blocks, out, title), force=force)
-    text = "\n".join(_md_block(b, out) for b in blocks)
-    return write_text_atomic(out / "report.md", text, force=force)
+    outputs = refuse_existing(report_outputs(out, [a.title for a in analyses], formats), force=force)
+    # written whole into a staging folder that mirrors `out`, then swapped in as one set (report.md last)
+    with replace_together(out, outputs, force=force) as stage:
+        figs = [write_figures(a, stage / "figures", prefix=_slug(a.title), formats=formats) for a in analyses]
+        blocks = report_blocks(analyses, figs, title=title, preamble=preamble)
+        (stage / "report.html").write_text(render_html(blocks, stage, title), encoding="utf-8")
+        (stage / "report.md").write_text("\n".join(_md_block(b, stage) for b in blocks), encoding="utf-8")
+    return out / "report.md"

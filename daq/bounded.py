@@ -5,8 +5,8 @@ library loop forever, or crash the process; neither can be stopped from a thread
 the HDF5 structure covers every case the library may trip over. A forked child costs a few milliseconds (it
 inherits the imported modules), reads the file, and hands back the parsed, checked result (pickled through a
 pipe); the parent waits at most ``timeout`` seconds and then kills it. A crash of the child (SIGSEGV inside the
-library) becomes a one-line error too. The child ignores SIGINT: a Ctrl-C at the terminal reaches the whole process
-group, and it is the parent that decides what a Ctrl-C means (it kills the child on its way out).
+library) becomes a one-line error too. The child ignores SIGINT (it is the parent that decides what a Ctrl-C means)
+and never outlives the parent, even one killed with SIGKILL: :mod:`contactrig.core.child_process`.
 
 Before any of this, the path must name a regular file: a FIFO or a device would block ``open`` itself.
 """
@@ -14,15 +14,14 @@ Before any of this, the path must name a regular file: a FIFO or a device would 
 from __future__ import annotations
 
 import errno
-import multiprocessing
 import os
 import pickle
-import signal
 import stat
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
 
+from contactrig.core.child_process import ChildDied, ChildTimeout, run_in_child
 from daq.errors import MissingFileError, SessionFileError
 
 __all__ = ["DEFAULT_TIMEOUT_S", "call_bounded", "check_regular_file", "first_line", "timeout_for"]
@@ -77,8 +76,8 @@ def timeout_for(size: int) -> float:
     return base + max(0.0, (size - _FREE_BYTES) / _BYTES_PER_S)
 
 
-def _child(conn: Any, fn: Callable[..., Any], args: tuple[Any, ...], path: Path, what: str) -> None:
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+def _answer(fn: Callable[..., Any], args: tuple[Any, ...], path: Path, what: str) -> bytes:
+    """Runs in the child: ``fn(*args)`` or its error, pickled."""
     try:
         result: tuple[str, Any] = ("ok", fn(*args))
     except (SessionFileError, OSError) as exc:
@@ -89,17 +88,10 @@ def _child(conn: Any, fn: Callable[..., Any], args: tuple[Any, ...], path: Path,
             SessionFileError(f"{path}: unreadable {what} ({type(exc).__name__}: {first_line(str(exc))})"),
         )
     try:
-        payload = pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL)
+        return pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL)
     except Exception as exc:  # an exception type that does not pickle: keep its message
         text = str(result[1]) if result[0] == "error" else f"{type(exc).__name__}: {exc}"
-        payload = pickle.dumps(("error", SessionFileError(first_line(text))))
-    conn.send_bytes(payload)
-    conn.close()
-
-
-def _context() -> Any:
-    methods = multiprocessing.get_all_start_methods()
-    return multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+        return pickle.dumps(("error", SessionFileError(first_line(text))))
 
 
 def call_bounded(
@@ -109,42 +101,21 @@ def call_bounded(
 
     ``fn`` must raise only picklable exceptions (anything else becomes one :class:`SessionFileError` line). A child
     that does not answer in time is killed: :class:`SessionFileError` saying so; one that dies (a crash inside the
-    HDF5 library): :class:`SessionFileError` naming the signal.
+    HDF5 library): :class:`SessionFileError` naming the signal. The child never outlives this process
+    (:func:`contactrig.core.child_process.run_in_child`).
     """
     st = check_regular_file(path, what)
     limit = timeout if timeout is not None else timeout_for(st.st_size)
-    ctx = _context()
-    recv, send = ctx.Pipe(duplex=False)
-    proc = ctx.Process(target=_child, args=(send, fn, args, path, what), daemon=True)
-    proc.start()
-    send.close()
     try:
-        if not recv.poll(limit):
-            raise SessionFileError(
-                f"{path}: reading it did not finish within {limit:g} s — its HDF5 structure is damaged (the HDF5 "
-                f"library loops on it); not a readable {what}"
-            )
-        try:
-            status, value = pickle.loads(recv.recv_bytes())
-        except (EOFError, OSError):
-            proc.join(2.0)
-            raise SessionFileError(
-                f"{path}: the HDF5 library crashed reading it ({_death(proc.exitcode)}): damaged {what}"
-            ) from None
-    finally:
-        if proc.is_alive():
-            proc.kill()
-        proc.join()
-        recv.close()
+        payload = run_in_child(_answer, (fn, args, path, what), timeout=limit)
+    except ChildTimeout:
+        raise SessionFileError(
+            f"{path}: reading it did not finish within {limit:g} s — its HDF5 structure is damaged (the HDF5 "
+            f"library loops on it); not a readable {what}"
+        ) from None
+    except ChildDied as exc:
+        raise SessionFileError(f"{path}: the HDF5 library crashed reading it ({exc}): damaged {what}") from None
+    status, value = pickle.loads(payload)
     if status == "error":
         raise value
     return value
-
-
-def _death(code: int | None) -> str:
-    if code is not None and code < 0:
-        try:
-            return f"killed by {signal.Signals(-code).name}"
-        except ValueError:
-            return f"killed by signal {-code}"
-    return f"exit status {code}"

@@ -26,8 +26,9 @@ Numbers are unquoted (negative ones too: they stay numbers); every text field is
 would run as a formula (leading ``= + - @``, tab or CR) starts with ``'`` (:func:`csv_field`); the ``#`` lines are
 ``# key:,"value"`` records, so no string from a file can split into cells or become a formula.
 Excel (``.xlsx``, one sheet per table plus ``about``) uses openpyxl (in the base install); should it be missing,
-:class:`ExcelUnavailable` says so in one line naming the pip install. Every file is written atomically and none
-is replaced without ``force`` (:mod:`contactrig.core.files`); every output is checked before anything is written.
+:class:`ExcelUnavailable` says so in one line naming the pip install. None is replaced without ``force``; every
+output is checked before anything is written, and the files of one export replace the old ones as one set
+(:func:`contactrig.core.files.replace_together`: a kill never leaves a new summary beside old readings).
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from contactrig.core.files import atomic_write, refuse_existing
+from contactrig.core.files import refuse_existing, replace_together
 from contactrig.core.text import escape_terminal
 from contactrig.core.validation import SettingError, check_choice
 from daq.records import block_number
@@ -405,14 +406,12 @@ def write_tables(
     if to == "xlsx":
         _openpyxl()  # the one-line error before anything else
     paths = refuse_existing(output_paths(output, to, [t.name for t in tables]), force=force)
-    if to == "xlsx":
-        with atomic_write(paths[0], force=force) as tmp:
-            _xlsx(tables, about, tmp)
-        return paths
-    for i, (table, path) in enumerate(zip(tables, paths, strict=True)):
-        text = _csv_text(table, about, first=i == 0)
-        with atomic_write(path, force=force) as tmp:
-            tmp.write_bytes(text.encode("utf-8"))
+    with replace_together(paths[0].parent, paths, force=force) as stage:  # the files replace the old ones as one
+        if to == "xlsx":
+            _xlsx(tables, about, stage / paths[0].name)
+        else:
+            for i, (table, path) in enumerate(zip(tables, paths, strict=True)):
+                (stage / path.name).write_bytes(_csv_text(table, about, first=i == 0).encode("utf-8"))
     return paths
 
 

@@ -8,7 +8,8 @@
   locked and fall back to the lock-free reader. The lock belongs to the file (the inode), so it follows the file
   through the rename below; it ends when the process does (a killed writer leaves no stale lock).
 * **Nothing is truncated or replaced in place.** A new session is written to a hidden temporary file in the
-  target's folder (``.<name>.<random>.tmp``, :func:`temporary_beside`) and appears under its name only once its
+  target's folder (``.<name>.<random>.tmp``, the name shortened and hashed where that would pass 255 bytes:
+  :func:`temporary_beside`) and appears under its name only once its
   start record is on disk (:func:`publish`): without ``--force`` by a hard link that fails if the name exists
   (no race with a second writer); with ``--force`` by a rename, made while an exclusive lock is held on the file it
   replaces (:func:`claimed`) — a file in use is refused and left as it was. A program that opened the old file
@@ -25,6 +26,8 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import glob
+import hashlib
 import os
 import stat
 import tempfile
@@ -112,7 +115,7 @@ def temporary_beside(target: Path) -> Path:
     with the usual permissions; its writer opens it at once and locks it (:func:`lock_exclusive`). A folder that
     cannot take it raises the :class:`OSError` of ``mkstemp``."""
     remove_stale_temporaries(target)
-    fd, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    fd, name = tempfile.mkstemp(prefix=_prefix(target), suffix=".tmp", dir=target.parent)
     try:
         os.fchmod(fd, 0o666 & ~_umask())  # mkstemp makes it private; the session gets the usual permissions
     finally:
@@ -120,12 +123,24 @@ def temporary_beside(target: Path) -> Path:
     return Path(name)
 
 
+def _prefix(target: Path) -> str:
+    """The start of the temporary file names of ``target``: ``.NAME.``, or for a name too long to take 14 more bytes
+    within ``NAME_MAX`` (255 bytes), its first 228 bytes and a hash of the whole, ``.NAME…~HASH.`` — every legal
+    name gets a temporary name that fits."""
+    raw = os.fsencode(target.name)
+    if len(raw) + 14 <= 255:  # "." + name + "." + 8 random + ".tmp"
+        return f".{target.name}."
+    digest = hashlib.sha256(raw).hexdigest()[:12]
+    return f".{os.fsdecode(raw[:228])}~{digest}."
+
+
 def remove_stale_temporaries(target: Path) -> None:
     """Remove the temporary files killed writers of ``target`` left behind (those no process holds locked)."""
     if fcntl is None:
         return
     try:
-        names = [p for p in target.parent.glob(f".{target.name}.*.tmp") if p.is_file() and not p.is_symlink()]
+        pattern = f"{glob.escape(_prefix(target))}*.tmp"
+        names = [p for p in target.parent.glob(pattern) if p.is_file() and not p.is_symlink()]
     except OSError:
         return
     for p in names:

@@ -10,7 +10,8 @@ The guarantees of :mod:`contactrig.core.inputs` hold for every format:
   ``HEIGHT_MAP_MAX_BYTES``, within ``READ_TIMEOUT_S``), *before* the library sees anything; the library parses
   those bytes from memory, never the path;
 * the library parses in a forked child process with a deadline (:data:`PARSE_TIMEOUT_S`): a damaged file that makes
-  a reader loop or crash is a one-line error, and the child is killed;
+  a reader loop or crash is a one-line error, and the child is killed; it never outlives this process
+  (:mod:`contactrig.core.child_process`);
 * the grid size the file declares is checked against ``HEIGHT_MAP_MAX_SIDE`` before the heights are decoded.
 
 SurfaceTopography (the optional extra ``surfaces``) is imported only here and only in that child, so
@@ -20,15 +21,14 @@ SurfaceTopography (the optional extra ``surfaces``) is imported only here and on
 from __future__ import annotations
 
 import io
-import multiprocessing
 import pickle
-import signal
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from contactrig.core.child_process import ChildDied, ChildTimeout, run_in_child
 from contactrig.core.inputs import HEIGHT_MAP_MAX_SIDE
 from contactrig.core.validation import SettingError
 
@@ -165,8 +165,8 @@ def _parse(raw: bytes) -> Measured:
     return Measured(heights, pixel_x, factor, _instrument(channel.info), type(reader).name(), pixel_y)
 
 
-def _child(conn: Any, raw: bytes) -> None:
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+def _answer(raw: bytes) -> bytes:
+    """Runs in the child: the parsed file or its error, pickled."""
     try:
         result: tuple[str, Any] = ("ok", _parse(raw))
     except BaseException as exc:  # untrusted content: any failure is one line
@@ -174,8 +174,7 @@ def _child(conn: Any, raw: bytes) -> None:
         name = type(exc).__name__
         detail = f"{name}: {text[0] if text else ''}"
         result = ("error", "format not recognised" if name == "CannotDetectFileFormat" else detail)
-    conn.send_bytes(pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL))
-    conn.close()
+    return pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL)
 
 
 def read_topography_file(raw: bytes, *, key: str, path: str, timeout_s: float = PARSE_TIMEOUT_S) -> Measured:
@@ -191,24 +190,13 @@ def read_topography_file(raw: bytes, *, key: str, path: str, timeout_s: float = 
         raise SettingError(
             key, path, f"is not a plain-text grid; reading profilometer formats needs SurfaceTopography: {PIP_HINT}"
         )
-    methods = multiprocessing.get_all_start_methods()
-    ctx: Any = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
-    recv, send = ctx.Pipe(duplex=False)
-    proc = ctx.Process(target=_child, args=(send, raw), daemon=True)
-    proc.start()
-    send.close()
     try:
-        if not recv.poll(timeout_s):
-            raise SettingError(key, path, f"parsing it took longer than {timeout_s:g} s (a damaged file?)")
-        try:
-            status, value = pickle.loads(recv.recv_bytes())
-        except (EOFError, OSError):
-            raise SettingError(key, path, "the reader crashed on it (a damaged file?)") from None
-    finally:
-        if proc.is_alive():
-            proc.kill()
-        proc.join()
-        recv.close()
+        payload = run_in_child(_answer, (raw,), timeout=timeout_s)
+    except ChildTimeout:
+        raise SettingError(key, path, f"parsing it took longer than {timeout_s:g} s (a damaged file?)") from None
+    except ChildDied:
+        raise SettingError(key, path, "the reader crashed on it (a damaged file?)") from None
+    status, value = pickle.loads(payload)
     if status == "error":
         raise SettingError(key, path, f"not a height map SurfaceTopography can read ({value})")
     assert isinstance(value, Measured)
