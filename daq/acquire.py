@@ -74,6 +74,8 @@ class _Prior:
     recorded_skips: frozenset[float] = frozenset()
     #: the start record of the latest run (its overrides carry over to a resumed run)
     last_start: dict[str, Any] | None = None
+    #: runs on file: the number of the run about to start (0 for a new session)
+    runs: int = 0
 
 
 @dataclass(frozen=True)
@@ -248,7 +250,7 @@ def _resume_state(path: Path, scene: Scene | None, simulated: bool) -> tuple[Sce
     )
     runs = [r for r in session.runs if isinstance(r, dict)]
     prior = _Prior(resumed=True, done=done, readings=readings, first_start=session.start, recorded_skips=skips,
-                   last_start=runs[-1] if runs else session.start)  # fmt: skip
+                   last_start=runs[-1] if runs else session.start, runs=len(session.runs))  # fmt: skip
     return recorded, prior
 
 
@@ -341,7 +343,7 @@ def acquire(
     except BaseException:
         sf.discard()
         raise
-    opened = _open_bench(bench, plan, sf)
+    opened = _open_bench(bench, plan, sf, run=prior.runs)
     ask = prompter or (answer_yes if yes else terminal_prompter(stream))
     display: LiveDisplay | None = None
     outcome: RunOutcome | None = None
@@ -457,10 +459,11 @@ def _prepare_file(path: Path, plan: SessionPlan, *, resume: bool, force: bool, f
     return SessionFile.create(path, reading_unit=unit, force=force, fsync=fsync)
 
 
-def _open_bench(bench: Bench, plan: SessionPlan, sf: SessionFile) -> OpenedBench:
-    """Open the bench; if it cannot be reached, a new file (it holds nothing) is removed, a resumed one closed."""
+def _open_bench(bench: Bench, plan: SessionPlan, sf: SessionFile, *, run: int) -> OpenedBench:
+    """Open the bench for run ``run``; if it cannot be reached, a new file (it holds nothing) is removed, a resumed
+    one closed."""
     try:
-        return bench.open(plan)
+        return bench.open(plan, run=run)
     except BaseException:
         sf.discard()
         raise

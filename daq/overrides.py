@@ -41,6 +41,7 @@ __all__ = [
     "plan_values",
     "plan_with_overrides",
     "resume_overrides",
+    "visa_resource",
 ]
 
 
@@ -50,6 +51,33 @@ def _whole_number(text: str) -> Any:
         return int(text)
     except ValueError:
         return text
+
+
+#: GPIB primary addresses (IEEE 488.1: 0…30).
+GPIB_PRIMARY = range(0, 31)
+
+
+def visa_resource(text: str) -> str:
+    """``--address``: a VISA resource name as VISA parses it (PyVISA's ``rname``: ``GPIB0::12::INSTR``,
+    ``ASRL3::INSTR``, ``ASRL/dev/ttyUSB0::INSTR``, ``TCPIP0::192.168.0.50::1394::SOCKET``, ``USB0::…::INSTR``),
+    with a GPIB primary address 0…30 and a socket port 1…65535; kept as typed. Raises SettingError naming the
+    option, the value and the syntax."""
+    from pyvisa import rname  # on use only: the command line's parser stays light
+
+    allowed = ("a VISA resource name, e.g. GPIB0::12::INSTR, ASRL3::INSTR, ASRL/dev/ttyUSB0::INSTR or "
+               "TCPIP0::192.168.0.50::1394::SOCKET")  # fmt: skip
+    try:
+        parsed = rname.parse_resource_name(text.strip())
+    except rname.InvalidResourceName as exc:
+        reason = str(exc).split(". ", 1)[-1] if ". " in str(exc) else str(exc)
+        raise SettingError("--address", text, f"{allowed} ({reason})") from None
+    primary = getattr(parsed, "primary_address", None)
+    if isinstance(parsed, rname.GPIBInstr) and not (str(primary).isdigit() and int(str(primary)) in GPIB_PRIMARY):
+        raise SettingError("--address", text, f"{allowed}: a GPIB primary address is a whole number 0…30")
+    port = getattr(parsed, "port", None)
+    if isinstance(parsed, rname.TCPIPSocket) and not (str(port).isdigit() and 0 < int(str(port)) < 65536):
+        raise SettingError("--address", text, f"{allowed}: a socket port is a whole number 1…65535")
+    return text.strip()
 
 
 @dataclass(frozen=True)
@@ -74,7 +102,8 @@ class Overridable:
 
 OVERRIDES: tuple[Overridable, ...] = (
     Overridable("--address", "instrument.address", "VISA resource of the instrument the PC talks to, e.g. "
-                "GPIB0::12::INSTR or TCPIP0::<ip>::1394::SOCKET", "record"),
+                "GPIB0::12::INSTR, ASRL/dev/ttyUSB0::INSTR or TCPIP0::<ip>::1394::SOCKET (--sim answers at any)",
+                "record", parse=visa_resource),
     Overridable("--visa-library", "instrument.visa_library", "VISA library for the address, e.g. @py (pyvisa-py); "
                 "default the system's", "record"),
     Overridable("--sample", "session.sample", "free-text sample description", "refuse"),

@@ -44,6 +44,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="show the live view (as `contactrig watch`) in a window, or rewrite the snapshot PNG (headless); a "
         "failure of the view is reported once and turns it off, the acquisition goes on",
     )  # fmt: skip
+    acq.add_argument(
+        "--quiet", action="store_true",
+        help="no plan, no progress bar or block lines and no notes on stderr (the prompts, errors and the final line "
+        "stay; what the notes say is in the start record)",
+    )  # fmt: skip
     _add_override_options(acq)
     add_max_memory_option(acq)  # --sim: the rig simulation behind the simulated bench
     acq.set_defaults(handler=acquire_command)
@@ -145,7 +150,7 @@ def acquire_command(args: argparse.Namespace) -> int:
     live = _live_view(args)
     result = acquire(
         args.scene, args.output, bench=bench, yes=args.yes, resume=args.resume, force=args.force, extra_writers=live,
-        overrides=overrides_by_option(vars(args)), allow_change=args.allow_change,
+        overrides=overrides_by_option(vars(args)), allow_change=args.allow_change, quiet=args.quiet,
     )  # fmt: skip
     print(
         f"{safe(result.path)}: {result.status}, {result.blocks_done} of {result.blocks_planned} blocks — "
