@@ -81,6 +81,7 @@ __all__ = [
     "DIGITS_PER_OHM",
     "RESISTANCE_BOUNDS_OHM",
     "STANDARD_GRAVITY",
+    "TAB1_MEASURED_BY",
     "UNITS_OHM",
     "WEIGHT_BOUNDS_KG",
     "WEIGHT_UNITS_KG",
@@ -130,6 +131,13 @@ _SUFFIXED = re.compile(r"^(.*?)[_ ]+([^\W\d_]+)$")
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 _SPREADSHEET_ERROR = re.compile(r"#(N/A|DIV/0!|VALUE!|REF!|NAME\?|NUM!|NULL!|SPILL!|CALC!)", re.IGNORECASE)
 _COMMA_NUMBER = re.compile(r"[+-]?[0-9]*,[0-9]+(?:[eE][+-]?[0-9]+)?")
+
+
+#: Who measured Tab. 1 (recorded as ``measured_by`` of ``import --tab1``; its operator is not known).
+TAB1_MEASURED_BY = (
+    "Raffai, Maršálek & Nečasová, Numerical modelling of dry friction of piston rings in internal combustion "
+    "engines (the seed paper), Tab. 1"
+)
 
 
 def tab1_path() -> Path:
@@ -554,10 +562,17 @@ def import_table(
     delimiter: str | None = None,
     decimal: str | None = None,
     allow_missing: bool = False,
+    measured_by: str = "",
 ) -> Path:
     """Write the table at ``path`` as a session file at ``output`` (marked imported); return ``output``.
 
     ``unit``, ``delimiter``, ``decimal``, ``allow_missing`` as for :func:`read_table`. A missing repeat gets no block.
+
+    Who measured: ``operator`` (``import --operator``), else the operator an exported table names in its ``#``
+    lines, else nobody known — the start record's ``operator`` is then empty with ``operator_source`` ``"unknown"``:
+    the login name of whoever imports is not the operator of the data; it is recorded as ``imported_by``.
+    ``measured_by``: where the values come from when that is known but no operator is (``import --tab1``:
+    :data:`TAB1_MEASURED_BY`), recorded as such.
     """
     from contactrig.core.provenance import host_name, login_name
     from daq.records import now_iso
@@ -573,8 +588,10 @@ def import_table(
         "software": software_versions(),
         "started": started,
         **meta,
-        "operator": operator or meta.get("operator") or login_name(),
-        "operator_source": "--operator" if operator else ("table" if meta.get("operator") else "login"),
+        "operator": operator or meta.get("operator") or "",
+        "operator_source": "--operator" if operator else ("table" if meta.get("operator") else "unknown"),
+        **({"measured_by": measured_by} if measured_by else {}),
+        "imported_by": login_name(),
         "host": host_name(),
         "imported": True,
         "sim": False,

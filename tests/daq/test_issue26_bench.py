@@ -115,3 +115,19 @@ def test_a_resumed_simulated_session_draws_new_noise_and_replays_identically(tmp
     r = float(a @ b / np.sqrt((a @ a) * (b @ b)))
     assert abs(r) < 0.5, r
     assert replay_session(path).identical
+
+
+def test_acquire_takes_quiet_as_the_option_vocabulary_says(tmp_path, capsys):
+    """Issue 26 item 13: --quiet (OPTION_VOCABULARY: "no progress bar on stderr") is accepted; the plan, block lines
+    and notes are left out, the final line stays."""
+    from contactrig.cli.options import OPTION_VOCABULARY
+
+    assert OPTION_VOCABULARY["--quiet"][0] == "flag"
+    scene = small_sim_scene(tmp_path, count=8, repeats=1)
+    args = ["acquire", str(scene), "--sim", "--yes", "--sim-speed", "inf"]
+    assert main([*args, "-o", str(tmp_path / "loud.h5")]) == 0
+    loud = capsys.readouterr().err.splitlines()
+    assert main([*args, "--quiet", "-o", str(tmp_path / "quiet.h5")]) == 0
+    quiet = capsys.readouterr().err.splitlines()
+    assert any(line.startswith("plan: ") for line in loud) and len(loud) > 3
+    assert len(quiet) == 1 and quiet[0].endswith("success, 3 of 3 blocks — all 3 planned blocks done")
