@@ -22,6 +22,7 @@ from typing import Any, TextIO
 
 from contactrig.core.provenance import host_name, login_name, now_iso
 from contactrig.core.scene import Scene, load_scene, parse_scene
+from contactrig.core.text import shown
 from daq.engine import AcquisitionEngine, Decision, Interrupts, OperatorQuit, Prompter, RunOutcome, Writer, answer_yes
 from daq.errors import MissingFileError, NoStartRecordError, SessionExistsError, SessionStateError
 from daq.link import Bench, InstrumentLink, OpenedBench, VisaBench
@@ -604,11 +605,11 @@ def _start_record(
         "operator": plan.session.operator or login_name(),
         "operator_source": "scene" if plan.session.operator else "login",
         "host": host_name(),
-        "command": " ".join(sys.argv),
+        "command": shown(" ".join(sys.argv)),  # a non-UTF-8 file name in it: as visible escapes
         "imported": False,
         "sim": bool(simulated),
         "simulation": opened.simulation,
-        "scene_source": scene.source,
+        "scene_source": shown(scene.source),
         "scene_name": scene.name,
         "sample": plan.session.sample,
         "notes": plan.session.notes,

@@ -5,6 +5,9 @@ One declared table, :data:`OVERRIDES` (option → scene key → how a different 
 used by the command line, the start record, ``scene show`` and ``--resume`` alike (and by any other front end: it
 calls :func:`apply_overrides` with the same ``{scene key: value}`` mapping).
 
+* **Text, as UTF-8.** A value holding bytes that are not UTF-8 (``--sample $'Kolben-\xd8'`` from a Latin-1
+  terminal, or the console's form) is refused naming its option (:func:`contactrig.core.text.check_text`), before any
+  file is made.
 * **Validated as the scene key.** An override is put in place of the scene's value and the plan is validated by the
   scene's own validators (:class:`daq.plan.SessionPlan`); an error names the option (``--address = 'x' is not
   allowed: …``).
@@ -28,6 +31,7 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 from contactrig.core.scene import Scene
+from contactrig.core.text import check_text
 from contactrig.core.validation import SettingError, scene_key
 
 __all__ = [
@@ -120,7 +124,7 @@ def overrides_by_option(values: Mapping[str, str | None]) -> dict[str, Any]:
     """``{scene key: value}`` from option values by argparse destination (``{"address": "…", "sample": None}``);
     options not given (None) are left out."""
     given = {o: values.get(o.dest) for o in OVERRIDES}
-    return {o.key: o.parse(text) for o, text in given.items() if text is not None}
+    return {o.key: o.parse(check_text(o.option, text)) for o, text in given.items() if text is not None}
 
 
 def _check_keys(overrides: Mapping[str, Any]) -> None:
@@ -134,6 +138,7 @@ def apply_overrides(scene: Scene, overrides: Mapping[str, Any]) -> Scene:
     _check_keys(overrides)
     data = copy.deepcopy(scene.data)
     for key, value in overrides.items():
+        check_text(_BY_KEY[key].option, value)  # not UTF-8 (a Latin-1 terminal): refused, never stored
         table, name = key.split(".")
         data.setdefault(table, {})[name] = value
     return Scene(text=scene.text, data=data, source=scene.source, height_maps=scene.height_maps)

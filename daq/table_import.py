@@ -198,9 +198,12 @@ class ResistanceTable:
         return bool(np.all(np.isfinite(self.resistance_ohm)))
 
     def source_info(self) -> dict[str, Any]:
-        """Provenance for a session's start record or a report (JSON-able)."""
+        """Provenance for a session's start record or a report (JSON-able; a file name that is not UTF-8 with its
+        bytes as visible escapes, :func:`contactrig.core.text.shown`)."""
+        from contactrig.core.text import shown
+
         return {
-            "path": str(Path(self.path).resolve()) if self.path else "",
+            "path": shown(Path(self.path).resolve()) if self.path else "",
             "sha256": hashlib.sha256(self.text.encode("utf-8")).hexdigest(),
             "unit": self.unit,
             "column_units": list(self.column_units),
@@ -209,7 +212,7 @@ class ResistanceTable:
             "repeat_columns": list(self.columns),
             "delimiter": self.delimiter,
             "decimal": self.decimal,
-            "notes": list(self.notes),
+            "notes": [shown(n) for n in self.notes],
             "text": self.text,
         }
 
@@ -575,9 +578,11 @@ def import_table(
     :data:`TAB1_MEASURED_BY`), recorded as such.
     """
     from contactrig.core.provenance import host_name, login_name
+    from contactrig.core.text import check_text
     from daq.records import now_iso
     from daq.session_file import SCHEMA_VERSION, SessionFile, software_versions
 
+    check_text("--operator", operator)  # not UTF-8 (a Latin-1 terminal): refused before any file is made
     table = read_table(path, unit, delimiter=delimiter, decimal=decimal, allow_missing=allow_missing)
     meta = session_metadata(table.text)  # sample, operator, notes, scene_name of an exported session (# lines)
     n = int(np.isfinite(table.resistance_ohm).sum())

@@ -75,7 +75,7 @@ async function showSessions() {
         action.append(el("button", { class: "resume", onclick: () => resume(s.path, s.kind === "simulated"), text: "Resume" }));
       }
       const status = ["corrupt", "newer"].includes(s.status) ? s.status.toUpperCase() : s.status;
-      const row = el("tr", {}, el("td", { text: (s.start_time || "").slice(0, 19).replace("T", " ") }),
+      const row = el("tr", {}, el("td", { text: s.start_shown || s.start_time || "" }),
         el("td", { class: s.status, text: status }), el("td", { text: blocks }), el("td", { text: s.kind }),
         el("td", { class: "sample text", text: s.sample }), el("td", { class: "text", text: s.operator }), el("td", { class: "text" }, link), action);
       const out = [row];

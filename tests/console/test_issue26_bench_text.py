@@ -25,3 +25,27 @@ def test_a_console_session_runs_at_a_serial_port_path_on_the_simulated_bench(cli
     run = client.start("serial.h5", overrides={"instrument.address": "ASRL/dev/ttyUSB0::INSTR"})
     assert client.drive(run)["stop"]["status"] == "success"
     assert load_session(folder / "serial.h5").start["instrument"]["address"] == "ASRL/dev/ttyUSB0::INSTR"
+
+
+def test_form_text_that_is_not_unicode_is_refused_naming_the_option(client: Client, folder):
+    """JSON may carry a lone surrogate ("\\udcd8"): the form's sample is refused as acquire --sample refuses it."""
+    body = '{"scene": "small.toml", "sim": true, "overrides": {"session.sample": "Kolben-\\udcd8"}}'
+    r = client.http.post("/api/plan", content=body.encode(), headers={**client.headers,
+                                                                       "content-type": "application/json"})  # fmt: skip
+    assert r.status_code == 400 and r.json()["error"].startswith("--sample = 'Kolben-\\udcd8' is not allowed: text")
+
+
+def test_the_sessions_index_lists_a_file_with_bad_text_and_answers(client: Client, folder, monkeypatch):
+    """One session holding a lone surrogate (as an older contactrig stored it) and one file whose name is not UTF-8:
+    the index answers (no HTTP 500) and lists both, their text shown with visible escapes."""
+    import os
+
+    from tests.daq.test_issue26_text import _older_session
+
+    _older_session(folder / "old.h5", monkeypatch, sample="Kolben-\udcd8")
+    _older_session(folder / os.fsdecode(b"name-\xff.h5"), monkeypatch)
+    r = client.get("/api/sessions")
+    assert r.status_code == 200
+    rows = {row["path"]: row for row in r.json()["sessions"]}
+    assert rows["old.h5"]["sample"] == "Kolben-\\xd8"
+    assert "file name is not UTF-8" in rows["name-\\xff.h5"]["note"]
