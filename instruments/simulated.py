@@ -4,10 +4,10 @@
 :class:`BenchVisaLibrary` (a pyvisa-sim ``SimVisaLibrary`` subclass). The 6221 answers at ``GPIB0::12::INSTR``
 and ``TCPIP0::127.0.0.1::1394::SOCKET`` or, with ``SimulatedBench.any_address`` (``acquire --sim``), at any valid
 VISA resource name (``ASRL/dev/ttyUSB0::INSTR``, ``TCPIP0::192.168.0.50::1394::SOCKET`` …); nothing is contacted.
-Static replies, settings and their ranges come from the packaged YAML
-definition (``k6221_sim.yaml``); a :class:`SimulatedK6221` (a pyvisa-sim ``Device`` subclass) parses SCPI as the
-real instrument does (:mod:`instruments.scpi`) and implements the dynamic part in Python: Delta arming and
-sweeps, the reading buffer, status event registers, the error queue and the serial relay to the 2182A.
+Static replies, settings and their ranges come from the packaged YAML definition (``k6221_sim.yaml``); a
+:class:`SimulatedK6221` (a pyvisa-sim ``Device`` subclass) parses SCPI as the real instrument does
+(:mod:`instruments.scpi`) and implements the dynamic part in Python: Delta arming and sweeps, the reading buffer,
+status event registers, the error queue and the serial relay to the 2182A.
 
 Physics (:class:`ContactVoltageModel`, pluggable): every 2182A conversion is ±I·R + thermal EMF + drift + noise,
 and the simulated 6221 forms the 3-point Delta readings from the conversions (:func:`instruments.delta.delta_readings`),
@@ -611,9 +611,9 @@ class _Sweep:
 class SimulatedK6221(_ScpiDevice):
     """The simulated 6221 at one VISA address (a pyvisa-sim Device with SCPI parsing and Delta physics).
 
-    IEEE 488.2 message exchange: a LF ends a program message (at an ``ASRL`` address: the bench's
-    ``serial_terminator``) (one write may hold several); a reply left unread when
-    the next message arrives is discarded and −410 queued. ``SOURce`` is an optional root (``CURR:COMP`` =
+    IEEE 488.2 message exchange: a LF ends a program message (at an ``ASRL`` address the bench's
+    ``serial_terminator``; one write may hold several); a reply left unread when the next message arrives is
+    discarded and −410 queued. ``SOURce`` is an optional root (``CURR:COMP`` =
     ``SOUR:CURR:COMP``, ``SOUR1`` = ``SOUR``).
     """
 
