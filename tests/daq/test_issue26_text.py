@@ -51,6 +51,30 @@ def test_every_shown_form_can_be_written_as_utf8(text):
         out.encode("utf-8")  # no UnicodeEncodeError: a file, a figure or a page takes it
 
 
+@settings(max_examples=50, deadline=None)
+@given(st.sampled_from(["sample", "operator", "notes", "address", "visa_library"]), with_surrogate)
+def test_every_text_override_refuses_text_that_is_not_unicode(dest, text):
+    """Every option acquire (and the console's form, through apply_overrides) takes as text."""
+    from daq.overrides import OVERRIDES, apply_overrides, overrides_by_option
+
+    option = next(o for o in OVERRIDES if o.dest == dest)
+    with pytest.raises(SettingError) as by_option:
+        overrides_by_option({dest: text})
+    with pytest.raises(SettingError) as by_key:
+        apply_overrides(small_scene(), {option.key: text})
+    assert by_option.value.field == by_key.value.field == option.option
+    assert "text in UTF-8" in by_key.value.allowed
+
+
+@settings(max_examples=25, deadline=None)
+@given(with_surrogate)
+def test_import_refuses_any_operator_that_is_not_unicode(tmp_path_factory, text):
+    out = tmp_path_factory.mktemp("imp") / "t.h5"
+    with pytest.raises(SettingError, match=r"^--operator = "):
+        import_table(tab1_path(), out, unit="mohm", operator=text)
+    assert list(out.parent.iterdir()) == []
+
+
 def test_an_undecodable_byte_is_shown_as_that_byte():
     assert shown(os.fsdecode(b"name-\xff.h5")) == "name-\\xff.h5"
     assert escape_terminal("Kolben-\udcd8") == "Kolben-\\xd8"
