@@ -480,7 +480,9 @@ def analyse_session(
         "history": session_history(session),  # loading order, skips, resumes, interruptions (text from the file)
         "runs": session.runs,  # every run's start record: the report counts them and shows each run's notes
     }
-    kw.setdefault("title", f"Session {Path(session_path).name}")
+    from contactrig.core.text import shown
+
+    kw.setdefault("title", f"Session {shown(Path(session_path).name)}")  # a name that is not UTF-8: visible escapes
     return analyse(curve, sweep_result, scene, measured_info=measured_info, sim_info=sim_info, database=database, **kw)
 
 

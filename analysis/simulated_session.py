@@ -46,13 +46,35 @@ from analysis.noise_model import NoiseModel, noise_model
 from contactrig.core.validation import SettingError
 from daq.link import OpenedBench, open_visa_link
 from daq.plan import SessionPlan
+from instruments.transport import TERMINATORS
 
-__all__ = ["DEFAULT_SIM_SPEED", "SimulatedRigBench", "repeat_factors", "session_factors", "simulated_resistances"]
+__all__ = [
+    "DEFAULT_SIM_SPEED",
+    "NOISE_SEED_RULE",
+    "SimulatedRigBench",
+    "repeat_factors",
+    "run_noise_seed",
+    "session_factors",
+    "simulated_resistances",
+]
 
 #: Default ``--sim-speed``: the simulated instruments run this many times faster than real ones.
 DEFAULT_SIM_SPEED = 1000.0
 #: Second word of the seed of the re-seating factors' generator (the bench's noise uses ``sim_seed`` alone).
 _FACTOR_STREAM = 0x5EA7
+
+
+#: How a run's instrument-noise seed is derived (recorded in each run's start record beside the seed).
+NOISE_SEED_RULE = "numpy SeedSequence(entropy=sim_seed, spawn_key=(run,)).generate_state(1)[0] (uint32)"
+
+
+def run_noise_seed(sim_seed: int, run: int) -> int:
+    """The seed of the simulated instruments' noise in run ``run`` of a session with ``sim_seed``: the ``run``-th
+    child of ``SeedSequence(sim_seed)`` (what ``SeedSequence(sim_seed).spawn(run + 1)[run]`` gives), as one
+    32-bit integer (:data:`NOISE_SEED_RULE`; exact in JSON and JavaScript). Independent streams per run; the same
+    (seed, run) always gives the same."""
+    child = np.random.SeedSequence(int(sim_seed), spawn_key=(int(run),))
+    return int(child.generate_state(1)[0])
 
 
 def session_factors(noise: NoiseModel, n_weights: int, repeats: int, seed: int) -> np.ndarray:
@@ -163,20 +185,29 @@ class SimulatedRigBench:
         CircuitSettings.from_scene(plan.scene)
         check_specimen(config, [plan.session.sim_model], list(plan.session.weights_kg))
 
-    def open(self, plan: SessionPlan) -> OpenedBench:
-        """Simulate the rig for the plan's weights, build the simulated pair and open the plan's address on it."""
+    def open(self, plan: SessionPlan, *, run: int = 0) -> OpenedBench:
+        """Simulate the rig for the plan's weights, build the simulated pair and open the plan's address on it (any
+        valid VISA resource name: the simulated pair answers there). The instruments' noise of run ``run`` (0 =
+        the first, 1 = the first ``--resume`` …) is drawn from a stream of its own, :func:`run_noise_seed`, so a
+        resumed session never repeats an earlier run's noise; the seed is recorded (``simulation.noise_seed``)."""
         info = simulated_resistances(plan)
         by_block = info["block_resistance_ohm"]
-        sim = plan.pair.simulate(resistance_ohm=by_block[0], seed=plan.session.sim_seed, time_scale=self.time_scale)
+        noise_seed = run_noise_seed(plan.session.sim_seed, run)
+        sim = plan.pair.simulate(resistance_ohm=by_block[0], seed=noise_seed, time_scale=self.time_scale)
 
         def prepare(block: int) -> None:  # the contact as it was made for this repeat
             sim.bench.resistance_ohm = by_block[block]
 
+        sim.bench.any_address = True  # rehearsed at the address the real bench will use
+        sim.bench.serial_terminator = TERMINATORS[plan.instrument.terminator]  # used at an ASRL address only
         link = open_visa_link(
             plan.instrument.address, plan.instrument.timeout_ms, sim.resource_manager, pair=plan.pair,
-            prepare_block=prepare,
+            prepare_block=prepare, serial=plan.instrument.serial,
         )  # fmt: skip
         record = {**info, "sim_speed": float(self.sim_speed), "time_scale": self.time_scale}
         record["seed"] = plan.session.sim_seed
+        record["run"] = int(run)
+        record["noise_seed"] = noise_seed
+        record["noise_seed_rule"] = NOISE_SEED_RULE
         notes = tuple(f"rig simulation: {w}" for w in info["rig_warnings"])
         return OpenedBench(link, simulation=record, notes=notes)

@@ -22,6 +22,7 @@ from typing import Any, TextIO
 
 from contactrig.core.provenance import host_name, login_name, now_iso
 from contactrig.core.scene import Scene, load_scene, parse_scene
+from contactrig.core.text import shown
 from daq.engine import AcquisitionEngine, Decision, Interrupts, OperatorQuit, Prompter, RunOutcome, Writer, answer_yes
 from daq.errors import MissingFileError, NoStartRecordError, SessionExistsError, SessionStateError
 from daq.link import Bench, InstrumentLink, OpenedBench, VisaBench
@@ -74,6 +75,8 @@ class _Prior:
     recorded_skips: frozenset[float] = frozenset()
     #: the start record of the latest run (its overrides carry over to a resumed run)
     last_start: dict[str, Any] | None = None
+    #: runs on file: the number of the run about to start (0 for a new session)
+    runs: int = 0
 
 
 @dataclass(frozen=True)
@@ -248,7 +251,7 @@ def _resume_state(path: Path, scene: Scene | None, simulated: bool) -> tuple[Sce
     )
     runs = [r for r in session.runs if isinstance(r, dict)]
     prior = _Prior(resumed=True, done=done, readings=readings, first_start=session.start, recorded_skips=skips,
-                   last_start=runs[-1] if runs else session.start)  # fmt: skip
+                   last_start=runs[-1] if runs else session.start, runs=len(session.runs))  # fmt: skip
     return recorded, prior
 
 
@@ -341,7 +344,7 @@ def acquire(
     except BaseException:
         sf.discard()
         raise
-    opened = _open_bench(bench, plan, sf)
+    opened = _open_bench(bench, plan, sf, run=prior.runs)
     ask = prompter or (answer_yes if yes else terminal_prompter(stream))
     display: LiveDisplay | None = None
     outcome: RunOutcome | None = None
@@ -457,10 +460,11 @@ def _prepare_file(path: Path, plan: SessionPlan, *, resume: bool, force: bool, f
     return SessionFile.create(path, reading_unit=unit, force=force, fsync=fsync)
 
 
-def _open_bench(bench: Bench, plan: SessionPlan, sf: SessionFile) -> OpenedBench:
-    """Open the bench; if it cannot be reached, a new file (it holds nothing) is removed, a resumed one closed."""
+def _open_bench(bench: Bench, plan: SessionPlan, sf: SessionFile, *, run: int) -> OpenedBench:
+    """Open the bench for run ``run``; if it cannot be reached, a new file (it holds nothing) is removed, a resumed
+    one closed."""
     try:
-        return bench.open(plan)
+        return bench.open(plan, run=run)
     except BaseException:
         sf.discard()
         raise
@@ -601,11 +605,11 @@ def _start_record(
         "operator": plan.session.operator or login_name(),
         "operator_source": "scene" if plan.session.operator else "login",
         "host": host_name(),
-        "command": " ".join(sys.argv),
+        "command": shown(" ".join(sys.argv)),  # a non-UTF-8 file name in it: as visible escapes
         "imported": False,
         "sim": bool(simulated),
         "simulation": opened.simulation,
-        "scene_source": scene.source,
+        "scene_source": shown(scene.source),
         "scene_name": scene.name,
         "sample": plan.session.sample,
         "notes": plan.session.notes,

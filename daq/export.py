@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 
 from contactrig.core.files import refuse_existing, replace_together
-from contactrig.core.text import escape_terminal
+from contactrig.core.text import escape_terminal, shown
 from contactrig.core.validation import SettingError, check_choice
 from daq.records import block_number
 from daq.table_import import DIGITS_PER_OHM
@@ -198,7 +198,7 @@ def _about(session: Any) -> list[tuple[str, str]]:
     start = session.start if isinstance(session.start, Mapping) else {}
     # sample, operator, notes, scene: `contactrig import` reads them back (daq.table_provenance)
     meta = provenance_mapping(start, str(getattr(session, "scene_text", "") or ""))
-    return [
+    about = [
         ("source", str(session.path)),
         ("status", str(session.status)),
         ("started", str(start.get("started", ""))),
@@ -207,6 +207,7 @@ def _about(session: Any) -> list[tuple[str, str]]:
         ("blocks", str(len(session.summary))),
         ("exported by", EXPORTED_BY),
     ]
+    return [(k, shown(v)) for k, v in about]  # a file name (or older text) that is not UTF-8: visible escapes
 
 
 def session_tables(session: Any) -> tuple[list[Table], list[tuple[str, str]]]:
@@ -307,7 +308,7 @@ def fit_tables(fit_json: Mapping[str, Any], source: str = "") -> tuple[list[Tabl
         ("exported by", "contactrig export"),
     ]  # fmt: skip
     tables = [Table("fits", _FIT_COLUMNS, fits), Table("points", _POINT_COLUMNS, points)]
-    return [*tables, Table("shares", _SHARE_COLUMNS, shares)], about
+    return [*tables, Table("shares", _SHARE_COLUMNS, shares)], [(k, shown(v)) for k, v in about]
 
 
 # ---- writing -------------------------------------------------------------------------------------------------------

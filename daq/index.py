@@ -6,7 +6,14 @@ one-line reason, and nothing raises. HDF5 files that are not contactrig sessions
 ``simulate``/``database``) are left out unless asked for (``include_other``).
 
 Strings in a row (sample, operator, reason) come from the files: they are data, and whoever shows them escapes
-them (:func:`format_table` does, for the terminal).
+them (:func:`format_table` does, for the terminal). Every string of a row is valid Unicode: text that is not (a file
+name that is not UTF-8, or such text stored by an older contactrig) has those bytes as visible ``\\xNN`` escapes
+(:func:`contactrig.core.text.shown`, said in the row's note for a file name), so one such file never breaks the
+index, its JSON or a page.
+
+Times: sessions record their start as local time with its UTC offset. The index sorts by the instant (a session
+recorded under another time zone sorts where it happened) and shows each start with its offset
+(``2026-11-21 10:15:17 +01:00``; ``start_shown``); ``start_utc`` is the same instant in UTC.
 """
 
 from __future__ import annotations
@@ -15,11 +22,12 @@ import math
 import os
 import warnings
 from collections.abc import Iterable, MutableMapping, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field, replace
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from contactrig.core.text import escape_terminal
+from contactrig.core.text import escape_terminal, shown
 from daq.errors import NewerSchemaError
 
 __all__ = ["SESSION_SUFFIXES", "SORT_KEYS", "SessionEntry", "format_table", "index_sessions", "session_entry"]
@@ -36,7 +44,9 @@ class SessionEntry:
     """One session file: ``status`` is the session's (success, aborted, failed, running, incomplete) or, for a file
     that cannot be read, ``corrupt`` / ``newer`` (written by a newer contactrig) / ``other`` (an HDF5 file that is
     not a session); ``kind`` is ``simulated``, ``real`` or ``imported`` (empty when unreadable); ``note`` the
-    reader's reason for an unreadable file; ``notes`` the session's notes and ``scene`` its scene name (JSON only)."""
+    reader's reason for an unreadable file; ``notes`` the session's notes and ``scene`` its scene name (JSON only);
+    ``start_time`` as recorded, ``start_shown`` with its UTC offset for display, ``start_utc`` the instant in UTC
+    (ISO 8601; empty when the file records none)."""
 
     path: str
     status: str
@@ -50,6 +60,13 @@ class SessionEntry:
     note: str = ""
     notes: str = ""
     scene: str = ""
+    start_shown: str = field(init=False, default="")
+    start_utc: str = field(init=False, default="")
+
+    def __post_init__(self) -> None:
+        shown_at, utc = _times(self.start_time)
+        object.__setattr__(self, "start_shown", shown_at)
+        object.__setattr__(self, "start_utc", utc)
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -78,11 +95,40 @@ def scene_name(start: dict[str, Any], scene_text: str) -> str:
 
 
 def _text(value: Any) -> str:
-    return value if isinstance(value, str) else ("" if value is None else str(value))
+    """A row's text from a file's value: a string (valid Unicode: see the module docstring)."""
+    return shown(value if isinstance(value, str) else ("" if value is None else str(value)))
+
+
+def _times(started: str) -> tuple[str, str]:
+    """(shown with its offset, the instant in UTC as ISO 8601) of a recorded start time; a time without an offset
+    is shown as recorded, said, and sorted as if in UTC; an unreadable one is shown as it is, with no instant."""
+    try:
+        t = datetime.fromisoformat(started)
+    except (TypeError, ValueError):
+        return started, ""
+    if t.tzinfo is None:
+        return f"{t:%Y-%m-%d %H:%M:%S} (no UTC offset recorded)", t.replace(tzinfo=UTC).isoformat()
+    offset = t.strftime("%z")
+    return f"{t:%Y-%m-%d %H:%M:%S} {offset[:3]}:{offset[3:5]}", t.astimezone(UTC).isoformat(timespec="microseconds")
+
+
+def _named(entry: SessionEntry) -> SessionEntry:
+    """``entry`` with its path valid Unicode: a file name that is not UTF-8 is shown with visible escapes, said."""
+    if shown(entry.path) == entry.path:
+        return entry
+    said = ("file name is not UTF-8 (shown with \\xNN escapes): the commands open it by its name; rename it to open "
+            "it in the console")  # fmt: skip
+    note = f"{said}; {entry.note}" if entry.note else said
+    return replace(entry, path=shown(entry.path), note=note)
 
 
 def session_entry(path: str | Path, *, timeout: float | None = None) -> SessionEntry:
-    """The index row of one file; never raises for anything the file holds (only KeyboardInterrupt goes through)."""
+    """The index row of one file; never raises for anything the file holds or its name (only KeyboardInterrupt
+    goes through); every string in it is valid Unicode."""
+    return _named(_read_entry(path, timeout))
+
+
+def _read_entry(path: str | Path, timeout: float | None) -> SessionEntry:
     from daq.session_file import load_session
 
     p = Path(path)
@@ -118,7 +164,7 @@ def _last_note(notes: Sequence[str]) -> str:
 
 
 def _first_line(value: object) -> str:
-    lines = [ln.strip() for ln in str(value).splitlines() if ln.strip()]
+    lines = [ln.strip() for ln in shown(value).splitlines() if ln.strip()]
     return lines[0] if lines else ""
 
 
@@ -181,12 +227,15 @@ def _cached_entry(path: Path, timeout: float | None, cache: MutableMapping[str, 
     return entry
 
 
-def _sort_key(e: SessionEntry, sort: str) -> tuple[int, str, str]:
+def _sort_key(e: SessionEntry, sort: str) -> tuple[int, int, str, str]:
+    """Unreadable files last; by start: the instant (UTC), sessions without one after those with one."""
     readable = 1 if e.status in ("corrupt", "newer", "other") else 0
-    value = {"start": e.start_time, "sample": e.sample.casefold(), "operator": e.operator.casefold()}.get(
+    if sort == "start":
+        return readable, 0 if e.start_utc else 1, e.start_utc or e.start_time, e.path
+    value = {"sample": e.sample.casefold(), "operator": e.operator.casefold()}.get(
         sort, e.status if sort == "status" else e.path
     )
-    return readable, value, e.path
+    return readable, 0, value, e.path
 
 
 _COLUMNS = ("start", "status", "blocks", "kind", "sample", "operator", "file")
@@ -198,14 +247,14 @@ def _row(e: SessionEntry, base: Path | None) -> list[str]:
     blocks = f"{done}/{planned}" if done else ""
     if e.compliant_blocks:
         blocks += f" ({e.compliant_blocks} compliance)"
-    shown = e.path
+    name = e.path
     if base is not None:
         try:
-            shown = os.path.relpath(e.path, base)
+            name = os.path.relpath(e.path, base)
         except ValueError:  # another drive (Windows)
             pass
     status = e.status.upper() if e.status in ("corrupt", "newer") else e.status
-    return [e.start_time[:19].replace("T", " "), status, blocks, e.kind, e.sample, e.operator, shown]
+    return [e.start_shown, status, blocks, e.kind, e.sample, e.operator, name]
 
 
 def format_table(entries: Iterable[SessionEntry], *, base: str | Path | None = None, notes: bool = True) -> str:

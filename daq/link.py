@@ -183,7 +183,10 @@ class Bench(Protocol):
     @property
     def simulated(self) -> bool: ...
 
-    def open(self, plan: SessionPlan) -> OpenedBench: ...
+    def open(self, plan: SessionPlan, *, run: int = 0) -> OpenedBench:
+        """Open the bench for run ``run`` of the session (0 = the first; a simulated bench draws each run's noise
+        from a stream of its own)."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -199,7 +202,7 @@ class VisaBench:
     def simulated(self) -> bool:
         return False
 
-    def open(self, plan: SessionPlan) -> OpenedBench:
+    def open(self, plan: SessionPlan, *, run: int = 0) -> OpenedBench:
         link = open_visa_link(
             plan.instrument.address,
             plan.instrument.timeout_ms,

@@ -5,6 +5,9 @@ One declared table, :data:`OVERRIDES` (option → scene key → how a different 
 used by the command line, the start record, ``scene show`` and ``--resume`` alike (and by any other front end: it
 calls :func:`apply_overrides` with the same ``{scene key: value}`` mapping).
 
+* **Text, as UTF-8.** A value holding bytes that are not UTF-8 (``--sample $'Kolben-\xd8'`` from a Latin-1
+  terminal, or the console's form) is refused naming its option (:func:`contactrig.core.text.check_text`), before any
+  file is made.
 * **Validated as the scene key.** An override is put in place of the scene's value and the plan is validated by the
   scene's own validators (:class:`daq.plan.SessionPlan`); an error names the option (``--address = 'x' is not
   allowed: …``).
@@ -28,6 +31,7 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 from contactrig.core.scene import Scene
+from contactrig.core.text import check_text
 from contactrig.core.validation import SettingError, scene_key
 
 __all__ = [
@@ -41,6 +45,7 @@ __all__ = [
     "plan_values",
     "plan_with_overrides",
     "resume_overrides",
+    "visa_resource",
 ]
 
 
@@ -50,6 +55,33 @@ def _whole_number(text: str) -> Any:
         return int(text)
     except ValueError:
         return text
+
+
+#: GPIB primary addresses (IEEE 488.1: 0…30).
+GPIB_PRIMARY = range(0, 31)
+
+
+def visa_resource(text: str) -> str:
+    """``--address``: a VISA resource name as VISA parses it (PyVISA's ``rname``: ``GPIB0::12::INSTR``,
+    ``ASRL3::INSTR``, ``ASRL/dev/ttyUSB0::INSTR``, ``TCPIP0::192.168.0.50::1394::SOCKET``, ``USB0::…::INSTR``),
+    with a GPIB primary address 0…30 and a socket port 1…65535; kept as typed. Raises SettingError naming the
+    option, the value and the syntax."""
+    from pyvisa import rname  # on use only: the command line's parser stays light
+
+    allowed = ("a VISA resource name, e.g. GPIB0::12::INSTR, ASRL3::INSTR, ASRL/dev/ttyUSB0::INSTR or "
+               "TCPIP0::192.168.0.50::1394::SOCKET")  # fmt: skip
+    try:
+        parsed = rname.parse_resource_name(text.strip())
+    except rname.InvalidResourceName as exc:
+        reason = str(exc).split(". ", 1)[-1] if ". " in str(exc) else str(exc)
+        raise SettingError("--address", text, f"{allowed} ({reason})") from None
+    primary = getattr(parsed, "primary_address", None)
+    if isinstance(parsed, rname.GPIBInstr) and not (str(primary).isdigit() and int(str(primary)) in GPIB_PRIMARY):
+        raise SettingError("--address", text, f"{allowed}: a GPIB primary address is a whole number 0…30")
+    port = getattr(parsed, "port", None)
+    if isinstance(parsed, rname.TCPIPSocket) and not (str(port).isdigit() and 0 < int(str(port)) < 65536):
+        raise SettingError("--address", text, f"{allowed}: a socket port is a whole number 1…65535")
+    return text.strip()
 
 
 @dataclass(frozen=True)
@@ -74,7 +106,8 @@ class Overridable:
 
 OVERRIDES: tuple[Overridable, ...] = (
     Overridable("--address", "instrument.address", "VISA resource of the instrument the PC talks to, e.g. "
-                "GPIB0::12::INSTR or TCPIP0::<ip>::1394::SOCKET", "record"),
+                "GPIB0::12::INSTR, ASRL/dev/ttyUSB0::INSTR or TCPIP0::<ip>::1394::SOCKET (--sim answers at any)",
+                "record", parse=visa_resource),
     Overridable("--visa-library", "instrument.visa_library", "VISA library for the address, e.g. @py (pyvisa-py); "
                 "default the system's", "record"),
     Overridable("--sample", "session.sample", "free-text sample description", "refuse"),
@@ -91,7 +124,7 @@ def overrides_by_option(values: Mapping[str, str | None]) -> dict[str, Any]:
     """``{scene key: value}`` from option values by argparse destination (``{"address": "…", "sample": None}``);
     options not given (None) are left out."""
     given = {o: values.get(o.dest) for o in OVERRIDES}
-    return {o.key: o.parse(text) for o, text in given.items() if text is not None}
+    return {o.key: o.parse(check_text(o.option, text)) for o, text in given.items() if text is not None}
 
 
 def _check_keys(overrides: Mapping[str, Any]) -> None:
@@ -105,6 +138,7 @@ def apply_overrides(scene: Scene, overrides: Mapping[str, Any]) -> Scene:
     _check_keys(overrides)
     data = copy.deepcopy(scene.data)
     for key, value in overrides.items():
+        check_text(_BY_KEY[key].option, value)  # not UTF-8 (a Latin-1 terminal): refused, never stored
         table, name = key.split(".")
         data.setdefault(table, {})[name] = value
     return Scene(text=scene.text, data=data, source=scene.source, height_maps=scene.height_maps)

@@ -81,6 +81,7 @@ __all__ = [
     "DIGITS_PER_OHM",
     "RESISTANCE_BOUNDS_OHM",
     "STANDARD_GRAVITY",
+    "TAB1_MEASURED_BY",
     "UNITS_OHM",
     "WEIGHT_BOUNDS_KG",
     "WEIGHT_UNITS_KG",
@@ -130,6 +131,13 @@ _SUFFIXED = re.compile(r"^(.*?)[_ ]+([^\W\d_]+)$")
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 _SPREADSHEET_ERROR = re.compile(r"#(N/A|DIV/0!|VALUE!|REF!|NAME\?|NUM!|NULL!|SPILL!|CALC!)", re.IGNORECASE)
 _COMMA_NUMBER = re.compile(r"[+-]?[0-9]*,[0-9]+(?:[eE][+-]?[0-9]+)?")
+
+
+#: Who measured Tab. 1 (recorded as ``measured_by`` of ``import --tab1``; its operator is not known).
+TAB1_MEASURED_BY = (
+    "Raffai, Maršálek & Nečasová, Numerical modelling of dry friction of piston rings in internal combustion "
+    "engines (the seed paper), Tab. 1"
+)
 
 
 def tab1_path() -> Path:
@@ -190,9 +198,12 @@ class ResistanceTable:
         return bool(np.all(np.isfinite(self.resistance_ohm)))
 
     def source_info(self) -> dict[str, Any]:
-        """Provenance for a session's start record or a report (JSON-able)."""
+        """Provenance for a session's start record or a report (JSON-able; a file name that is not UTF-8 with its
+        bytes as visible escapes, :func:`contactrig.core.text.shown`)."""
+        from contactrig.core.text import shown
+
         return {
-            "path": str(Path(self.path).resolve()) if self.path else "",
+            "path": shown(Path(self.path).resolve()) if self.path else "",
             "sha256": hashlib.sha256(self.text.encode("utf-8")).hexdigest(),
             "unit": self.unit,
             "column_units": list(self.column_units),
@@ -201,7 +212,7 @@ class ResistanceTable:
             "repeat_columns": list(self.columns),
             "delimiter": self.delimiter,
             "decimal": self.decimal,
-            "notes": list(self.notes),
+            "notes": [shown(n) for n in self.notes],
             "text": self.text,
         }
 
@@ -554,15 +565,24 @@ def import_table(
     delimiter: str | None = None,
     decimal: str | None = None,
     allow_missing: bool = False,
+    measured_by: str = "",
 ) -> Path:
     """Write the table at ``path`` as a session file at ``output`` (marked imported); return ``output``.
 
     ``unit``, ``delimiter``, ``decimal``, ``allow_missing`` as for :func:`read_table`. A missing repeat gets no block.
+
+    Who measured: ``operator`` (``import --operator``), else the operator an exported table names in its ``#``
+    lines, else nobody known — the start record's ``operator`` is then empty with ``operator_source`` ``"unknown"``:
+    the login name of whoever imports is not the operator of the data; it is recorded as ``imported_by``.
+    ``measured_by``: where the values come from when that is known but no operator is (``import --tab1``:
+    :data:`TAB1_MEASURED_BY`), recorded as such.
     """
     from contactrig.core.provenance import host_name, login_name
+    from contactrig.core.text import check_text
     from daq.records import now_iso
     from daq.session_file import SCHEMA_VERSION, SessionFile, software_versions
 
+    check_text("--operator", operator)  # not UTF-8 (a Latin-1 terminal): refused before any file is made
     table = read_table(path, unit, delimiter=delimiter, decimal=decimal, allow_missing=allow_missing)
     meta = session_metadata(table.text)  # sample, operator, notes, scene_name of an exported session (# lines)
     n = int(np.isfinite(table.resistance_ohm).sum())
@@ -573,8 +593,10 @@ def import_table(
         "software": software_versions(),
         "started": started,
         **meta,
-        "operator": operator or meta.get("operator") or login_name(),
-        "operator_source": "--operator" if operator else ("table" if meta.get("operator") else "login"),
+        "operator": operator or meta.get("operator") or "",
+        "operator_source": "--operator" if operator else ("table" if meta.get("operator") else "unknown"),
+        **({"measured_by": measured_by} if measured_by else {}),
+        "imported_by": login_name(),
         "host": host_name(),
         "imported": True,
         "sim": False,

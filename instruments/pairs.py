@@ -78,9 +78,13 @@ class DriverFactory(Protocol):
 
 
 class SimulatedSample(Protocol):
-    """The sample of a simulated bench: its resistance (Ω) can be set between blocks."""
+    """The sample of a simulated bench: its resistance (Ω) can be set between blocks; ``any_address``: the pair
+    answers at any valid VISA resource name (else only at its listed ones); ``serial_terminator``: the message
+    terminator its source uses at an ``ASRL`` (RS-232) address, as the scene's ``[instrument].terminator``."""
 
     resistance_ohm: float
+    any_address: bool
+    serial_terminator: str
 
 
 @dataclass(frozen=True)

@@ -2,10 +2,12 @@
 
 ``simulated_resource_manager(bench=...)`` returns a fresh :class:`pyvisa.ResourceManager` whose VISA library is a
 :class:`BenchVisaLibrary` (a pyvisa-sim ``SimVisaLibrary`` subclass). The 6221 answers at ``GPIB0::12::INSTR``
-and ``TCPIP0::127.0.0.1::1394::SOCKET``. Static replies, settings and their ranges come from the packaged YAML
-definition (``k6221_sim.yaml``); a :class:`SimulatedK6221` (a pyvisa-sim ``Device`` subclass) parses SCPI as the
-real instrument does (:mod:`instruments.scpi`) and implements the dynamic part in Python: Delta arming and
-sweeps, the reading buffer, status event registers, the error queue and the serial relay to the 2182A.
+and ``TCPIP0::127.0.0.1::1394::SOCKET`` or, with ``SimulatedBench.any_address`` (``acquire --sim``), at any valid
+VISA resource name (``ASRL/dev/ttyUSB0::INSTR``, ``TCPIP0::192.168.0.50::1394::SOCKET`` …); nothing is contacted.
+Static replies, settings and their ranges come from the packaged YAML definition (``k6221_sim.yaml``); a
+:class:`SimulatedK6221` (a pyvisa-sim ``Device`` subclass) parses SCPI as the real instrument does
+(:mod:`instruments.scpi`) and implements the dynamic part in Python: Delta arming and sweeps, the reading buffer,
+status event registers, the error queue and the serial relay to the 2182A.
 
 Physics (:class:`ContactVoltageModel`, pluggable): every 2182A conversion is ±I·R + thermal EMF + drift + noise,
 and the simulated 6221 forms the 3-point Delta readings from the conversions (:func:`instruments.delta.delta_readings`),
@@ -33,6 +35,8 @@ from pyvisa_sim import parser as sim_parser
 from pyvisa_sim.component import NoResponse
 from pyvisa_sim.devices import Device, Devices
 from pyvisa_sim.highlevel import SimVisaLibrary
+from pyvisa_sim.sessions.serial import SerialInstrumentSession
+from pyvisa_sim.sessions.session import Session
 
 from contactrig.core.validation import check_choice, check_range
 from instruments.commands import (
@@ -197,6 +201,12 @@ class SimulatedBench:
         self.faults = faults if faults is not None else Faults()
         #: Instrument time elapsed in simulated sweeps (s): the drift term keeps running from block to block.
         self.instrument_time_s = 0.0
+        #: The 6221's RS-232 terminator (its front-panel TX TERM) at an ``ASRL`` address: it ends messages both ways.
+        self.serial_terminator = "\n"
+        #: True: the 6221 answers at any valid VISA resource name (``acquire --sim``: rehearsed at the address the
+        #: real bench will use); False: only at :data:`GPIB_ADDRESS` and :data:`SOCKET_ADDRESS` (an empty address
+        #: then looks as it does on hardware).
+        self.any_address = False
         self._injected_errors: deque[tuple[int, str]] = deque()
 
     @property
@@ -601,8 +611,9 @@ class _Sweep:
 class SimulatedK6221(_ScpiDevice):
     """The simulated 6221 at one VISA address (a pyvisa-sim Device with SCPI parsing and Delta physics).
 
-    IEEE 488.2 message exchange: a LF ends a program message (one write may hold several); a reply left unread when
-    the next message arrives is discarded and −410 queued. ``SOURce`` is an optional root (``CURR:COMP`` =
+    IEEE 488.2 message exchange: a LF ends a program message (at an ``ASRL`` address the bench's
+    ``serial_terminator``; one write may hold several); a reply left unread when the next message arrives is
+    discarded and −410 queued. ``SOURce`` is an optional root (``CURR:COMP`` =
     ``SOUR:CURR:COMP``, ``SOUR1`` = ``SOUR``).
     """
 
@@ -1171,6 +1182,15 @@ class SimulatedK6221(_ScpiDevice):
 
 
 # ---------------------------------------------------------------------------------------------------- library
+class _SerialSession(SerialInstrumentSession):
+    """pyvisa-sim's ASRL session, also for a port named by its device path (``ASRL/dev/ttyUSB0::INSTR``, which
+    pyvisa-sim 0.7 refuses: it reads the board as a number)."""
+
+    def after_parsing(self) -> None:
+        if str(self.parsed.board).isdigit():
+            super().after_parsing()
+
+
 class BenchVisaLibrary(SimVisaLibrary):
     """pyvisa-sim's SimVisaLibrary with the simulated bench's devices and chunked reads.
 
@@ -1200,19 +1220,46 @@ class BenchVisaLibrary(SimVisaLibrary):
         if bench is None:
             raise OSError("BenchVisaLibrary must be created with BenchVisaLibrary.create(bench)")
         self.bench = bench
-        data = _load_definition()
         self.devices = Devices()
-        for address, res in data["resources"].items():
-            device = SimulatedK6221(res["device"], data["devices"][res["device"]], data["devices"]["k2182a"], bench)
-            self.devices.add_device(pyvisa.rname.to_canonical_name(address), device)
+        for address in _load_definition()["resources"]:  # listed by list_resources(); any other opens on demand
+            self._add_device(pyvisa.rname.to_canonical_name(address))
 
     def open(self, session: Any, resource_name: str, *args: Any, **kwargs: Any) -> tuple[Any, constants.StatusCode]:
-        """As pyvisa-sim's, but an unknown address raises (pyvisa-sim 0.7 returns session 0 and the error status,
-        which PyVISA does not check here, so the "open" resource silently answers nothing)."""
-        handle, status = super().open(session, resource_name, *args, **kwargs)
-        if status < 0:
-            raise pyvisa.errors.VisaIOError(int(status))
-        return handle, status
+        """Open ``resource_name``: the simulated 6221 answers at its listed addresses or, with the bench's
+        ``any_address``, at any valid VISA resource name of an interface pyvisa-sim simulates (GPIB, ASRL —
+        ``ASRL/dev/ttyUSB0::INSTR`` too —, TCPIP INSTR and SOCKET, USB), as the operator's bench will be addressed;
+        nothing is contacted. An invalid or unknown name raises (pyvisa-sim 0.7 returns session 0 and an error
+        status, which PyVISA does not check here, so the "open" resource silently answers nothing)."""
+        try:
+            parsed = pyvisa.rname.parse_resource_name(resource_name)
+        except pyvisa.rname.InvalidResourceName as exc:
+            raise ValueError(f"not a VISA resource name: {exc}") from None
+        try:
+            cls = Session.get_session_class(parsed.interface_type_const, parsed.resource_class)
+        except ValueError:
+            raise ValueError(
+                f"the simulated bench has no {parsed.interface_type} {parsed.resource_class} interface; it answers at "
+                f"{', '.join(f'{t.name.upper()} {c}' for t, c in sorted(Session._session_classes, key=str))}"
+            ) from None
+        if cls is SerialInstrumentSession:
+            cls = _SerialSession
+        sess = cls(session, resource_name, parsed)
+        name = str(sess.attrs[constants.ResourceAttribute.resource_name])
+        if name not in self.devices.list_resources():
+            if not self.bench.any_address:
+                raise pyvisa.errors.VisaIOError(constants.StatusCode.error_resource_not_found)
+            self._add_device(name)
+        sess.device = self.devices[name]
+        return self._register(sess), constants.StatusCode.success
+
+    def _add_device(self, name: str) -> None:
+        """The simulated 6221 (with its 2182A) at the canonical resource ``name``, on this library's bench."""
+        data = _load_definition()
+        device = SimulatedK6221("k6221", data["devices"]["k6221"], data["devices"]["k2182a"], self.bench)
+        if name.upper().startswith("ASRL"):
+            term = self.bench.serial_terminator
+            device.add_eom("ASRL INSTR", term, term)
+        self.devices.add_device(name, device)
 
     def read(self, session: Any, count: int) -> tuple[bytes, constants.StatusCode]:
         """Read up to ``count`` bytes at once (pyvisa-sim reads byte by byte, quadratic in the reply size)."""

@@ -5,7 +5,8 @@ modules import nothing heavy at module level, so ``contactrig --help`` starts fa
 instrument never imports pyvisa, and none imports matplotlib until a figure is drawn.
 
 One exit-code contract for every command: 0 done, 1 stopped early (Ctrl-C, however often it is pressed, or the
-operator's ``q``), 2 error. Errors a user can act on (bad settings, unreadable files, instrument faults) print one
+operator's ``q``; also a Ctrl-C during the command's start, taken by :mod:`contactrig` before the heavy
+imports), 2 error. Errors a user can act on (bad settings, unreadable files, instrument faults) print one
 line, with control characters from files escaped, and exit 2; ``--debug`` shows the traceback instead.
 """
 
@@ -94,9 +95,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``contactrig`` console script; returns the exit code."""
     if threading.current_thread() is not threading.main_thread():  # signal handlers belong to the main thread
         return _main(argv)
+    from contactrig import EARLY_CTRL_C  # installed at the package's import when this process is the command
+
     previous = signal.signal(signal.SIGINT, _StopOnInterrupt())
     try:
-        code = _main(argv)
+        code = _stopped_early() if EARLY_CTRL_C.pressed else _main(argv)
     finally:
         if argv is None:  # the process' entry point: a Ctrl-C from now on must not turn the exit code into −2/130
             signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -110,6 +113,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stderr.flush()
         os._exit(code)
     return code
+
+
+def _stopped_early() -> int:
+    """A Ctrl-C before the command's handler was in place (:data:`contactrig.EARLY_CTRL_C`): stopped, exit 1."""
+    global _interrupted
+    _interrupted = True
+    print("contactrig: interrupted (Ctrl-C): stopped early", file=sys.stderr)
+    return 1
 
 
 def _main(argv: Sequence[str] | None) -> int:

@@ -44,6 +44,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="show the live view (as `contactrig watch`) in a window, or rewrite the snapshot PNG (headless); a "
         "failure of the view is reported once and turns it off, the acquisition goes on",
     )  # fmt: skip
+    acq.add_argument(
+        "--quiet", action="store_true",
+        help="no plan, no progress bar or block lines and no notes on stderr (the prompts, errors and the final line "
+        "stay; what the notes say is in the start record)",
+    )  # fmt: skip
     _add_override_options(acq)
     add_max_memory_option(acq)  # --sim: the rig simulation behind the simulated bench
     acq.set_defaults(handler=acquire_command)
@@ -95,7 +100,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )  # fmt: skip
     imp.add_argument("-o", "--output", required=True, help="session file to write (HDF5)")
     imp.add_argument("--force", action="store_true", help="overwrite an existing output file")
-    imp.add_argument("--operator", default="", help="who imports the table (recorded)")
+    imp.add_argument(
+        "--operator", default="",
+        help="who measured the table (recorded as its operator; default: the one an exported table names, else "
+        "unknown — the login name is recorded as imported_by, not as the operator; --tab1: measured by the seed "
+        "paper's authors, recorded as measured_by)",
+    )  # fmt: skip
     imp.set_defaults(handler=import_command)
 
 
@@ -145,7 +155,7 @@ def acquire_command(args: argparse.Namespace) -> int:
     live = _live_view(args)
     result = acquire(
         args.scene, args.output, bench=bench, yes=args.yes, resume=args.resume, force=args.force, extra_writers=live,
-        overrides=overrides_by_option(vars(args)), allow_change=args.allow_change,
+        overrides=overrides_by_option(vars(args)), allow_change=args.allow_change, quiet=args.quiet,
     )  # fmt: skip
     print(
         f"{safe(result.path)}: {result.status}, {result.blocks_done} of {result.blocks_planned} blocks — "
@@ -194,21 +204,23 @@ def replay_command(args: argparse.Namespace) -> int:
 
 def import_command(args: argparse.Namespace) -> int:
     from contactrig.core.text import escape_terminal as safe
-    from daq.table_import import import_table, read_table, tab1_path
+    from daq.table_import import TAB1_MEASURED_BY, import_table, read_table, tab1_path
 
+    measured_by = ""
     if args.tab1:
         if args.table is not None:
             raise ValueError("give either TABLE or --tab1, not both")
         if args.unit not in (None, "mohm"):
             raise ValueError("Tab. 1 is in mΩ: leave out --unit or use --unit mohm")
-        table, unit = tab1_path(), "mohm"
+        table, unit, measured_by = tab1_path(), "mohm", TAB1_MEASURED_BY
     else:
         if args.table is None:
             raise ValueError("give a TABLE (CSV) to import, or --tab1 for the seed paper's Tab. 1")
         table, unit = args.table, args.unit
     options = {"delimiter": args.delimiter, "decimal": args.decimal, "allow_missing": args.allow_missing}
     read = read_table(table, unit, **options)  # every error before the output file is created
-    out = import_table(table, args.output, unit=unit, force=args.force, operator=args.operator, **options)
+    out = import_table(table, args.output, unit=unit, force=args.force, operator=args.operator,
+                       measured_by=measured_by, **options)  # fmt: skip
     for note in read.notes:
         print(f"note: {safe(note)}", file=sys.stderr)
     missing = int((read.resistance_ohm != read.resistance_ohm).sum())  # NaN: a missing repeat

@@ -11,6 +11,10 @@ such a string is shown it goes through one of these, so it is displayed as the t
   renderers pass raw HTML through) and line breaks become spaces, so the text cannot open a heading, a table
   cell, a link, an image or a code span; :func:`markdown_code_block` for multi-line text (a scene file).
 - :func:`escape_html` — ``& < > " '`` as entities, control characters dropped to visible escapes.
+- :func:`shown` — text that is not valid Unicode (the lone surrogates by which Python keeps the bytes of a file name or
+  an argument that are not UTF-8, ``name-\xff.h5`` → ``'name-\udcff'``) with those characters as visible escapes
+  (``name-\\xff.h5``), so the text can be written to a UTF-8 file, a figure or a page; every ``escape_*`` does the
+  same. :func:`check_text` refuses such text where it is typed as content (a sample, an operator, notes).
 - :func:`quote` — a value as an error message shows it: its ``repr``, at most :data:`QUOTE_LIMIT` characters of it
   (a 131 072-character table cell is quoted by its first characters and its length); :func:`bound_error_line` is
   the same rule applied to a finished message (the top-level error printer's safety net).
@@ -22,10 +26,14 @@ import html
 import os
 import re
 import unicodedata
+from typing import TypeVar
+
+_T = TypeVar("_T")
 
 __all__ = [
     "QUOTE_LIMIT",
     "bound_error_line",
+    "check_text",
     "escape_html",
     "escape_markdown",
     "escape_terminal",
@@ -33,6 +41,7 @@ __all__ = [
     "markdown_code_block",
     "quote",
     "shorten",
+    "shown",
 ]
 
 #: At most this many characters of an offending value are quoted in an error line.
@@ -43,7 +52,11 @@ ERROR_LINE_LIMIT = 400
 # C0 and C1 controls (without \n, handled apart), DEL, and the Unicode format characters that reorder or hide text
 # (bidi overrides and isolates, zero-width joiners): "Trojan source" tricks in a terminal or a rendered report.
 _BIDI = "\u061c\u200b\u200c\u200d\u200e\u200f\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069\ufeff"
-_CONTROL = re.compile(f"[\x00-\x09\x0b-\x1f\x7f-\x9f{_BIDI}\u2028\u2029]")
+# Lone surrogates (U+D800…U+DFFF) are not text: Python holds the undecodable bytes of file names and arguments as
+# U+DC80…U+DCFF ("surrogateescape"), and no UTF-8 file, figure or page can take them.
+_SURROGATES = "\ud800-\udfff"
+_SURROGATE = re.compile(f"[{_SURROGATES}]")
+_CONTROL = re.compile(f"[\x00-\x09\x0b-\x1f\x7f-\x9f{_BIDI}\u2028\u2029{_SURROGATES}]")
 # Characters with an inline meaning anywhere: code spans, emphasis, tables, strikethrough, math, attributes and the
 # parentheses of link targets ("-" makes lists, rules and setext headings only at the start of a line, and the text
 # is one line here: handled by the line-start rule; table rules need "|", which is escaped); "]" where
@@ -57,7 +70,36 @@ _MARKDOWN_LINE_START = re.compile(r"^(\s*)([#+=-])|^(\s*\d+)([.)])(?=\s|$)")
 def _visible(match: re.Match[str]) -> str:
     ch = match.group(0)
     code = ord(ch)
+    if 0xDC80 <= code <= 0xDCFF:  # an undecodable byte kept by surrogateescape: shown as that byte
+        return f"\\x{code - 0xDC00:02x}"
     return f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}"
+
+
+def shown(value: object) -> str:
+    """``value`` as text any UTF-8 file, figure or page takes: lone surrogates (the bytes of a file name or an
+    argument that are not UTF-8) become visible escapes — the byte as ``\\xNN`` (``name-\\xff.h5``), other lone
+    surrogates as ``\\uNNNN``; everything else is unchanged."""
+    text = _str(value)
+    return _SURROGATE.sub(_visible, text) if _SURROGATE.search(text) else text
+
+
+def check_text(field: str, value: _T) -> _T:
+    """``value`` itself, or a :class:`~contactrig.core.validation.SettingError` naming ``field`` when it is text
+    holding characters that are not valid Unicode (bytes a UTF-8 terminal did not send as UTF-8, e.g. ``Kolben-\\xd8``
+    typed on a Latin-1 terminal): such text is refused where it is typed, never stored."""
+    if not isinstance(value, str):
+        return value
+    m = _SURROGATE.search(value)
+    if m is None:
+        return value
+    from contactrig.core.validation import SettingError
+
+    code = ord(m.group(0))
+    what = f"byte 0x{code - 0xDC00:02x}" if 0xDC80 <= code <= 0xDCFF else f"lone surrogate U+{code:04X}"
+    raise SettingError(
+        field, value, f"text in UTF-8 ({what} at character {m.start() + 1} is not UTF-8: set the terminal "
+        "or the file to UTF-8 and type it again)"
+    )  # fmt: skip
 
 
 def _str(value: object) -> str:

@@ -28,7 +28,11 @@ def test_import_tab1_reproduces_the_papers_averages(tmp_path):
     assert main(["import", "--tab1", "-o", str(out)]) == 0
     s = load_session(out)
     assert s.imported and s.complete and s.start["source"]["unit"] == "mohm"
-    assert s.start["operator"] and s.start["operator_source"] == "login"  # nobody named: the login is recorded
+    # issue 26 item 13: the paper's data were not measured by whoever imports them
+    from contactrig.core.provenance import login_name
+
+    assert s.start["operator"] == "" and s.start["operator_source"] == "unknown"
+    assert "Raffai, Maršálek & Nečasová" in s.start["measured_by"] and s.start["imported_by"] == login_name()
     assert len(s.summary) == 48 and set(s.summary.repeat) == set(range(1, 7))
     avg = s.summary.groupby("weight_kg").mean_ohm.mean()
     assert list(avg.index) == TAB1_WEIGHTS_KG

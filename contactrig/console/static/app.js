@@ -71,7 +71,7 @@ async function showSessions() {
       }
       if (s.status === "running") action.append(el("a", { class: "follow", href: `#/follow/${encodeURIComponent(s.path)}`, text: "Follow live" }));
       const status = ["corrupt", "newer"].includes(s.status) ? s.status.toUpperCase() : s.status;
-      const row = el("tr", {}, el("td", { text: (s.start_time || "").slice(0, 19).replace("T", " ") }),
+      const row = el("tr", {}, el("td", { text: s.start_shown || s.start_time || "" }),
         el("td", { class: s.status, text: status }), el("td", { text: blocks }), el("td", { text: s.kind }),
         el("td", { class: "sample text", text: s.sample }), el("td", { class: "text", text: s.operator }), el("td", { class: "text" }, link), action);
       const out = [row];
