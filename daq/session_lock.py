@@ -36,6 +36,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+from contactrig.core.files import sync_folder
 from daq.errors import FileLockingError, SessionExistsError, SessionWriteError, in_use_error
 
 try:
@@ -169,7 +170,7 @@ def publish(tmp: Path, target: Path, *, force: bool) -> None:
     else:
         with claimed(target):
             os.replace(tmp, target)
-    _sync_folder(target.parent)
+    sync_folder(target.parent)
 
 
 def _link_new(tmp: Path, target: Path) -> None:
@@ -186,20 +187,6 @@ def _link_new(tmp: Path, target: Path) -> None:
         os.replace(tmp, target)
         return
     tmp.unlink()
-
-
-def _sync_folder(folder: Path) -> None:
-    """Make the rename durable: fsync the folder (where the platform allows opening one)."""
-    try:
-        fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
 
 
 def _umask() -> int:

@@ -57,6 +57,7 @@ __all__ = [
     "refuse_existing",
     "remove_stale_temporaries",
     "replace_together",
+    "sync_folder",
     "write_text_atomic",
 ]
 
@@ -181,7 +182,7 @@ def replace_together(
                     with contextlib.suppress(OSError):
                         os.unlink(m)
             raise  # with force: part of the new set without its first file, as a kill leaves it
-        _sync_folder(top)
+        sync_folder(top)
     finally:
         stage.remove()
 
@@ -266,7 +267,7 @@ def remove_stale_temporaries(folder: str | os.PathLike[str]) -> list[Path]:
     return removed
 
 
-def _sync_folder(folder: Path) -> None:
+def sync_folder(folder: Path) -> None:
     """Make the renames durable: fsync the folder (where the platform allows opening one)."""
     try:
         fd = os.open(folder, os.O_RDONLY)
