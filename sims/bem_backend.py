@@ -31,7 +31,16 @@ import scipy.fft as sfft
 
 from contactrig.core.validation import SettingError, check_choice
 
-__all__ = ["DEVICES", "Backend", "check_device", "default_device", "get_backend", "gpu_memory_bytes", "use_device"]
+__all__ = [
+    "DEVICES",
+    "Backend",
+    "check_device",
+    "default_device",
+    "get_backend",
+    "gpu_memory_bytes",
+    "scene_device",
+    "use_device",
+]
 
 DEVICES = ("cpu", "gpu")
 _DEVICE: ContextVar[str] = ContextVar("contactrig_bem_device", default="cpu")
@@ -41,6 +50,14 @@ _GPU_HINT = "needs CuPy and an NVIDIA GPU: pip install 'contactrig[gpu]' (cupy-c
 def check_device(device: str, key: str = "--device") -> str:
     """``device`` if it is one of :data:`DEVICES`, else a :class:`SettingError` naming ``key``."""
     return check_choice(key, device, DEVICES)
+
+
+def scene_device(option: str | None, scene: Any) -> str:
+    """The device of a command: its ``--device`` if given, else the scene's ``[scene] device``, else ``"cpu"``."""
+    if option is not None:
+        return check_device(option)
+    table = getattr(scene, "data", {}).get("scene", {})
+    return check_device(table.get("device", "cpu"), "[scene] device")
 
 
 def default_device() -> str:

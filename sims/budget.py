@@ -156,9 +156,14 @@ def check_specimen(
     check(stages)
 
 
-def check_comparison(config: SimConfig, models: Sequence[str], refine: int, jobs: int, pressures: int) -> None:
+def check_comparison(
+    config: SimConfig, models: Sequence[str], refine: int, jobs: int, pressures: int, device: str = "cpu"
+) -> None:
     """Refuse a boundary-element comparison that cannot fit: ``jobs`` tasks at once, each a BEM solve or a model's
-    database on one realisation."""
+    database on one realisation; on the GPU also one solve's device memory (:func:`check_bem_gpu`)."""
+    if device == "gpu":
+        points, keys = _grids(config)
+        check_bem_gpu(math.isqrt(points) * refine, f"{keys}, --refine {refine}")
     tasks = [bem(config, refine, jobs, pressures)]
     if models:
         db = database(config, models)
