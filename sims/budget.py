@@ -17,6 +17,8 @@ stage           memory                                                          
 ``press``       ~48 B per ring pair (influence matrix, Jacobian)                ``[press] n_rings``
 ``bem``         ~200 B per point of the refined grid, per concurrent task,      ``[surfaces.*] n``, ``--refine``,
                 plus ~100 MB for each worker process                            ``--jobs``
+``bem_gpu``     device memory of one solve on the GPU: ~128 B per point,        ``[surfaces.*] n``, ``--refine``,
+                against the card's free memory (:func:`check_bem_gpu`)          ``--device gpu``
 ==============  ==============================================================  ======================================
 
 :func:`check_specimen`, :func:`check_database` and :func:`check_comparison` check the work of the entry points

@@ -47,6 +47,7 @@ from contactrig.core.validation import SCENE_TABLES, SettingError, check_choice,
 
 __all__ = [
     "KNOWN_TABLES",
+    "SCENE_KEYS",
     "HeightMap",
     "Scene",
     "default_scene_text",
@@ -58,6 +59,8 @@ __all__ = [
 ]
 
 KNOWN_TABLES = SCENE_TABLES
+#: The keys of the ``[scene]`` table: ``device`` is where the boundary-element solves run (``"cpu"``/``"gpu"``).
+SCENE_KEYS = ("name", "description", "device")
 
 
 @dataclass(frozen=True)
@@ -129,7 +132,7 @@ def parse_scene(text: str, source: str = "<string>", *, base_dir: str | Path | N
     scene_table = data.get("scene", {})
     if not isinstance(scene_table, dict):
         raise SettingError("scene", scene_table, "expected a TOML table")
-    check_keys("scene", scene_table, ("name", "description", "device"))
+    check_keys("scene", scene_table, SCENE_KEYS)
     if "device" in scene_table:  # where the boundary-element solves run (sims.bem_backend; issue 28)
         check_choice("scene.device", scene_table["device"], ("cpu", "gpu"))
     maps = load_height_maps(data, base_dir) if base_dir is not None else _no_height_maps()
