@@ -24,6 +24,17 @@ as in Almqvist, Sahlin, Larsson & Lundberg, Tribol. Int. 40 (2007) 574 and Conta
 All arithmetic is dimensionless inside: lengths in ℓ = rms(z − mean z), pressures in E*ℓ/Δ (Δ = pixel), so the
 kernel 2/(|q|Δ) depends on n only and is computed once per grid (cached).
 
+Preconditioner (issue 28): the search direction is the gap on the free points filtered by the stiffness |q|Δ/2 (the
+inverse of the compliance on the whole grid) and restricted to them again — the FFT preconditioner of Vollebregt,
+J. Comput. Phys. 257 (2014) 333 — which takes the iteration count at 1024² on the benchmark surface from 93 to 34
+and keeps it from growing like √n; ``precondition=False`` restores the plain directions. The step length
+τ = (g·t)/(t·Ct) takes t·Ct from the direction's half spectrum by Parseval's theorem, so an iteration in which no
+point changes its set needs one inverse FFT for the displacement, and one that changes the set recomputes it from
+the pressures (exact, no drift): about 2.4 real FFT pairs per iteration with the preconditioner, 1.3–1.5 without.
+
+Hardware: the solver is written once over an array namespace (:mod:`sims.bem_backend`: NumPy with ``scipy.fft``
+and ``workers`` threads on the CPU, CuPy on an NVIDIA GPU, ``device``), float64 on both.
+
 Convergence: the residual is the largest violation of the contact conditions in units of rms(z): |g| on points with
 0 < p < H, −g on points with p = 0, +g on points with p = H (the load, in pressure control, is met exactly).
 A solution is accepted only after the displacement has been recomputed from the pressure by FFT (no drift).
