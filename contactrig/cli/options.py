@@ -138,6 +138,7 @@ OPTION_VOCABULARY: dict[str, tuple[str, str]] = {
     "--quiet": ("flag", "no progress bar on stderr"),
     "--models": ("names", "registered contact-model keys, comma-separated or repeated"),
     "--max-memory": ("size", "memory bound, e.g. 2G"),
+    "--device": ("choice", "where the boundary-element solves run: cpu or gpu (CuPy)"),
     "--sim-speed": ("number", "simulated instrument time runs X times faster than real (inf: no waiting)"),
     "--seed": ("integer", "random seed"),
     "--visa-library": ("text", "VISA library, e.g. @py"),
