@@ -554,7 +554,7 @@ class _Solver:
 
         Preconditioned: the gap on the free points is filtered by the stiffness E*|q|/2 (the inverse of the
         compliance on the whole grid) and restricted to them again, s = P K P g, a symmetric positive semi-definite
-        preconditioner on the free set (Vollebregt, J. Comput. Phys. 257 (2014) 333, §4); β = (s·g)/(s_old·g_old).
+        preconditioner on the free set (Vollebregt, J. Comput. Phys. 257 (2014) 333); β = (s·g)/(s_old·g_old).
         """
         xp = self.xp
         t_old = self.t[m.free] if self.conjugate else None
