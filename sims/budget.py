@@ -144,8 +144,15 @@ for _stage in (
 
 
 def check_database(config: SimConfig, models: Sequence[str] | None = None, n_separations: int | None = None) -> None:
-    """Refuse building the database when it cannot fit (:func:`contactrig.core.budget.check`)."""
+    """Refuse building the database when it cannot fit (:func:`contactrig.core.budget.check`); with the ``bem``
+    model on the GPU (:func:`sims.bem_backend.use_device`), also its solves' device memory."""
     check([database(config, models, n_separations)])
+    from sims.bem_backend import default_device
+
+    names = list(models) if models is not None else list(config.database.models)
+    if "bem" in names and default_device() == "gpu":
+        points, keys = _grids(config)
+        check_bem_gpu(math.isqrt(points), keys)
 
 
 def check_specimen(

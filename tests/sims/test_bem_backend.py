@@ -153,3 +153,18 @@ def test_gpu_fields_equal_the_cpu_fields(surface):
     assert gpu.device == "gpu" and gpu.success
     assert float(np.abs(gpu.pressure - cpu.pressure).max()) <= 1e-6 * float(cpu.pressure.max())
     assert math.isclose(gpu.area_fraction, cpu.area_fraction, abs_tol=2 / N**2)
+
+
+def test_database_with_bem_on_a_small_gpu_is_refused_before_any_surface(monkeypatch):
+    # the GPU's free memory (1 MiB) cannot hold the default scene's 512² solve: refused by the database's own check
+    from contactrig.core.scene import load_scene
+    from sims import budget
+    from sims.config import SimConfig
+    from sims.database import build_database
+
+    config = SimConfig.from_scene(load_scene(None))
+    monkeypatch.setattr(bem_backend, "gpu_memory_bytes", lambda: 2**20)
+    monkeypatch.setattr(bem_backend, "_DEVICE", bem_backend.ContextVar("device", default="gpu"))
+    monkeypatch.setattr(budget, "database", lambda *a, **k: budget.Estimate("database", "keys", 0.0))
+    with pytest.raises(BudgetError, match=r"\[surfaces\.liner\].*GPU"):
+        build_database(config, ["bem"])
