@@ -24,6 +24,17 @@ as in Almqvist, Sahlin, Larsson & Lundberg, Tribol. Int. 40 (2007) 574 and Conta
 All arithmetic is dimensionless inside: lengths in ℓ = rms(z − mean z), pressures in E*ℓ/Δ (Δ = pixel), so the
 kernel 2/(|q|Δ) depends on n only and is computed once per grid (cached).
 
+Preconditioner (issue 28): the search direction is the gap on the free points filtered by the stiffness |q|Δ/2 (the
+inverse of the compliance on the whole grid) and restricted to them again — the FFT preconditioner of Vollebregt,
+J. Comput. Phys. 257 (2014) 333 — which takes the iteration count at 1024² on the benchmark surface from 93 to 34
+and keeps it from growing like √n; ``precondition=False`` restores the plain directions. The step length
+τ = (g·t)/(t·Ct) takes t·Ct from the direction's half spectrum by Parseval's theorem, so an iteration in which no
+point changes its set needs one inverse FFT for the displacement, and one that changes the set recomputes it from
+the pressures (exact, no drift): about 2.4 real FFT pairs per iteration with the preconditioner, 1.3–1.5 without.
+
+Hardware: the solver is written once over an array namespace (:mod:`sims.bem_backend`: NumPy with ``scipy.fft``
+and ``workers`` threads on the CPU, CuPy on an NVIDIA GPU, ``device``), float64 on both.
+
 Convergence: the residual is the largest violation of the contact conditions in units of rms(z): |g| on points with
 0 < p < H, −g on points with p = 0, +g on points with p = H (the load, in pressure control, is met exactly).
 A solution is accepted only after the displacement has been recomputed from the pressure by FFT (no drift).
@@ -54,7 +65,8 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Literal
+from types import ModuleType
+from typing import Any, Literal
 
 import numpy as np
 import scipy.fft as sfft
@@ -62,6 +74,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage, optimize
 
 from contactrig.core.validation import SettingError, check_choice, check_int, check_range
+from sims.bem_backend import Backend, get_backend
 
 __all__ = [
     "STATUS_BREAKDOWN",
@@ -125,6 +138,7 @@ class ContactSummary:
         mode: ``"pressure"`` (mean pressure prescribed) or ``"gap"`` (mean gap or approach prescribed).
         n, pixel_m, E_star, hardness: the grid (points per side, m), composite modulus (Pa), hardness (Pa) or None.
         workers: FFT threads used.
+        device: ``"cpu"`` or ``"gpu"``: where the arrays lived (:mod:`sims.bem_backend`).
     """
 
     mean_pressure: float
@@ -148,6 +162,7 @@ class ContactSummary:
     E_star: float
     hardness: float | None
     workers: int
+    device: str
 
     def summary(self) -> ContactSummary:
         """The scalars alone (drops the n×n fields of a :class:`ContactResult`)."""
@@ -250,16 +265,56 @@ def _kernel(n: int) -> _Kernel:
     return _Kernel(n)
 
 
-def _convolve(x: _Array, kernel: _Array, n: int, workers: int) -> _Array:
-    """irfft2(kernel · rfft2(x)) for a flat n² array; returns a new flat array.
+@lru_cache(maxsize=4)
+def _device_kernel(n: int, xp: ModuleType) -> tuple[Any, Any, Any]:
+    """(compliance, stiffness, Parseval weights) of :func:`_kernel` as arrays of ``xp`` (made once per grid).
 
-    The inverse is done axis by axis (complex ``ifft`` in place along axis 0, then ``irfft`` along axis 1): with
-    several workers this is markedly faster than ``irfft2`` in SciPy 1.11–1.17 (measured 1.7× at 1024², 2 threads).
+    The weights multiply the squared real and imaginary parts of a half spectrum (interleaved, n × (n + 2)) so that
+    their sum is Σₓ t·(C t) (Parseval's theorem): C(q)/n², twice for the columns that stand for two modes.
     """
-    spectrum = sfft.rfft2(x.reshape(n, n), workers=workers)
-    np.multiply(spectrum, kernel, out=spectrum)
-    spectrum = sfft.ifft(spectrum, axis=0, workers=workers, overwrite_x=True)
-    return sfft.irfft(spectrum, n=n, axis=1, workers=workers).reshape(-1)
+    k = _kernel(n)
+    weight = np.full(n // 2 + 1, 2.0)
+    weight[0] = weight[-1] = 1.0
+    parseval = np.repeat(k.compliance * weight[None, :] / (n * n), 2, axis=1)
+    parseval.setflags(write=False)
+    if xp is np:
+        return k.compliance, k.stiffness, parseval
+    return xp.asarray(k.compliance), xp.asarray(k.stiffness), xp.asarray(parseval)
+
+
+def _dot(xp: ModuleType, a: Any, b: Any) -> float:
+    """a·b of two flat arrays (``einsum``: no BLAS threads, which spin against the FFT's on a busy machine)."""
+    return float(xp.einsum("i,i->", a, b))
+
+
+class _Operator:
+    """The periodic half-space on one backend: convolutions with the compliance or the stiffness, flat n² arrays."""
+
+    def __init__(self, n: int, backend: Backend) -> None:
+        self.n = n
+        self.be = backend
+        self.xp = backend.xp
+        self.kernel = _kernel(n)
+        self.compliance, self.stiffness, self.parseval = _device_kernel(n, backend.xp)
+        self.scaled = self.xp.empty_like(self.compliance)  # −τ·C, reused
+
+    def apply(self, x: Any, symbol: Any) -> Any:
+        """irfft2(symbol · rfft2(x)) for a flat n² array; a new flat array."""
+        spectrum = self.be.rfft2(x.reshape(self.n, self.n))
+        self.xp.multiply(spectrum, symbol, out=spectrum)
+        return self.be.irfft2(spectrum, self.n).reshape(-1)
+
+    def curvature(self, t: Any) -> tuple[Any, float]:
+        """(T = rfft2(t), t·Ct): the step's curvature by Parseval's theorem, before any inverse FFT (one pass)."""
+        spectrum = self.be.rfft2(t.reshape(self.n, self.n))
+        parts = spectrum.view(self.xp.float64)
+        return spectrum, float(self.xp.einsum("ij,ij,ij->", self.parseval, parts, parts))
+
+    def add_step(self, spectrum: Any, tau: float, w: Any) -> None:
+        """w ← w − τ·C t from t's half spectrum (which is overwritten): one inverse FFT and three passes."""
+        self.xp.multiply(self.compliance, -tau, out=self.scaled)
+        self.xp.multiply(spectrum, self.scaled, out=spectrum)
+        self.xp.add(w, self.be.irfft2(spectrum, self.n).reshape(-1), out=w)
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -294,10 +349,20 @@ def _check_hardness(hardness: float | None) -> float | None:
 
 
 # ---------------------------------------------------------------------------------------------------------------
+# ---------------------------------------------------------------------------------------------------------------
 # The Polonsky–Keer constrained conjugate gradient.
 
 
-def _capped_scale(values: _Array, target: float, cap: float) -> _Array | None:
+def _max(a: Any, default: float) -> float:
+    """max(a), or ``default`` for an empty array (CuPy's max has no ``initial``)."""
+    return float(a.max()) if a.size else default
+
+
+def _min(a: Any, default: float) -> float:
+    return float(a.min()) if a.size else default
+
+
+def _capped_scale(values: Any, target: float, cap: float) -> Any | None:
     """min(s·values, cap) with the s that makes the sum equal ``target`` (Newton from below); None if impossible."""
     total = float(values.sum())
     if total <= 0.0 or target > cap * values.size:
@@ -306,89 +371,100 @@ def _capped_scale(values: _Array, target: float, cap: float) -> _Array | None:
     for _ in range(100):
         scaled = s * values
         below = scaled < cap
-        f = float(scaled[below].sum()) + cap * float(values.size - np.count_nonzero(below))
-        slope = float(values[below].sum())
-        if f >= target * (1.0 - 1e-15) or slope <= 0.0:
+        below_sum = float(values[below].sum())
+        f = s * below_sum + cap * float(values.size - int(below.sum()))
+        if f >= target * (1.0 - 1e-15) or below_sum <= 0.0:
             break
-        s += (target - f) / slope
-    out = np.minimum(s * values, cap)
+        s += (target - f) / below_sum
+    out = s * values
+    out[out > cap] = cap
     return out if float(out.sum()) >= target * (1.0 - 1e-12) else None
 
 
 @dataclass
 class _Measure:
-    """The state of the contact conditions at the start of an iteration (dimensionless)."""
+    """The state of the contact conditions at the start of an iteration (dimensionless, backend arrays)."""
 
-    free: _Index  # 0 < p < H
-    g_free: _Array  # gap there
-    sat: _Index  # p = H
-    release: _Index  # saturated points whose gap has opened
-    g_release: _Array
-    overlap: _Index  # p = 0 and penetrating
-    g_overlap: _Array
+    free: Any  # 0 < p < H (indices)
+    g_free: Any  # gap there
+    sat: Any  # p = H
+    opened: Any  # saturated points whose gap has opened (mask over sat)
+    g_release: Any
+    overlap: Any  # p = 0 and penetrating
+    g_overlap: Any
     residual: float
+
+    @property
+    def release(self) -> Any:
+        return self.sat[self.opened]
 
 
 class _Solver:
     """Constrained CG of Polonsky & Keer (1999) with an optional pressure cap, dimensionless, flat n² arrays.
 
     ``load`` (sum of the pressures, i.e. n²·p̄) prescribes the mean pressure; otherwise ``offset`` (h₀ − mean z in
-    units of ℓ) prescribes the rigid-body position. ``w`` holds u − z; the gap is w + h₀.
+    units of ℓ) prescribes the rigid-body position. ``w`` holds u − z; the gap is w + h₀. ``precondition``: the
+    search direction comes from the gap filtered by the stiffness E*|q|/2 (see :func:`solve_contact`).
     """
 
     def __init__(
         self,
-        z: _Array,
-        kernel: _Kernel,
-        workers: int,
+        z: Any,
+        op: _Operator,
         *,
         load: float | None,
         offset: float,
         hardness: float,
         tol: float,
         max_iter: int,
+        precondition: bool = True,
     ) -> None:
+        xp = op.xp
+        self.xp = xp
+        self.op = op
         self.z = z
-        self.n = kernel.n
-        self.kernel = kernel
-        self.workers = workers
+        self.n = op.n
+        self.kernel = op.kernel
+        self.workers = op.be.workers
         self.load = load
         self.h0 = offset
         self.cap = hardness
         self.tol = tol
         self.max_iter = max_iter
+        self.precondition = precondition
         size = z.size
-        self.p = np.zeros(size)
-        self.w = np.empty(size)
-        self.t = np.zeros(size)
-        self.mask = np.empty(size, dtype=bool)
-        self.supp: _Index = np.empty(0, dtype=np.intp)
-        self.t_supp: _Index = np.empty(0, dtype=np.intp)
+        self.p = xp.zeros(size)
+        self.w = xp.empty(size)
+        self.t = xp.zeros(size)  # the search direction on the free points, zero elsewhere
+        self.mask = xp.empty(size, dtype=bool)
+        self.supp: Any = xp.empty(0, dtype=xp.int64)
+        self.t_supp: Any = xp.empty(0, dtype=xp.int64)
         self.conjugate = False
         self.g_old = 0.0
-        self.tau = 1.0 / kernel.self_compliance
+        self.tau = 1.0 / self.kernel.self_compliance  # pressure per unit gap given to points that join
+        self.gain = 1.0
         self.nit = 0
         self.exact = False
         self.residual = math.inf
 
     # -- state -----------------------------------------------------------------------------------------------
 
-    def start(self, p0: _Array) -> None:
+    def start(self, p0: Any) -> None:
         """Initial pressures (flat, ≥ 0): scaled to the load if prescribed, capped, displacement computed."""
-        supp = np.flatnonzero(p0 > 0.0)
+        supp = self.xp.flatnonzero(p0 > 0.0)
         self._set_support(supp, p0[supp])
         if self.load is not None and not self._rescale():
             self._plastic_reset()
         self._recompute()
 
-    def _set_support(self, idx: _Index, values: _Array) -> None:
+    def _set_support(self, idx: Any, values: Any) -> None:
         self.p[self.supp] = 0.0
         self.p[idx] = values
         self.supp = idx
 
     def _recompute(self) -> None:
-        u = _convolve(self.p, self.kernel.compliance, self.n, self.workers)
-        np.subtract(u, self.z, out=self.w)
+        u = self.op.apply(self.p, self.op.compliance)
+        self.xp.subtract(u, self.z, out=self.w)
         self.exact = True
 
     def _rescale(self) -> bool:
@@ -407,10 +483,10 @@ class _Solver:
             self.p[self.supp] = values * (self.load / total)
             return True
         at_cap = values >= self.cap
-        target = self.load - self.cap * float(np.count_nonzero(at_cap))
+        target = self.load - self.cap * float(int(at_cap.sum()))
         free_vals = values[~at_cap]
         if target <= 0.0 or float(free_vals.sum()) <= 0.0:
-            free_vals, target, at_cap = values, self.load, np.zeros(values.size, dtype=bool)
+            free_vals, target, at_cap = values, self.load, self.xp.zeros(values.size, dtype=bool)
         scaled = _capped_scale(free_vals, target, self.cap)
         if scaled is None:
             return False
@@ -421,11 +497,12 @@ class _Solver:
     def _plastic_reset(self) -> None:
         """Load control with every loaded point at H: H on the most penetrating points, the rest on the next one."""
         assert self.load is not None
+        xp = self.xp
         count = min(int(self.load // self.cap), self.z.size - 1)
         rest = self.load - count * self.cap
-        order = np.argpartition(self.w, count)[: count + 1] if count + 1 < self.z.size else np.arange(self.z.size)
-        order = order[np.argsort(self.w[order], kind="stable")]
-        values = np.full(order.size, self.cap)
+        order = xp.argpartition(self.w, count)[: count + 1] if count + 1 < self.z.size else xp.arange(self.z.size)
+        order = order[xp.argsort(self.w[order])]
+        values = xp.full(order.size, self.cap)
         values[-1] = rest
         keep = values > 0.0
         self._set_support(order[keep], values[keep])
@@ -433,119 +510,142 @@ class _Solver:
 
     # -- one iteration ---------------------------------------------------------------------------------------
 
-    def _split(self) -> tuple[_Index, _Index]:
+    def _split(self) -> tuple[Any, Any]:
         """(free points 0 < p < H, saturated points p = H) of the support."""
         if not math.isfinite(self.cap):
-            return self.supp, np.empty(0, dtype=np.intp)
+            return self.supp, self.xp.empty(0, dtype=self.supp.dtype)
         at_cap = self.p[self.supp] >= self.cap
         return self.supp[~at_cap], self.supp[at_cap]
 
-    def _offset_all_saturated(self, sat: _Index) -> float:
+    def _offset_all_saturated(self, sat: Any) -> float:
         """Load control with no free point: an h₀ with g ≥ 0 off the support and g ≤ 0 on it, if there is one."""
         self.mask.fill(True)
         self.mask[self.supp] = False
-        lo = float(-self.w[self.mask].min(initial=math.inf))
-        hi = float(-self.w[sat].max(initial=-math.inf))
+        lo = -_min(self.w[self.mask], math.inf)
+        hi = -_max(self.w[sat], -math.inf)
         if math.isfinite(lo) and lo <= hi:
             return 0.5 * (lo + hi)
         return hi if math.isfinite(hi) else self.h0
 
     def measure(self) -> _Measure:
         """Active sets, gaps and the residual of the current state; sets h₀ in load control."""
+        xp = self.xp
         free, sat = self._split()
-        w_free = self.w[free]
+        g_free = self.w[free]
         if self.load is not None:
-            self.h0 = -float(w_free.mean()) if free.size else self._offset_all_saturated(sat)
+            self.h0 = -float(g_free.mean()) if free.size else self._offset_all_saturated(sat)
         h0 = self.h0
-        g_free = w_free + h0
-        np.less(self.w, -h0, out=self.mask)
+        g_free += h0
+        xp.less(self.w, -h0, out=self.mask)
         self.mask[self.supp] = False
-        overlap = np.flatnonzero(self.mask)
-        g_overlap = self.w[overlap] + h0
-        g_sat = self.w[sat] + h0
+        overlap = xp.flatnonzero(self.mask)
+        g_overlap = self.w[overlap]
+        g_overlap += h0
+        g_sat = self.w[sat]
+        g_sat += h0
         opened = g_sat > 0.0
-        release, g_release = sat[opened], g_sat[opened]
-        residual = max(
-            float(np.abs(g_free).max(initial=0.0)),
-            float(-g_overlap.min(initial=0.0)),
-            float(g_release.max(initial=0.0)),
-        )
+        g_release = g_sat[opened]
+        residual = max(_max(xp.abs(g_free), 0.0), -_min(g_overlap, 0.0), _max(g_release, 0.0))
         self.residual = residual
-        return _Measure(free, g_free, sat, release, g_release, overlap, g_overlap, residual)
+        return _Measure(free, g_free, sat, opened, g_release, overlap, g_overlap, residual)
 
-    def _direction(self, m: _Measure) -> _Array:
-        """The CG search direction on the free points (mean-free in load control), stored in ``self.t``."""
-        g_new = float(m.g_free @ m.g_free)
-        t_free = m.g_free.copy()
-        if self.conjugate and self.g_old > 0.0:
-            t_free += (g_new / self.g_old) * self.t[m.free]
-        if self.load is not None and t_free.size:
-            t_free -= t_free.mean()
-        if float(t_free @ m.g_free) <= 0.0:  # not a descent direction: restart from the gradient
-            t_free = m.g_free - (m.g_free.mean() if self.load is not None else 0.0)
+    def _direction(self, m: _Measure) -> Any:
+        """The (preconditioned) CG search direction on the free points (mean-free in load control), in ``self.t``.
+
+        Preconditioned: the gap on the free points is filtered by the stiffness E*|q|/2 (the inverse of the
+        compliance on the whole grid) and restricted to them again, s = P K P g, a symmetric positive semi-definite
+        preconditioner on the free set (Vollebregt, J. Comput. Phys. 257 (2014) 333); β = (s·g)/(s_old·g_old).
+        """
+        xp = self.xp
+        t_old = self.t[m.free] if self.conjugate else None
+        if self.precondition and m.free.size:
+            self.t[self.t_supp] = 0.0
+            self.t[m.free] = m.g_free
+            self.t_supp = m.free
+            s = self.op.apply(self.t, self.op.stiffness)[m.free]
+        else:
+            s = m.g_free.copy()
+        if self.load is not None and s.size:
+            s -= s.mean()
+        g_new = _dot(xp, s, m.g_free)
+        if self.precondition:  # pressure per unit gap of the filtered gradient: scales the points that join
+            gg = _dot(xp, m.g_free, m.g_free)
+            self.gain = g_new / gg if gg > 0.0 and g_new > 0.0 else 1.0
+        t_free = s.copy()
+        if t_old is not None and self.g_old > 0.0:
+            t_old *= g_new / self.g_old
+            t_free += t_old
+            if self.load is not None:
+                t_free -= t_free.mean()
+        if _dot(xp, t_free, m.g_free) <= 0.0:  # not a descent direction: restart from the gradient
+            t_free = s if g_new > 0.0 else m.g_free - (m.g_free.mean() if self.load is not None else 0.0)
+            g_new = _dot(xp, t_free, m.g_free)
         self.g_old = g_new
         self.t[self.t_supp] = 0.0
         self.t[m.free] = t_free
         self.t_supp = m.free
         return t_free
 
-    def _step_length(self, m: _Measure, t_free: _Array, r_free: _Array) -> float:
-        denom = float(r_free @ t_free)
-        if denom > 0.0:
-            return float(m.g_free @ t_free) / denom
-        # Zero curvature: t = 0, or a uniform t over the whole grid under displacement control, where the energy is
-        # linear along t; go to the bounds (a uniform penetration can only be taken up plastically).
+    def _bounds_step(self, m: _Measure, t_free: Any) -> float:
+        """Zero curvature: t = 0, or a uniform t over the whole grid under displacement control, where the energy is
+        linear along t; go to the bounds (a uniform penetration can only be taken up plastically)."""
         p_free = self.p[m.free]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            to_zero = np.where(t_free > 0.0, p_free / t_free, 0.0)
-            to_cap = np.where(t_free < 0.0, (p_free - self.cap) / t_free, 0.0)
-        tau = float(max(to_zero.max(initial=0.0), to_cap.max(initial=0.0)))
+        down, up = t_free > 0.0, t_free < 0.0
+        to_zero = _max(p_free[down] / t_free[down], 0.0)
+        to_cap = _max((p_free[up] - self.cap) / t_free[up], 0.0)  # +inf without a cap: no step (as before)
+        tau = max(to_zero, to_cap)
         return tau if math.isfinite(tau) else 0.0
 
     def step(self, m: _Measure) -> bool:
-        """One CG step with projection onto [0, H], overlap/release update and load balance; False on breakdown."""
-        r: _Array | None = None
+        """One CG step with projection onto [0, H], overlap/release update and load balance; False on breakdown.
+
+        FFT work: the direction's spectrum gives the step length by Parseval (:meth:`_Operator.curvature`);
+        when no point changes its set the displacement is updated from it (one inverse FFT, one fused pass), else it
+        is recomputed from the new pressures (one FFT pair: exact, no drift).
+        """
+        xp = self.xp
+        spectrum: Any = None
+        tau = 0.0
         p_free = self.p[m.free]
         if m.free.size:
             t_free = self._direction(m)
-            r = _convolve(self.t, self.kernel.compliance, self.n, self.workers)
-            tau = self._step_length(m, t_free, r[m.free])
+            spectrum, curvature = self.op.curvature(self.t)
+            tau = _dot(xp, m.g_free, t_free) / curvature if curvature > 0.0 else self._bounds_step(m, t_free)
             if not math.isfinite(tau):
                 return False
             if tau > 0.0:
-                self.tau = tau
-                p_free = p_free - tau * t_free
+                self.tau = tau * self.gain
+                t_free *= tau
+                p_free -= t_free
             else:
-                r = None
-        clipped = bool(np.any(p_free <= 0.0) or np.any(p_free >= self.cap))
+                spectrum = None
+        clipped = bool(xp.any(p_free <= 0.0)) or bool(xp.any(p_free >= self.cap))
         if clipped:
-            np.clip(p_free, 0.0, self.cap, out=p_free)
-        p_over = np.minimum(-self.tau * m.g_overlap, self.cap)
-        p_rel = np.clip(self.cap - self.tau * m.g_release, 0.0, self.cap)
-        changed = clipped or m.overlap.size > 0 or m.release.size > 0
+            xp.clip(p_free, 0.0, self.cap, out=p_free)
+        p_over = xp.minimum(-self.tau * m.g_overlap, self.cap)
+        p_rel = xp.clip(self.cap - self.tau * m.g_release, 0.0, self.cap)
+        changed = clipped or m.overlap.size > 0 or m.g_release.size > 0
         self._assemble(m, p_free, p_over, p_rel)
         # Polonsky & Keer restart the CG whenever points join the contact; restarting only when many join (more than
         # RESTART_FRACTION of the free points) keeps the conjugacy through the trickle of single points near the end,
         # which is most of the iterations: 2.7× fewer at 1024² (173 → 63), the same converged area.
-        self.conjugate = m.overlap.size + m.release.size <= _RESTART_FRACTION * m.free.size
-        if changed or r is None:
+        self.conjugate = m.overlap.size + m.g_release.size <= _RESTART_FRACTION * m.free.size
+        if changed or spectrum is None:
             if self.load is not None and not self._rescale():
                 self._plastic_reset()
             self._recompute()
         else:
-            np.multiply(r, self.tau, out=r)
-            np.subtract(self.w, r, out=self.w)
+            self.op.add_step(spectrum, tau, self.w)
             self.exact = False
-        return bool(np.isfinite(self.h0))
+        return math.isfinite(self.h0)
 
-    def _assemble(self, m: _Measure, p_free: _Array, p_over: _Array, p_rel: _Array) -> None:
-        kept_sat = np.setdiff1d(m.sat, m.release, assume_unique=True) if m.release.size else m.sat
-        parts_idx = [m.free, kept_sat, m.release, m.overlap]
-        parts_val = [p_free, np.full(kept_sat.size, self.cap), p_rel, p_over]
-        idx = np.concatenate(parts_idx)
-        val = np.concatenate(parts_val)
+    def _assemble(self, m: _Measure, p_free: Any, p_over: Any, p_rel: Any) -> None:
+        xp = self.xp
+        kept_sat = m.sat[~m.opened] if m.g_release.size else m.sat
+        idx = xp.concatenate([m.free, kept_sat, m.release, m.overlap])
+        val = xp.concatenate([p_free, xp.full(kept_sat.size, self.cap), p_rel, p_over])
         keep = val > 0.0
-        if not np.all(keep):
+        if not bool(keep.all()):
             idx, val = idx[keep], val[keep]
         self._set_support(idx, val)
 
@@ -605,7 +705,7 @@ def _solve_by_offset(solver: _Solver, load_total: float) -> int:
         solver.h0, solver.nit, solver.conjugate = h0, 0, False
         solver.max_iter = max(1, budget - used)
         warm = solver.p.copy()
-        cold = np.clip((solver.z - h0) / solver.kernel.self_compliance, 0.0, solver.cap)
+        cold = solver.xp.clip((solver.z - h0) / solver.kernel.self_compliance, 0.0, solver.cap)
         solver.start(warm if float(warm.sum()) > 0.0 else cold)
         inner = solver.run()
         used += solver.nit
@@ -692,12 +792,14 @@ def _build_result(
     solver: _Solver, sc: _Scales, *, status: int, message: str, mode: str, hardness: float | None, p_full: float
 ) -> ContactResult:
     n = sc.n
-    p = solver.p
+    to_host = solver.op.be.to_host
+    p = to_host(solver.p)
+    w = to_host(solver.w)
     contact = (p > 0.0).reshape(n, n)
     n_spots, spot_cells = contact_spots(contact)
     edges = _perimeter_edges(contact)
     n_contact = int(np.count_nonzero(contact))
-    gap = solver.w + solver.h0
+    gap = w + solver.h0
     saturated = p >= solver.cap
     plastic = None
     if hardness is not None:
@@ -706,7 +808,7 @@ def _build_result(
     gap[p > 0.0] = 0.0
     np.maximum(gap, 0.0, out=gap)
     pressure = (p * sc.pressure).reshape(n, n)
-    displacement = ((solver.w + solver.z) * sc.length).reshape(n, n)
+    displacement = ((w + to_host(solver.z)) * sc.length).reshape(n, n)
     gap_m = (gap * sc.length).reshape(n, n)
     for arr in (pressure, displacement, gap_m):
         arr.setflags(write=False)
@@ -733,6 +835,7 @@ def _build_result(
         E_star=sc.E_star,
         hardness=hardness,
         workers=solver.workers,
+        device=solver.op.be.name,
         pressure=pressure,
         gap=gap_m,
         displacement=displacement,
@@ -764,9 +867,9 @@ def _scales(arr: NDArray[np.float64], pixel_m: float, E_star: float) -> tuple[_A
     return z, _Scales(n, pixel_m, E_star, length, pressure, mean, float(z.max()))
 
 
-def _full_contact_field(z: _Array, kernel: _Kernel, workers: int) -> _Array:
+def _full_contact_field(z: Any, op: _Operator) -> Any:
     """C⁻¹(z − mean z): the pressure beyond the mean needed to close every gap (dimensionless)."""
-    return _convolve(z, kernel.stiffness, kernel.n, workers)
+    return op.apply(z, op.stiffness)
 
 
 def full_contact_pressure(z: ArrayLike, pixel_m: float, E_star: float, *, workers: int | None = None) -> float:
@@ -777,9 +880,8 @@ def full_contact_pressure(z: ArrayLike, pixel_m: float, E_star: float, *, worker
     arr = _check_surface(z)
     pixel_m = check_range("pixel_m", pixel_m, 0.0, None, lo_open=True, unit="m")
     E_star = check_range("E_star", E_star, 0.0, None, lo_open=True, unit="Pa")
-    w = _check_workers(workers)
     zn, sc = _scales(arr, pixel_m, E_star)
-    field = _full_contact_field(zn, _kernel(sc.n), w)
+    field = _full_contact_field(zn, _Operator(sc.n, get_backend("cpu", _check_workers(workers))))
     return max(0.0, -float(field.min())) * sc.pressure
 
 
@@ -823,14 +925,14 @@ def _check_initial(initial: ArrayLike | None, sc: _Scales) -> _Array | None:
     return p0.reshape(-1) / sc.pressure
 
 
-def _initial_pressure(solver: _Solver, sc: _Scales, load: float | None, initial: _Array | None) -> _Array:
+def _initial_pressure(solver: _Solver, sc: _Scales, load: float | None, initial: Any | None) -> Any:
     """Warm start if given and loaded; else Polonsky & Keer's uniform p̄ (pressure control) or, under displacement
     control, the pressure each penetrating point would carry alone, (z − h₀)/C₀₀, capped."""
     if load is not None:
         if initial is not None and float(initial.sum()) > 0.0:
             return initial
-        return np.full(sc.n * sc.n, load)
-    return np.clip((solver.z - solver.h0) / solver.kernel.self_compliance, 0.0, solver.cap)
+        return solver.xp.full(sc.n * sc.n, load)
+    return solver.xp.clip((solver.z - solver.h0) / solver.kernel.self_compliance, 0.0, solver.cap)
 
 
 def solve_contact(
@@ -846,6 +948,9 @@ def solve_contact(
     max_iter: int = 2000,
     workers: int | None = None,
     initial_pressure: ArrayLike | None = None,
+    precondition: bool = True,
+    device: str | None = None,
+    xp: ModuleType | None = None,
 ) -> ContactResult:
     """Periodic normal contact of the rough surface ``z`` on an elastic half-space (Polonsky & Keer 1999).
 
@@ -865,6 +970,12 @@ def solve_contact(
         max_iter: iteration limit (status 1 when reached; the last state is returned with ``success`` False).
         workers: FFT threads, default ``os.cpu_count()``.
         initial_pressure: warm start, Pa, n×n (scaled to ``mean_pressure``), e.g. a neighbouring load step.
+        precondition: filter the search direction by the stiffness E*|q|/2 (Fourier preconditioner, Vollebregt
+            2014): 2.4× fewer iterations at 1024², and a count that grows far slower with the grid, for one more
+            FFT pair per iteration. False: the plain Polonsky–Keer directions (the solver before issue 28).
+        device: ``"cpu"`` or ``"gpu"`` (CuPy; :mod:`sims.bem_backend`); default :func:`~sims.bem_backend.
+            default_device`. On the GPU the memory is checked first (:func:`sims.budget.check_bem_gpu`).
+        xp: run on the generic array-namespace path with this module (NumPy: the GPU's code on the CPU).
 
     Returns:
         :class:`ContactResult`. Pressures are finite and in [0, H]; the load is met to rounding.
@@ -878,24 +989,29 @@ def solve_contact(
     hardness = _check_hardness(hardness)
     tol = check_range("tol", tol, 1e-14, 0.1)
     max_iter = check_int("max_iter", max_iter, 1, 10**7)
-    w = _check_workers(workers)
+    be = get_backend(device, _check_workers(workers), xp)
     zn, sc = _scales(arr, pixel_m, E_star)
     mode, load, offset = _target(sc, hardness, mean_pressure, mean_gap, approach)
     initial = _check_initial(initial_pressure, sc)
+    if be.name == "gpu":
+        from sims.budget import check_bem_gpu
+
+        check_bem_gpu(sc.n)
     cap = math.inf if hardness is None else hardness / sc.pressure
-    kernel = _kernel(sc.n)
+    op = _Operator(sc.n, be)
     size = sc.n * sc.n
+    zd = be.asarray(zn)
     solver = _Solver(
-        zn,
-        kernel,
-        w,
+        zd,
+        op,
         load=None if load is None else load * size,
         offset=offset,
         hardness=cap,
         tol=tol,
         max_iter=max_iter,
+        precondition=bool(precondition),
     )
-    field = _full_contact_field(zn, kernel, w)
+    field = _full_contact_field(zd, op)
     p_full = max(0.0, -float(field.min()))
     shortcut = _shortcut(solver, field, load, p_full)
     if shortcut is not None:
@@ -903,28 +1019,29 @@ def solve_contact(
             solver, sc, status=STATUS_CONVERGED, message=shortcut, mode=mode, hardness=hardness, p_full=p_full
         )
     del field
-    solver.start(_initial_pressure(solver, sc, load, initial))
+    solver.start(_initial_pressure(solver, sc, load, None if initial is None else be.asarray(initial)))
     status = solver.run()
     note = ""
     if status == _STALLED:
         assert solver.load is not None
         status = _solve_by_offset(solver, solver.load)
         note = " (load control stalled with the load near the hardness; solved by bracketing the separation)"
-    if not (np.all(np.isfinite(solver.p)) and np.all(np.isfinite(solver.w)) and math.isfinite(solver.h0)):
+    finite = bool(solver.xp.isfinite(solver.p).all()) and bool(solver.xp.isfinite(solver.w).all())
+    if not (finite and math.isfinite(solver.h0)):
         solver.start(_initial_pressure(solver, sc, load, None))  # never hand back NaN: the safe starting state
         status = STATUS_BREAKDOWN
     message = _MESSAGES[status].format(res=solver.residual, tol=tol, nit=solver.nit) + note
     return _build_result(solver, sc, status=status, message=message, mode=mode, hardness=hardness, p_full=p_full)
 
 
-def _shortcut(solver: _Solver, field: _Array, load: float | None, p_full: float) -> str | None:
+def _shortcut(solver: _Solver, field: Any, load: float | None, p_full: float) -> str | None:
     """Exact solutions without iterating: elastic full contact (pressure control) or no contact (gap control)."""
     if load is not None:
         if load < p_full or load + float(field.max()) > solver.cap:
             return None
         field += load
-        np.maximum(field, 0.0, out=field)
-        solver._set_support(np.flatnonzero(field > 0.0), field[field > 0.0])
+        solver.xp.maximum(field, 0.0, out=field)
+        solver._set_support(solver.xp.flatnonzero(field > 0.0), field[field > 0.0])
         solver.p[:] = field
         solver.h0 = 0.0
         solver.w[:] = 0.0
@@ -943,6 +1060,8 @@ class _Options:
     tol: float
     max_iter: int
     workers: int | None
+    precondition: bool = True
+    device: str | None = None
 
     def solve(self, z: ArrayLike, pixel_m: float, E_star: float, p: float, warm: ArrayLike | None) -> ContactResult:
         return solve_contact(
@@ -955,6 +1074,8 @@ class _Options:
             max_iter=self.max_iter,
             workers=self.workers,
             initial_pressure=warm,
+            precondition=self.precondition,
+            device=self.device,
         )
 
 
@@ -971,6 +1092,7 @@ def solve_load_path(
     max_iter: int = 2000,
     workers: int | None = None,
     keep_fields: bool = True,
+    device: str | None = None,
 ) -> LoadPathResult:
     """Mean pressures in increasing order, each solve warm-started from the previous pressure field.
 
@@ -986,7 +1108,7 @@ def solve_load_path(
     The step must resolve ū: its change, about step·p̄/K, should be well above tol·rms(z).
 
     Args:
-        z, pixel_m, E_star, hardness, tol, max_iter, workers: as for :func:`solve_contact`.
+        z, pixel_m, E_star, hardness, tol, max_iter, workers, device: as for :func:`solve_contact`.
         pressures: mean pressures, Pa, strictly increasing, each > 0 (and below the hardness).
         stiffness: the finite-difference scheme above.
         step: relative pressure step of the ``"centred"``/``"forward"`` schemes, in (0, 0.5].
@@ -1001,7 +1123,7 @@ def solve_load_path(
     step = check_range("step", step, 0.0, 0.5, lo_open=True)
     if method == "path" and pvals.size < 2:
         raise SettingError("pressures", pvals.tolist(), "expected at least two pressures for stiffness='path'")
-    opts = _Options(hardness, tol, max_iter, _check_workers(workers))
+    opts = _Options(hardness, tol, max_iter, _check_workers(workers), device=device)
     results: list[ContactSummary] = []
     gaps = np.empty(pvals.size)
     stiff = np.empty(pvals.size)
@@ -1139,6 +1261,7 @@ def convergence_check(
     tol: float = 1e-6,
     max_iter: int = 2000,
     workers: int | None = None,
+    device: str | None = None,
 ) -> ConvergenceCheck:
     """Solve at the grid of ``z`` and on ``refine(z, factor)`` and report the relative change of the real area.
 
@@ -1147,7 +1270,7 @@ def convergence_check(
     changes.
     """
     factor = check_int("factor", factor, 2, 16)
-    opts = _Options(hardness, tol, max_iter, workers)
+    opts = _Options(hardness, tol, max_iter, workers, device=device)
     coarse = opts.solve(z, pixel_m, E_star, mean_pressure, None)
     fine = opts.solve(refine(z, factor), pixel_m / factor, E_star, mean_pressure, None)
 

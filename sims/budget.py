@@ -17,6 +17,8 @@ stage           memory                                                          
 ``press``       ~48 B per ring pair (influence matrix, Jacobian)                ``[press] n_rings``
 ``bem``         ~200 B per point of the refined grid, per concurrent task,      ``[surfaces.*] n``, ``--refine``,
                 plus ~100 MB for each worker process                            ``--jobs``
+``bem_gpu``     device memory of one solve on the GPU: ~128 B per point,        ``[surfaces.*] n``, ``--refine``,
+                against the card's free memory (:func:`check_bem_gpu`)          ``--device gpu``
 ==============  ==============================================================  ======================================
 
 :func:`check_specimen`, :func:`check_database` and :func:`check_comparison` check the work of the entry points
@@ -36,7 +38,7 @@ if TYPE_CHECKING:
     from sims.config import SimConfig
     from sims.surface import SurfaceSpec
 
-__all__ = ["check_comparison", "check_database", "check_specimen"]
+__all__ = ["bem_gpu", "check_bem_gpu", "check_comparison", "check_database", "check_specimen"]
 
 _SURFACE_B = 26.0  # generation of one map (spectrum, phases, the map), held while the other is made
 _STATISTICS_B = 16.0  # spectral moments on the half spectrum
@@ -142,8 +144,15 @@ for _stage in (
 
 
 def check_database(config: SimConfig, models: Sequence[str] | None = None, n_separations: int | None = None) -> None:
-    """Refuse building the database when it cannot fit (:func:`contactrig.core.budget.check`)."""
+    """Refuse building the database when it cannot fit (:func:`contactrig.core.budget.check`); with the ``bem``
+    model on the GPU (:func:`sims.bem_backend.use_device`), also its solves' device memory."""
     check([database(config, models, n_separations)])
+    from sims.bem_backend import default_device
+
+    names = list(models) if models is not None else list(config.database.models)
+    if "bem" in names and default_device() == "gpu":
+        points, keys = _grids(config)
+        check_bem_gpu(math.isqrt(points), keys)
 
 
 def check_specimen(
@@ -156,11 +165,47 @@ def check_specimen(
     check(stages)
 
 
-def check_comparison(config: SimConfig, models: Sequence[str], refine: int, jobs: int, pressures: int) -> None:
+def check_comparison(
+    config: SimConfig, models: Sequence[str], refine: int, jobs: int, pressures: int, device: str = "cpu"
+) -> None:
     """Refuse a boundary-element comparison that cannot fit: ``jobs`` tasks at once, each a BEM solve or a model's
-    database on one realisation."""
+    database on one realisation; on the GPU also one solve's device memory (:func:`check_bem_gpu`)."""
+    if device == "gpu":
+        points, keys = _grids(config)
+        check_bem_gpu(math.isqrt(points) * refine, f"{keys}, --refine {refine}")
     tasks = [bem(config, refine, jobs, pressures)]
     if models:
         db = database(config, models)
         tasks.append(Estimate(db.what, db.keys, db.peak_bytes * jobs + (_PROCESS_B * jobs if jobs > 1 else 0.0)))
     check(tasks)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# The GPU's memory (boundary elements on CuPy, issue 28).
+
+#: Device memory of one FFT-BEM solve per grid point [bytes]: z, p, w, t (8 B each), the contact mask (1 B), the
+#: half spectra of the direction and its product with the compliance (2 × 8 B), the inverse FFT's output (8 B),
+#: cuFFT's plan work area (~16 B), the compliance and stiffness symbols (2 × 4 B) and the sparse index arrays of the
+#: support (≤ 16 B): ~110 B, rounded up for CuPy's memory pool.
+_BEM_GPU_B = 128.0
+
+
+def bem_gpu(n: int, key: str = "[surfaces.*] n") -> Estimate:
+    """One boundary-element solve of an n×n grid on the GPU (device memory)."""
+    return Estimate("boundary-element solve on the GPU", f"{key} (grid {n}×{n})", _BEM_GPU_B * n * n)
+
+
+def check_bem_gpu(n: int, key: str = "[surfaces.*] n", free_bytes: float | None = None) -> Estimate:
+    """Refuse (:class:`~contactrig.core.budget.BudgetError`) an n×n solve that cannot fit the GPU's free memory
+    (``free_bytes``, default :func:`sims.bem_backend.gpu_memory_bytes`; nothing is refused when unknown)."""
+    from contactrig.core.budget import BudgetError
+    from sims.bem_backend import gpu_memory_bytes
+
+    est = bem_gpu(n, key)
+    free = gpu_memory_bytes() if free_bytes is None else free_bytes
+    if free is not None and est.peak_bytes > free:
+        raise BudgetError(est, float(free), "free on the GPU")
+    return est
+
+
+STAGES.register(Stage("bem_gpu", bem_gpu, "one boundary-element solve on the GPU (device memory)"), replace=True)

@@ -280,11 +280,17 @@ def _model_task(config: SimConfig, st: CompareSettings, task: Task) -> TaskResul
     return TaskResult(task.realisation, task.model, p, h, h.copy(), area, stiff, curve.in_range(h), info)
 
 
-def run_task(config: SimConfig, settings: CompareSettings, task: Task, workers: int = 1) -> TaskResult:
-    """Run one task on realisation ``task.realisation`` of ``config`` with ``workers`` FFT threads."""
+def run_task(
+    config: SimConfig, settings: CompareSettings, task: Task, workers: int = 1, device: str | None = None
+) -> TaskResult:
+    """Run one task on realisation ``task.realisation`` of ``config`` with ``workers`` FFT threads; BEM on
+    ``device`` (``"cpu"``/``"gpu"``, :mod:`sims.bem_backend`; None: this process's default)."""
+    from sims.bem_backend import use_device
+
     t0 = time.perf_counter()
     cfg = realisation_config(config, task.realisation)
-    out = _bem_task(cfg, settings, task, workers) if task.model == BEM else _model_task(cfg, settings, task)
+    with use_device(device):
+        out = _bem_task(cfg, settings, task, workers) if task.model == BEM else _model_task(cfg, settings, task)
     return replace(out, seconds=time.perf_counter() - t0)
 
 
@@ -318,7 +324,7 @@ def _run_local(
 
 
 def _run_dask(
-    fn: Callable[[Task], TaskResult], tasks: Sequence[Task], scheduler: str, timeout_s: float | None
+    fn: Callable[[Task], TaskResult], tasks: Sequence[Task], scheduler: str, timeout_s: float | None, gpu: bool = False
 ) -> list[TaskResult]:
     try:
         from distributed import Client
@@ -327,7 +333,9 @@ def _run_dask(
             "--scheduler", scheduler, "needs Dask: pip install 'contactrig[dask]' (dask[distributed])"
         ) from None
     with Client(scheduler, timeout=30 if timeout_s is None else timeout_s, set_as_default=False) as client:
-        futures = client.map(fn, list(tasks), pure=False)
+        # On the GPU every task asks for one unit of the workers' resource "GPU" (dask-worker --resources GPU=1):
+        # one realisation's solve per card at a time, on workers that have one.
+        futures = client.map(fn, list(tasks), pure=False, resources={"GPU": 1} if gpu else None)
         return list(client.gather(futures))
 
 
@@ -347,17 +355,21 @@ def run_comparison(
     tasks use one FFT thread each. ``progress(done, total)``: called as tasks finish (local runs; a Dask run
     reports once, when gathered).
     """
+    from sims.bem_backend import default_device
+
+    device = default_device()  # the caller's (use_device): handed to every task, in any process
     cores = os.cpu_count() or 1
-    jobs = cores if jobs is None else check_int("--jobs", jobs, 1, 1024)
+    # one GPU: its solves run one after another in this process unless --jobs says otherwise
+    jobs = (1 if device == "gpu" else cores) if jobs is None else check_int("--jobs", jobs, 1, 1024)
     tasks = make_tasks(settings)
     jobs = min(jobs, len(tasks))
     if scheduler is None:  # a cluster's memory is its own
-        check_comparison(config, settings.models, settings.refine, jobs, len(settings.pressures_pa))
+        check_comparison(config, settings.models, settings.refine, jobs, len(settings.pressures_pa), device=device)
     workers = cores if (jobs == 1 and scheduler is None) else 1
-    fn = partial(run_task, config, settings, workers=workers)
+    fn = partial(run_task, config, settings, workers=workers, device=device)
     t0 = time.perf_counter()
     if scheduler is not None:
-        results = _counted(_run_dask(fn, tasks, scheduler, timeout_s), len(tasks), progress)
+        results = _counted(_run_dask(fn, tasks, scheduler, timeout_s, gpu=device == "gpu"), len(tasks), progress)
         executor = f"dask {scheduler}"
     else:
         results = _run_local(fn, tasks, jobs, progress)
@@ -365,6 +377,7 @@ def run_comparison(
     prov = {
         "executor": executor,
         "fft_threads_per_task": workers,
+        "device": device,
         "tasks": len(tasks),
         "wall_s": time.perf_counter() - t0,
         "task_s": float(sum(r.seconds for r in results)),

@@ -375,6 +375,7 @@ def test_every_page_is_reachable_from_the_navigation():
 def _scene_keys() -> dict[str, set[str]]:
     """Every key each scene table accepts, from the readers themselves."""
     from analysis.circuit import CircuitSettings
+    from contactrig.core.scene import SCENE_KEYS
     from daq.plan import INSTRUMENT_KEYS, SESSION_KEYS
     from instruments.delta import DeltaSettings
     from sims import surface
@@ -384,7 +385,7 @@ def _scene_keys() -> dict[str, set[str]]:
     from sims.rig.settings import RigSettings
 
     return {
-        "scene": {"name", "description"},
+        "scene": set(SCENE_KEYS),
         "materials": set(MATERIAL_KEYS),
         "surfaces": {k for keys in surface._KIND_KEYS.values() for k in keys},
         "database": set(DATABASE_KEYS),

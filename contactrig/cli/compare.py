@@ -1,9 +1,9 @@
 """``contactrig compare-models [SCENE]``: every contact model against the boundary-element reference (issue #14).
 
 ``contactrig compare-models [SCENE] [--models a,b] [--pressures P1,P2,… | --p-min PA --p-max PA --n-pressures N]
-[--realisations N] [--scheduler ADDRESS] [--jobs N] [--elastic] [--area corrected|counted] [--refine F]
-[--plot FILE] [--json] [--quiet]`` prints the table (≤ 100 columns), the favoured model and one verdict line per
-model; ``--plot`` draws the figure; ``--json`` prints everything at full precision with units.
+[--realisations N] [--scheduler ADDRESS] [--jobs N] [--device cpu|gpu] [--elastic] [--area corrected|counted]
+[--refine F] [--plot FILE] [--json] [--quiet]`` prints the table (≤ 100 columns), the favoured model and one
+verdict line per model; ``--plot`` draws the figure; ``--json`` prints everything at full precision with units.
 The work runs on local processes, or on a Dask cluster with ``--scheduler tcp://host:port`` (extra ``dask``).
 Nothing heavy is imported at module level.
 """
@@ -14,6 +14,7 @@ import argparse
 from typing import Any
 
 from contactrig.cli.options import (
+    add_device_option,
     add_json_option,
     add_max_memory_option,
     add_models_option,
@@ -53,6 +54,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_json_option(p, "the comparison (full precision, units)")
     add_quiet_option(p)
     add_max_memory_option(p)
+    add_device_option(p)
     p.set_defaults(handler=run_compare)
 
 
@@ -77,12 +79,16 @@ def run_compare(args: argparse.Namespace) -> int:
 
     from analysis.compare_models import TABLE_WIDTH, compare_models, comparison_dict, comparison_table, report_lines
     from contactrig.core.files import refuse_existing
+    from contactrig.core.scene import load_scene
+    from sims.bem_backend import scene_device, use_device
 
     if args.plot:  # refused (or its folder created) before the comparison runs, as every command's outputs
         refuse_existing([args.plot])
-    with progress_bar("compare-models: tasks", quiet=args.quiet) as progress:
+    scene = load_scene(args.scene)
+    device = use_device(scene_device(args.device, scene))  # the GPU is checked on entering, before any work
+    with device, progress_bar("compare-models: tasks", quiet=args.quiet) as progress:
         cmp = compare_models(
-            args.scene,
+            scene,
             args.models,
             pressures_pa=_pressures(args),
             realisations=args.realisations,

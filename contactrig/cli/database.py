@@ -12,7 +12,13 @@ import sys
 import warnings
 from typing import Any
 
-from contactrig.cli.options import add_json_option, add_max_memory_option, add_models_option, json_units
+from contactrig.cli.options import (
+    add_device_option,
+    add_json_option,
+    add_max_memory_option,
+    add_models_option,
+    json_units,
+)
 from contactrig.cli.progress import add_quiet_option, progress_bar
 
 
@@ -42,6 +48,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_json_option(p, "what was built (per model: separation range, pressure and area at the closest approach)")
     add_quiet_option(p)
     add_max_memory_option(p)
+    add_device_option(p)
     p.set_defaults(handler=run_database)
 
 
@@ -52,12 +59,15 @@ def run_database(args: argparse.Namespace) -> int:
     from contactrig.core.text import escape_terminal
     from daq.database_file import save_database
     from daq.sweep_file import plasticity_warnings
+    from sims.bem_backend import scene_device, use_device
     from sims.config import SimConfig
     from sims.database import build_database
 
     refuse_existing([args.output] + ([args.plot] if args.plot else []), force=args.force)  # before any work
-    config = SimConfig.from_scene(load_scene(args.scene))
-    with warnings.catch_warnings(), progress_bar("database: models", quiet=args.quiet) as progress:
+    scene = load_scene(args.scene)
+    config = SimConfig.from_scene(scene)
+    device = use_device(scene_device(args.device, scene))  # the GPU is checked on entering, before any work
+    with device, warnings.catch_warnings(), progress_bar("database: models", quiet=args.quiet) as progress:
         warnings.simplefilter("ignore", RuntimeWarning)  # the same text is in provenance["warnings"], printed below
         db = build_database(config, args.models, n_separations=args.n_separations, gt_heights=args.gt_heights,
                             progress=progress)  # fmt: skip

@@ -138,6 +138,7 @@ OPTION_VOCABULARY: dict[str, tuple[str, str]] = {
     "--quiet": ("flag", "no progress bar on stderr"),
     "--models": ("names", "registered contact-model keys, comma-separated or repeated"),
     "--max-memory": ("size", "memory bound, e.g. 2G"),
+    "--device": ("choice", "where the boundary-element solves run: cpu or gpu (CuPy)"),
     "--sim-speed": ("number", "simulated instrument time runs X times faster than real (inf: no waiting)"),
     "--seed": ("integer", "random seed"),
     "--visa-library": ("text", "VISA library, e.g. @py"),
@@ -182,3 +183,13 @@ JSON_SUFFIX_UNITS = {
 def json_units(**keys: str) -> dict[str, Any]:
     """The ``units`` object of a ``--json`` output: the suffix map and ``keys`` (key → unit) for keys without one."""
     return {"by_suffix": dict(JSON_SUFFIX_UNITS), **keys}
+
+
+def add_device_option(parser: argparse.ArgumentParser) -> None:
+    """The one ``--device cpu|gpu`` option (``args.device``; None: the scene's ``[scene] device``, else cpu):
+    where the boundary-element solves run (:mod:`sims.bem_backend`)."""
+    parser.add_argument(
+        "--device", choices=("cpu", "gpu"), default=None,
+        help="where the boundary-element (BEM) solves run: cpu, or gpu with CuPy (extra 'gpu'); default: the "
+        "scene's [scene] device, else cpu",
+    )  # fmt: skip

@@ -17,7 +17,7 @@ from typing import Any
 
 __all__ = ["elasticity_sentences", "parse_list", "register"]
 
-from contactrig.cli.options import add_max_memory_option, add_models_option
+from contactrig.cli.options import add_device_option, add_max_memory_option, add_models_option
 from contactrig.core.text import escape_terminal
 
 
@@ -50,6 +50,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )  # fmt: skip
     p.add_argument("--json", action="store_true", help="print the result as JSON on stdout")
     add_max_memory_option(p)
+    add_device_option(p)
     p.set_defaults(handler=_simulate)
 
 
@@ -73,16 +74,19 @@ def _simulate(args: argparse.Namespace) -> int:
     from contactrig.core.files import check_new_file
     from contactrig.core.scene import load_scene
     from daq.sweep_file import save_sweep, validity_warnings
+    from sims.bem_backend import scene_device, use_device
     from sims.budget import check_specimen
     from sims.config import SimConfig
     from sims.rig import check_weights
 
     if args.output:
         check_new_file(args.output, force=args.force)  # refused before simulating anything
-    config = SimConfig.from_scene(load_scene(args.scene))
+    scene = load_scene(args.scene)
+    config = SimConfig.from_scene(scene)
     weights = check_weights(parse_list("--weights", args.weights), "--weights") if args.weights is not None else None
     check_specimen(config, args.models, weights)  # the whole sweep, before any of it starts
-    result = specimen_sweep(config, args.models, weights, elastic=bool(args.elastic))
+    with use_device(scene_device(args.device, scene)):  # the BEM model's solves, if the database has it
+        result = specimen_sweep(config, args.models, weights, elastic=bool(args.elastic))
     warnings = list(result.warnings) + [w for w in validity_warnings(result) if w not in result.warnings]
     effects = elasticity_sentences(result)
     if args.output:

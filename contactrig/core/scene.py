@@ -6,7 +6,7 @@ provenance in every output file) and the parsed tables. Each consumer validates 
 ==================  =====================================  ==============================
 table               what                                    parsed by
 ==================  =====================================  ==============================
-``[scene]``         name, description                       this module
+``[scene]``         name, description, device (BEM)        this module
 ``[materials.*]``   E, ν, H of liner and piston              ``sims.materials``
 ``[surfaces.*]``    generated or measured height maps        ``sims.surface``
 ``[database]``      models, separation grid                  ``sims.database``
@@ -44,10 +44,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from contactrig.core.inputs import HEIGHT_MAP_MAX_BYTES, HEIGHT_MAP_MAX_SIDE, read_input_bytes, read_text_file
-from contactrig.core.validation import SCENE_TABLES, SettingError, check_keys
+from contactrig.core.validation import SCENE_TABLES, SettingError, check_choice, check_keys
 
 __all__ = [
     "KNOWN_TABLES",
+    "SCENE_KEYS",
     "HeightMap",
     "Scene",
     "default_scene_text",
@@ -59,6 +60,8 @@ __all__ = [
 ]
 
 KNOWN_TABLES = SCENE_TABLES
+#: The keys of the ``[scene]`` table: ``device`` is where the boundary-element solves run (``"cpu"``/``"gpu"``).
+SCENE_KEYS = ("name", "description", "device")
 
 
 @dataclass(frozen=True)
@@ -133,7 +136,9 @@ def parse_scene(text: str, source: str = "<string>", *, base_dir: str | Path | N
     scene_table = data.get("scene", {})
     if not isinstance(scene_table, dict):
         raise SettingError("scene", scene_table, "expected a TOML table")
-    check_keys("scene", scene_table, ("name", "description"))
+    check_keys("scene", scene_table, SCENE_KEYS)
+    if "device" in scene_table:  # where the boundary-element solves run (sims.bem_backend; issue 28)
+        check_choice("scene.device", scene_table["device"], ("cpu", "gpu"))
     maps = load_height_maps(data, base_dir) if base_dir is not None else _no_height_maps()
     return Scene(text=text, data=data, source=source, height_maps=maps)
 

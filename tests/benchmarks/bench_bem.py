@@ -22,9 +22,14 @@ Fairness (issue 21 §5):
 * **Best of three** for every code (``--repeats``), at the tolerance that reached the target.
 * **Peak memory of the whole process**: VmHWM of the child at the end (imports, surface, solver — everything), and the
   growth during the solves (VmHWM reset through /proc/self/clear_refs before them).
+* **The FFT limit** (issue 28): each child also times one ``scipy.fft`` rfft2 + irfft2 pair at its grid and thread
+  count (best of 7, before and after the solves); our rows print the time per iteration, its ratio to that pair, and
+  the FFT pairs our solver spent per iteration (counted). ``ours`` is the default (Fourier-preconditioned) solver,
+  ``ours-pk`` the plain Polonsky–Keer directions (``precondition=False``). The load average is printed before and
+  after: on a shared machine, compare only rows of one run.
 
-Run: .venv/bin/python tests/benchmarks/bench_bem.py [--sizes 256,512,1024] [--threads 1,2] [--codes ours,tamaas,cm]
-     [--hardness 0.03] [--tol 1e-8] [--target 1e-8] [--repeats 3] [--json FILE]
+Run: .venv/bin/python tests/benchmarks/bench_bem.py [--sizes 256,512,1024] [--threads 1,2]
+     [--codes ours,ours-pk,tamaas,cm] [--hardness 0.03] [--tol 1e-8] [--target 1e-8] [--repeats 3] [--json FILE]
 """
 
 from __future__ import annotations
@@ -105,14 +110,23 @@ def contact_error(pressure: np.ndarray, z: np.ndarray, hardness: float | None) -
 
 
 def _ours(
-    z: np.ndarray, hardness: float | None, tol: float, threads: int, count: bool = True
+    z: np.ndarray, hardness: float | None, tol: float, threads: int, count: bool = True, precondition: bool = True
 ) -> tuple[np.ndarray, int, bool, bool]:
     from sims import bem
 
     n = z.shape[0]
-    res = bem.solve_contact(z, 1.0 / n, E_STAR, PRESSURE, hardness=hardness, tol=tol, workers=threads)
+    res = bem.solve_contact(
+        z, 1.0 / n, E_STAR, PRESSURE, hardness=hardness, tol=tol, workers=threads, precondition=precondition
+    )
     limit = res.status == bem.STATUS_MAX_ITERATIONS
     return np.asarray(res.pressure), int(res.nit), res.status == bem.STATUS_CONVERGED, limit
+
+
+def _ours_pk(
+    z: np.ndarray, hardness: float | None, tol: float, threads: int, count: bool = True
+) -> tuple[np.ndarray, int, bool, bool]:
+    """Ours without the Fourier preconditioner: the plain Polonsky–Keer directions (the solver before issue 28)."""
+    return _ours(z, hardness, tol, threads, count, precondition=False)
 
 
 def _tamaas(
@@ -171,6 +185,7 @@ def _contact_mechanics(
 
 CODES: dict[str, Callable[..., tuple[np.ndarray, int, bool, bool]]] = {
     "ours": _ours,
+    "ours-pk": _ours_pk,
     "tamaas": _tamaas,
     "cm": _contact_mechanics,
 }
@@ -195,9 +210,40 @@ def _hwm_reset() -> bool:
         return False
 
 
+def fft_pair_seconds(n: int, threads: int, repeats: int = 7) -> float:
+    """The FFT limit: best time of one ``scipy.fft`` rfft2 + irfft2 pair, float64, n×n, ``threads`` workers."""
+    import scipy.fft as sfft
+
+    x = np.random.default_rng(0).random((n, n))
+    best = math.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        sfft.irfft2(sfft.rfft2(x, workers=threads), s=(n, n), workers=threads)
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def _count_ffts() -> dict[str, int]:
+    """Count our solver's real FFTs (forward and inverse) from now on: the pairs it spends per iteration."""
+    from sims.bem_backend import Backend
+
+    counts = {"rfft2": 0, "irfft2": 0}
+    for name in counts:
+        original = getattr(Backend, name)
+
+        def counted(self: Any, *a: Any, _f: Any = original, _k: str = name) -> Any:
+            counts[_k] += 1
+            return _f(self, *a)
+
+        setattr(Backend, name, counted)
+    return counts
+
+
 def child(n: int, case: str, code: str, threads: int, opts: dict[str, Any]) -> dict[str, Any]:
     """Run ``code``'s ladder of tolerances until the error reaches the target, then best of ``repeats``."""
     z = self_affine(n)
+    pair = fft_pair_seconds(n, threads)
+    ffts = _count_ffts() if code.startswith("ours") else None
     hardness = opts["hardness"] * E_STAR if case == "capped" else None
     run = CODES[code]
     rss0 = _status_kib("VmRSS")
@@ -205,7 +251,12 @@ def child(n: int, case: str, code: str, threads: int, opts: dict[str, Any]) -> d
     ladder = []
     tol = opts["tol"]
     while True:
+        if ffts is not None:
+            ffts.update(rfft2=0, irfft2=0)
+        t0 = time.perf_counter()
         p, nit, ok, limit = run(z, hardness, tol, threads, count=True)  # untimed: counts iterations
+        counting_s = time.perf_counter() - t0
+        spent = sum(ffts.values()) / 2 if ffts is not None else math.nan
         err = contact_error(p, z, hardness)
         ladder.append({"tol": tol, "error": err, "nit": nit, "converged": ok, "limit": limit})
         if limit or err <= opts["target"] or tol <= 1e-14 * 1.01:
@@ -217,10 +268,18 @@ def child(n: int, case: str, code: str, threads: int, opts: dict[str, Any]) -> d
             t0 = time.perf_counter()
             run(z, hardness, tol, threads, count=False)
             times.append(time.perf_counter() - t0)
+    pair = min(pair, fft_pair_seconds(n, threads))  # timed again after the solves: the quieter moment counts
     last = ladder[-1]
+    best = min(times) if times else (counting_s if code.startswith("ours") else math.nan)
+    per_it = best / nit if nit > 0 else math.nan
     return {
         **last,
-        "time": min(times) if times else math.nan,
+        "time": best,
+        "timed": bool(times),
+        "pair_ms": pair * 1e3,
+        "per_iteration_ms": per_it * 1e3,
+        "ratio_to_pair": per_it / pair,
+        "fft_pairs_per_iteration": spent / nit if nit > 0 else math.nan,
         "times": times,
         "ladder": ladder,
         "area": float(np.mean(p > 0)),
@@ -249,10 +308,15 @@ def _cell(r: dict[str, Any]) -> str:
     if "failed" in r:
         return f"not run ({r['failed'][:70]})"
     conv = "LIMIT" if r["limit"] else ("conv" if r["converged"] else "no-conv")
-    t = "— (hit its limit: no time)" if r["limit"] else f"{r['time']:8.3f} s"
+    t = "— (hit its limit: no time)" if r["limit"] else f"{r['time']:8.3f} s" + ("" if r["timed"] else "*")
     flag = "" if r["at_target"] else "  ABOVE TARGET"
+    per_it = ""
+    if math.isfinite(r["per_iteration_ms"]):
+        per_it = f" {r['per_iteration_ms']:7.1f} ms/it = {r['ratio_to_pair']:.2f}× pair ({r['pair_ms']:.1f} ms)"
+        if math.isfinite(r["fft_pairs_per_iteration"]):
+            per_it += f", {r['fft_pairs_per_iteration']:.2f} FFT pairs/it"
     return (
-        f"{t} it {r['nit']:>4} {conv:>5} tol {r['tol']:.0e} err {r['error']:.1e} area {r['area']:.5f} "
+        f"{t} it {r['nit']:>4} {conv:>5} tol {r['tol']:.0e} err {r['error']:.1e} area {r['area']:.5f}{per_it} "
         f"peak RSS {r['peak_rss_mb']:5.0f} MB (+{r['growth_mb']:.0f}){flag}"
     )
 
@@ -266,7 +330,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--hardness", type=float, default=0.03, help="hardness of the capped case, in units of E*")
     ap.add_argument("--tol", type=float, default=1e-8, help="first tolerance tried, each code's own measure")
     ap.add_argument("--target", type=float, default=1e-8, help="error every code must reach (common measure)")
-    ap.add_argument("--repeats", type=int, default=3, help="timed runs per code (best taken)")
+    ap.add_argument("--repeats", type=int, default=3, help="timed runs per code (best; 0: time the counting run, *)")
     ap.add_argument("--json", default=None, help="also write every result to this JSON file")
     ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -274,6 +338,7 @@ def main(argv: list[str] | None = None) -> None:
         n, case, code, threads, opts = json.loads(args.child)
         print(json.dumps(child(n, case, code, threads, opts)))
         return
+    print(f"load average before: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
     print(
         f"cores: {os.cpu_count()}; target error {args.target:g}·rms(z) (one measure for every code); capped "
         f"H = {args.hardness}·E*; best of {args.repeats}; LIMIT = hit its iteration limit (never a time)"
@@ -295,6 +360,7 @@ def main(argv: list[str] | None = None) -> None:
                 ref = REFERENCE.get(n)
                 if ref and case == "elastic" and threads == 1:
                     print(f"{'':20}reference notes: tamaas {ref[0]} s [{ref[1]} it]; CM {ref[2]} s [{ref[3]} it]")
+    print(f"\nload average after: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
     if args.json:
         Path(args.json).write_text(json.dumps(results, indent=1))
 

@@ -4,6 +4,7 @@ numbers in this process, on local processes and on a local Dask cluster (loopbac
 from __future__ import annotations
 
 from dataclasses import replace
+from itertools import pairwise
 
 import numpy as np
 import pytest
@@ -78,13 +79,33 @@ def test_local_processes_and_a_dask_cluster_give_the_same_numbers(small):
     _same(serial, pooled)
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
-        protocol="tcp", silence_logs=40,
+        n_workers=2, threads_per_worker=2, processes=True, host="127.0.0.1", dashboard_address=None,
+        protocol="tcp", silence_logs=40, resources={"GPU": 1},  # as `dask worker --nthreads 2 --resources GPU=1`
     ) as cluster:  # fmt: skip
         assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
         on_dask = ensemble.run_comparison(small, SETTINGS, scheduler=cluster.scheduler_address, timeout_s=30)
+        # issue 28 item 4: a GPU run's tasks ask for {"GPU": 1}: one task per worker at a time (two without it)
+        runs = ensemble._run_dask(_on_worker, list(range(4)), cluster.scheduler_address, 30, gpu=True)
     assert on_dask.provenance["executor"].startswith("dask tcp://127.0.0.1:")
     _same(serial, on_dask)
+    spans: dict[str, list[tuple[float, float]]] = {}
+    for address, start, end in runs:
+        spans.setdefault(address, []).append((start, end))
+    assert len(spans) == 2
+    for worker in spans.values():
+        worker.sort()
+        assert all(later[0] >= earlier[1] for earlier, later in pairwise(worker))
+
+
+def _on_worker(task: int) -> tuple[str, float, float]:
+    """A stand-in task of 0.3 s: which Dask worker ran it, and when (s, monotonic clock of that machine)."""
+    import time
+
+    from distributed import get_worker
+
+    t0 = time.monotonic()
+    time.sleep(0.3)
+    return get_worker().address, t0, time.monotonic()
 
 
 def test_invalid_settings_raise(small):
