@@ -17,10 +17,13 @@ import warnings
 from collections.abc import Iterable, MutableMapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from contactrig.core.text import escape_terminal
 from daq.errors import NewerSchemaError
+
+if TYPE_CHECKING:
+    from daq.session_file import Session
 
 __all__ = ["SESSION_SUFFIXES", "SORT_KEYS", "SessionEntry", "format_table", "index_sessions", "session_entry"]
 
@@ -83,6 +86,12 @@ def _text(value: Any) -> str:
 
 def session_entry(path: str | Path, *, timeout: float | None = None) -> SessionEntry:
     """The index row of one file; never raises for anything the file holds (only KeyboardInterrupt goes through)."""
+    return session_and_entry(path, timeout=timeout)[1]
+
+
+def session_and_entry(path: str | Path, *, timeout: float | None = None) -> tuple[Session | None, SessionEntry]:
+    """The session read from ``path`` (None when it cannot be read) and its index row (:func:`session_entry`): one
+    bounded read for callers that keep more of the session than the row (:mod:`daq.run_index`)."""
     from daq.session_file import load_session
 
     p = Path(path)
@@ -91,10 +100,14 @@ def session_entry(path: str | Path, *, timeout: float | None = None) -> SessionE
             warnings.simplefilter("ignore")
             s = load_session(p, timeout=timeout)
     except NewerSchemaError as exc:
-        return SessionEntry(str(p), "newer", note=_first_line(exc))
+        return None, SessionEntry(str(p), "newer", note=_first_line(exc))
     except Exception as exc:  # untrusted files: any failure is one row, never an exception
         status = "other" if _NOT_A_SESSION in str(exc) else "corrupt"
-        return SessionEntry(str(p), status, note=_first_line(exc))
+        return None, SessionEntry(str(p), status, note=_first_line(exc))
+    return s, _entry_of(p, s)
+
+
+def _entry_of(p: Path, s: Session) -> SessionEntry:
     start = s.start if isinstance(s.start, dict) else {}
     session_plan = (start.get("plan") or {}).get("session") or {}
     return SessionEntry(
