@@ -33,6 +33,7 @@ import os
 import re
 import sqlite3
 import stat
+import time
 from collections.abc import Iterable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -325,8 +326,15 @@ def _stamp(path: Path) -> tuple[int, int, int, int] | None:
     return st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino
 
 
-def _row(path: str, stamp: tuple[int, int, int, int] | None, rec: dict[str, Any]) -> tuple[Any, ...]:
-    size, mtime, ctime, ino = stamp if stamp is not None and rec["status"] != "running" else (None,) * 4
+_Stamp = tuple[int, int, int, int]
+#: A file modified less than this before a refresh began is read again at the next one: a change within the
+#: file system's time resolution would leave size and times as they were (git's "racily clean" entries).
+_SETTLE_NS = 2_000_000_000
+
+
+def _row(path: str, stamp: _Stamp | None, rec: dict[str, Any], settled_ns: int) -> tuple[Any, ...]:
+    trusted = stamp is not None and stamp[1] < settled_ns and rec["status"] != "running"
+    size, mtime, ctime, ino = stamp if stamp is not None and trusted else (None,) * 4
     return (
         path, size, mtime, ctime, ino, rec["content_id"], rec["status"], rec["start_utc"], rec["sample"],
         rec["operator"], rec["scene"], " ".join(rec["serials"]), json.dumps(rec),
@@ -343,9 +351,6 @@ def _write_session(con: sqlite3.Connection, row: tuple[Any, ...], notes_text: st
 def _delete_session(con: sqlite3.Connection, path: str) -> None:
     con.execute("DELETE FROM sessions WHERE path = ?", (path,))
     con.execute("DELETE FROM notes_text WHERE path = ?", (path,))
-
-
-_Stamp = tuple[int, int, int, int]
 
 
 def _changes(
@@ -370,6 +375,7 @@ def _changes(
 def _refresh(con: sqlite3.Connection, root: Path, result: Refresh, jobs: int, timeout: float | None) -> None:
     """Bring the index ``con`` of ``root`` up to date; paths are kept relative to ``root`` (the index still holds
     when the folder is moved or mounted elsewhere)."""
+    settled = time.time_ns() - _SETTLE_NS
     files, sidecars = _walk(root)
     known = {
         r[0]: (r[1], r[2], r[3], r[4])
@@ -396,10 +402,10 @@ def _refresh(con: sqlite3.Connection, root: Path, result: Refresh, jobs: int, ti
                 result.moved += 1
             if kept is not None and not os.path.lexists(root / old):
                 _delete_session(con, old)
-            _write_session(con, _row(new, on_disk[new], rec), rec["notes"])
+            _write_session(con, _row(new, on_disk[new], rec, settled), rec["notes"])
         for (_, p), rec in zip(to_read, records, strict=True):
             same = _stamp(root / p) == on_disk[p]  # else it changed while read: listed, read again next time
-            _write_session(con, _row(p, on_disk[p] if same else None, rec), rec["notes"])
+            _write_session(con, _row(p, on_disk[p] if same else None, rec, settled), rec["notes"])
             result.read += 1
         result.kept = len(on_disk) - len(changed)
         _refresh_sidecars(con, root, sidecars)
