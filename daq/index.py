@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import os
 import warnings
-from collections.abc import Iterable, MutableMapping, Sequence
+from collections.abc import Callable, Iterable, MutableMapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -89,16 +89,20 @@ def session_entry(path: str | Path, *, timeout: float | None = None) -> SessionE
     return session_and_entry(path, timeout=timeout)[1]
 
 
-def session_and_entry(path: str | Path, *, timeout: float | None = None) -> tuple[Session | None, SessionEntry]:
+def session_and_entry(
+    path: str | Path, *, timeout: float | None = None, load: Callable[..., Session] | None = None
+) -> tuple[Session | None, SessionEntry]:
     """The session read from ``path`` (None when it cannot be read) and its index row (:func:`session_entry`): one
-    bounded read for callers that keep more of the session than the row (:mod:`daq.run_index`)."""
+    bounded read for callers that keep more of the session than the row (:mod:`daq.run_index`). ``load``: the
+    reader (default :func:`daq.session_file.load_session`; a caller already inside a bounded child passes the
+    reader's work without a second child)."""
     from daq.session_file import load_session
 
     p = Path(path)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            s = load_session(p, timeout=timeout)
+            s = (load or load_session)(p, timeout=timeout)
     except NewerSchemaError as exc:
         return None, SessionEntry(str(p), "newer", note=_first_line(exc))
     except Exception as exc:  # untrusted files: any failure is one row, never an exception

@@ -215,6 +215,49 @@ def _mapping(value: Any) -> dict[str, Any]:
     return value if isinstance(value, dict) else {}
 
 
+#: Files read by one bounded child in a row (the fork is paid once per batch, not once per file).
+BATCH = 48
+
+
+def _load_here(path: Path, *, timeout: float | None = None) -> Session:
+    """The bounded reader's own work (:func:`daq.session_reader.load_session` in its child: regular file, read,
+    checksums and seal), run inside a child that :func:`_read_batch` already bounds."""
+    from daq.bounded import check_regular_file
+    from daq.session_reader import _load
+
+    check_regular_file(path, "session file")
+    return _load(path, True)
+
+
+def _records_here(paths: list[Path]) -> list[dict[str, Any]]:
+    return [record_of(p, *session_and_entry(p, load=_load_here)) for p in paths]
+
+
+def _read_batch(paths: list[Path], timeout: float | None) -> list[dict[str, Any]]:
+    """:func:`session_record` of each of ``paths``, read one after the other in one bounded child process (deadline:
+    that of all their bytes); a batch that hangs or crashes the HDF5 library is read again file by file, each in its
+    own child, so the bad file is found and listed with its reason."""
+    from daq.bounded import call_bounded, timeout_for
+    from daq.errors import SessionFileError
+
+    sizes = [s[0] for s in (_stamp(p) for p in paths) if s is not None]
+    limit = timeout_for(sum(sizes)) + 0.05 * len(paths)
+    try:
+        return call_bounded(_records_here, (paths,), path=paths[0], what="session file", timeout=limit)
+    except (SessionFileError, OSError):
+        return [session_record(p, timeout=timeout) for p in paths]
+
+
+def _read_all(paths: list[Path], jobs: int, timeout: float | None) -> list[dict[str, Any]]:
+    """Records of ``paths`` in order, ``jobs`` bounded children at once (threads waiting on them)."""
+    if not paths:
+        return []
+    size = max(1, min(BATCH, -(-len(paths) // max(1, jobs))))
+    batches = [paths[i : i + size] for i in range(0, len(paths), size)]
+    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
+        return [r for batch in pool.map(lambda b: _read_batch(b, timeout), batches) for r in batch]
+
+
 def entry_of(record: dict[str, Any]) -> SessionEntry:
     """The :class:`daq.index.SessionEntry` of an index record (for :func:`daq.index.format_table`)."""
     names = SessionEntry.__dataclass_fields__
@@ -383,8 +426,7 @@ def _refresh(con: sqlite3.Connection, root: Path, result: Refresh, jobs: int, ti
     }
     on_disk = {os.path.relpath(f, root): _stamp(f) for f in files}
     gone, changed, moves, to_read = _changes(known, on_disk)
-    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:  # each read runs in its own child process
-        records = list(pool.map(lambda p: session_record(root / p, timeout=timeout), [p for _, p in to_read]))
+    records = _read_all([root / p for _, p in to_read], jobs, timeout)
     moved_from = {old for old, _ in moves}
     con.execute("BEGIN IMMEDIATE")
     try:
@@ -635,12 +677,13 @@ def query(
     include_other: bool = False,
     jobs: int = 2,
     timeout: float | None = None,
+    refresh: bool = True,
 ) -> tuple[list[dict[str, Any]], Refresh]:
     """The sessions under ``folder`` that meet every condition of ``where`` (``--where`` texts or
     :class:`Condition`), each a :func:`session_record` plus ``tags`` and ``remarks`` (each with ``who`` and
     ``at``), sorted by ``sort`` (:data:`daq.index.SORT_KEYS`; start: by the UTC instant; unreadable files last),
-    after a refresh of the index; the :class:`Refresh` says what was read and any note. The console can call this
-    as it is."""
+    after a refresh of the index (``refresh=False``: the index as it is, e.g. for a page that refreshes in the
+    background); the :class:`Refresh` says what was read and any note. The console can call this as it is."""
     from contactrig.core.validation import check_choice
 
     check_choice("--sort", sort, SORT_KEYS)
@@ -649,7 +692,8 @@ def query(
     notes: list[str] = []
     with _connect(root, notes) as (con, where_):
         result = Refresh(where_, notes=notes)
-        _refresh(con, root, result, jobs, timeout)
+        if refresh or where_ is None:
+            _refresh(con, root, result, jobs, timeout)
         return _select(con, root, conditions, sort, include_other), result
 
 

@@ -200,3 +200,19 @@ def test_schema_versions_upgrade_and_a_newer_or_damaged_index(folder):
     (folder / ri.INDEX_NAME).write_bytes(b"this is not a database" * 100)
     rows, refreshed = ri.query(folder)
     assert len(rows) == 5 and "damaged" in refreshed.notes[0] and refreshed.index is not None
+
+
+def test_a_batch_that_crashes_the_reader_is_read_again_file_by_file(folder, monkeypatch):
+    """Files are read many to a bounded child; a file that kills that child (as a damaged file can crash the HDF5
+    library) costs the batch, which is read again one file per child: every file is still listed."""
+    real = ri._load_here
+
+    def crashing(path, **kw):
+        if path.name == "garbage.h5":
+            os.kill(os.getpid(), 11)  # SIGSEGV in the child
+        return real(path, **kw)
+
+    monkeypatch.setattr(ri, "_load_here", crashing)
+    got = _by_name(ri.query(folder, jobs=1)[0])
+    assert set(got) == {"a.h5", "b.h5", "c.h5", "garbage.h5", "cut.h5"}
+    assert got["a.h5"]["status"] == "success" and got["garbage.h5"]["status"] == "corrupt"
