@@ -293,8 +293,10 @@ def _connect(root: Path, notes: list[str]) -> Iterator[tuple[sqlite3.Connection,
         except (sqlite3.DatabaseError, OSError) as exc:
             why = f"{index} cannot be used ({exc})"
             if isinstance(exc, sqlite3.DatabaseError) and not isinstance(exc, sqlite3.OperationalError):
-                with contextlib.suppress(OSError):  # a damaged cache: rebuilt from the files
-                    os.unlink(index)
+                with contextlib.suppress(OSError, sqlite3.Error):  # a damaged cache: rebuilt from the files
+                    for suffix in ("-wal", "-shm", ""):
+                        with contextlib.suppress(FileNotFoundError):
+                            os.unlink(f"{index}{suffix}")
                     con, where, why = _open(str(index)), index, ""
                     notes.append(f"{index} was damaged: rebuilt from the session files")
     if con is None:
