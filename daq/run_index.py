@@ -644,7 +644,12 @@ _ORDER = {
 
 
 def _select(
-    con: sqlite3.Connection, root: Path, conditions: Iterable[Condition], sort: str, include_other: bool
+    con: sqlite3.Connection,
+    root: Path,
+    conditions: Iterable[Condition],
+    sort: str,
+    include_other: bool,
+    limit: int | None = None,
 ) -> list[dict[str, Any]]:
     clauses, params = ["1"], []
     for c in conditions:
@@ -655,8 +660,9 @@ def _select(
         clauses.append("s.status != 'other'")
     unreadable = "(s.status IN ('corrupt', 'newer', 'other'))"
     rows = con.execute(
-        f"SELECT s.record, s.path FROM sessions s WHERE {' AND '.join(clauses)} ORDER BY {unreadable}, {_ORDER[sort]}",
-        params,
+        f"SELECT s.record, s.path FROM sessions s WHERE {' AND '.join(clauses)} ORDER BY {unreadable}, {_ORDER[sort]} "
+        "LIMIT ?",
+        [*params, -1 if limit is None else max(0, limit)],
     ).fetchall()
     marks: dict[str, dict[str, list[dict[str, str]]]] = {}
     for cid, kind, text, who, at in con.execute("SELECT content_id, kind, text, who, at FROM marks ORDER BY at"):
@@ -680,12 +686,14 @@ def query(
     jobs: int = 2,
     timeout: float | None = None,
     refresh: bool = True,
+    limit: int | None = None,
 ) -> tuple[list[dict[str, Any]], Refresh]:
     """The sessions under ``folder`` that meet every condition of ``where`` (``--where`` texts or
     :class:`Condition`), each a :func:`session_record` plus ``tags`` and ``remarks`` (each with ``who`` and
     ``at``), sorted by ``sort`` (:data:`daq.index.SORT_KEYS`; start: by the UTC instant; unreadable files last),
     after a refresh of the index (``refresh=False``: the index as it is, e.g. for a page that refreshes in the
-    background); the :class:`Refresh` says what was read and any note. The console can call this as it is."""
+    background; ``limit``: at most that many rows, e.g. one page); the :class:`Refresh` says what was read and any note.
+    The console can call this as it is."""
     from contactrig.core.validation import check_choice
 
     check_choice("--sort", sort, SORT_KEYS)
@@ -696,7 +704,7 @@ def query(
         result = Refresh(where_, notes=notes)
         if refresh or where_ is None:
             _refresh(con, root, result, jobs, timeout)
-        return _select(con, root, conditions, sort, include_other), result
+        return _select(con, root, conditions, sort, include_other, limit), result
 
 
 def indexed_rows(folder: str | Path) -> list[tuple[str, str, str, bool, tuple[str, ...]]]:

@@ -138,6 +138,8 @@ def test_where_filters(folder):
     assert names("start>=2026-01-01T11:00:00+01:00", "start<=2026-01-01") == ["a.h5"]
     assert names(f"serial={_serials()[0]}") == ["a.h5", "b.h5", "c.h5"] and names("serial=999") == []
     assert names("scene=daq-test") == ["a.h5", "b.h5", "c.h5"]
+    first = ri.query(folder, ["scene=daq-test"], limit=2)[0]  # one page, in start order (UTC)
+    assert [os.path.basename(r["path"]) for r in first] == ["c.h5", "a.h5"]
 
 
 @pytest.mark.parametrize("bad", ["sample", "color=red", "start=2026-01-01", "start>=yesterday", "sample>=a", "text~!!"])
