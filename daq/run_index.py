@@ -81,6 +81,7 @@ WHERE_KEYS: dict[str, tuple[str, str]] = {
     "text": ("~", "words in the notes or remarks (full text, all words)"),
     "start": ("<>", "start date or instant, UTC (start>=2026-01-01, start<=2026-01-31)"),
 }
+_STATUSES = ("success", "aborted", "failed", "running", "incomplete", "corrupt", "newer", "other")
 _WHERE = re.compile(r"^\s*([a-z]+)\s*(>=|<=|=|~)\s*(.*?)\s*$", re.S)
 
 _SCHEMA_V1 = """
@@ -586,6 +587,8 @@ def parse_where(text: str) -> Condition:
         raise SettingError("--where", text, f"{key}: {WHERE_KEYS[key][1]}")
     if key == "start":
         _instant(value, op, text)
+    if key == "status" and value not in _STATUSES:
+        raise SettingError("--where", text, "status=" + "|".join(_STATUSES))
     if key == "text" and not _words(value):
         raise SettingError("--where", text, "text~WORDS with at least one word")
     return Condition(key, op, value)
@@ -635,7 +638,7 @@ def _sql(c: Condition) -> tuple[str, list[Any]]:
 
 
 _ORDER = {
-    "start": "s.start_utc, s.path",
+    "start": "s.start_utc = '', s.start_utc, s.path",  # a start without its UTC offset: after the others
     "sample": "lower(s.sample), s.path",
     "operator": "lower(s.operator), s.path",
     "status": "s.status, s.path",

@@ -142,7 +142,9 @@ def test_where_filters(folder):
     assert [os.path.basename(r["path"]) for r in first] == ["c.h5", "a.h5"]
 
 
-@pytest.mark.parametrize("bad", ["sample", "color=red", "start=2026-01-01", "start>=yesterday", "sample>=a", "text~!!"])
+@pytest.mark.parametrize(
+    "bad", ["sample", "color=red", "start=2026-01-01", "start>=yesterday", "sample>=a", "text~!!", "status=done"]
+)
 def test_a_bad_where_is_one_line_exit_2(folder, bad, capsys):
     assert main(["sessions", str(folder), "--where", bad]) == 2
     err = capsys.readouterr().err
