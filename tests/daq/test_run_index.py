@@ -103,6 +103,13 @@ def test_a_refresh_reads_only_what_changed_and_a_move_keeps_the_row(folder):
     assert _by_name(ri.query(folder)[0])["moved.h5"]["content_id"] == before
     os.unlink(folder / "sub" / "moved.h5")
     assert ri.refresh(folder).removed == 1
+    # damaged in place, same size, its time of modification put back: the time of change still tells
+    st = (folder / "c.h5").stat()
+    with open(folder / "c.h5", "r+b") as f:
+        f.write(b"\0" * 512)
+    os.utime(folder / "c.h5", ns=(st.st_atime_ns, st.st_mtime_ns))
+    assert ri.refresh(folder).read == 1
+    assert _by_name(ri.query(folder)[0])["c.h5"]["status"] == "corrupt"
     assert ri.indexed_rows(folder) == ri.fresh_scan(folder)
 
 
