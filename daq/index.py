@@ -21,14 +21,17 @@ from __future__ import annotations
 import math
 import os
 import warnings
-from collections.abc import Iterable, MutableMapping, Sequence
+from collections.abc import Callable, Iterable, MutableMapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from contactrig.core.text import escape_terminal, shown
 from daq.errors import NewerSchemaError
+
+if TYPE_CHECKING:
+    from daq.session_file import Session
 
 __all__ = ["SESSION_SUFFIXES", "SORT_KEYS", "SessionEntry", "format_table", "index_sessions", "session_entry"]
 
@@ -125,22 +128,39 @@ def _named(entry: SessionEntry) -> SessionEntry:
 def session_entry(path: str | Path, *, timeout: float | None = None) -> SessionEntry:
     """The index row of one file; never raises for anything the file holds or its name (only KeyboardInterrupt
     goes through); every string in it is valid Unicode."""
-    return _named(_read_entry(path, timeout))
+    return session_and_entry(path, timeout=timeout)[1]
 
 
-def _read_entry(path: str | Path, timeout: float | None) -> SessionEntry:
+def session_and_entry(
+    path: str | Path, *, timeout: float | None = None, load: Callable[..., Session] | None = None
+) -> tuple[Session | None, SessionEntry]:
+    """The session read from ``path`` (None when it cannot be read) and its index row (:func:`session_entry`, with
+    its path valid Unicode): one bounded read for callers that keep more of the session than the row
+    (:mod:`daq.run_index`). ``load``: the reader (default :func:`daq.session_file.load_session`; a caller already
+    inside a bounded child passes the reader's work without a second child)."""
+    session, entry = _read(path, timeout, load)
+    return session, _named(entry)
+
+
+def _read(
+    path: str | Path, timeout: float | None, load: Callable[..., Session] | None
+) -> tuple[Session | None, SessionEntry]:
     from daq.session_file import load_session
 
     p = Path(path)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            s = load_session(p, timeout=timeout)
+            s = (load or load_session)(p, timeout=timeout)
     except NewerSchemaError as exc:
-        return SessionEntry(str(p), "newer", note=_first_line(exc))
+        return None, SessionEntry(str(p), "newer", note=_first_line(exc))
     except Exception as exc:  # untrusted files: any failure is one row, never an exception
         status = "other" if _NOT_A_SESSION in str(exc) else "corrupt"
-        return SessionEntry(str(p), status, note=_first_line(exc))
+        return None, SessionEntry(str(p), status, note=_first_line(exc))
+    return s, _entry_of(p, s)
+
+
+def _entry_of(p: Path, s: Session) -> SessionEntry:
     start = s.start if isinstance(s.start, dict) else {}
     session_plan = (start.get("plan") or {}).get("session") or {}
     return SessionEntry(

@@ -81,7 +81,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="index of the session files under a folder: start, sample, operator, status, blocks, simulated or real",
         description=(
             "List every session file (.h5, .hdf5, .nxs) under DIR (default: the current folder), sorted by start "
-            "time. A file that cannot be read is listed as CORRUPT with the reason; nothing stops the listing."
+            "time. A file that cannot be read is listed as CORRUPT with the reason; nothing stops the listing. The "
+            "listing is kept in DIR/.contactrig-index.sqlite (a cache: only new or changed files are read again; "
+            "deleting it loses nothing); tags and remarks in .contactrig-notes.jsonl beside the sessions."
         ),
     )
     s.add_argument("folder", nargs="?", default=".", metavar="DIR", help="folder to search (recursively)")
@@ -91,6 +93,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     s.add_argument("--all", action="store_true", help="also list HDF5 files that are not sessions")
     s.add_argument("--json", action="store_true", help="print the index as JSON")
+    from contactrig.cli.session_index import add_index_options
+
+    add_index_options(s)  # the run index (issue 29): --where, --tag, --remark, --diff
     s.set_defaults(handler=sessions_command)
 
 
@@ -149,7 +154,12 @@ def export_command(args: argparse.Namespace) -> int:
 
 
 def sessions_command(args: argparse.Namespace) -> int:
+    from contactrig.cli.session_index import index_command
     from daq.index import format_table, index_sessions
+
+    done = index_command(args)  # a folder: through its run index (DIR/.contactrig-index.sqlite)
+    if done is not None:
+        return done
 
     entries = index_sessions(args.folder, sample=args.sample, sort=args.sort, include_other=args.all)
     if args.json:

@@ -1,0 +1,736 @@
+"""The run index: a rebuildable SQLite cache over the sealed session files of a folder tree, searchable.
+
+The session files are the record; the index is a cache of what they say, kept in ``DIR/.contactrig-index.sqlite``
+(standard library :mod:`sqlite3`, WAL mode, ``PRAGMA user_version`` with numbered upgrades). Deleting it loses
+nothing: the next listing reads the files again. What operators add afterwards (tags, remarks) lives in an
+append-only sidecar per folder, ``.contactrig-notes.jsonl`` (one JSON object a line, with who wrote it and when),
+never in the sealed session; the index reads the sidecars, so tags and remarks survive a rebuild.
+
+Refresh: every session file under DIR is ``stat``-ed; a file whose size, time of modification, time of change and
+inode are those the index holds is not read again. Every other file is read with the one bounded reader
+(:func:`daq.index.session_and_entry`: a child process per file, checksums and seal verified, a deadline), two at a
+time by default. A file renamed or moved inside the tree (same inode, size and time of modification) keeps its row
+without a read; a copy elsewhere is recognised by its content id (the SHA-256 of its first start record), and tags
+and remarks follow the content id. A damaged file is a row with status ``corrupt`` and the reader's reason, never
+dropped, never fatal. A running session is read again at every refresh.
+
+Concurrency: reads happen outside any transaction; the changes are written in one ``BEGIN IMMEDIATE`` transaction
+(SQLite serialises writers; ``busy_timeout`` 30 s), and a row is written only when the file still has the stamp it
+was read with. SQLite's WAL needs shared memory: on a network share the index may not be safe (SQLite's own advice);
+the sessions themselves are never written by the index. A read-only folder, an index path that is a symbolic link,
+or an index from a newer contactrig: the folder is scanned into memory instead, and the result says so.
+
+Fit verdicts are not recorded with the sessions (a fit is a separate result: ``contactrig fit … --json``), so the
+index holds none: the ``fit`` column is always null until a fit is recorded beside the sessions.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+import re
+import sqlite3
+import stat
+import time
+from collections.abc import Iterable, Iterator, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from datetime import UTC, date, datetime, timedelta
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from daq.index import SESSION_SUFFIXES, SORT_KEYS, SessionEntry, session_and_entry
+
+if TYPE_CHECKING:
+    from daq.session_file import Session
+
+__all__ = [
+    "INDEX_NAME",
+    "SCHEMA_VERSION",
+    "SIDECAR_NAME",
+    "WHERE_KEYS",
+    "Refresh",
+    "add_mark",
+    "content_id",
+    "entry_of",
+    "parse_where",
+    "query",
+    "record_of",
+    "refresh",
+    "session_record",
+]
+
+#: The index file inside the folder it indexes (hidden).
+INDEX_NAME = ".contactrig-index.sqlite"
+#: The append-only file of tags and remarks inside each folder (hidden).
+SIDECAR_NAME = ".contactrig-notes.jsonl"
+#: ``PRAGMA user_version`` of the index this contactrig writes; :data:`_UPGRADES` takes an older one there.
+SCHEMA_VERSION = 1
+#: Statuses of files that are not readable sessions (listed last).
+UNREADABLE = ("corrupt", "newer", "other")
+#: ``--where`` keys: key → (operators allowed, what it matches).
+WHERE_KEYS: dict[str, tuple[str, str]] = {
+    "sample": ("=~", "the sample (= equal, ~ contains; case-insensitive)"),
+    "operator": ("=~", "the operator"),
+    "scene": ("=~", "the scene name"),
+    "status": ("=", "success, aborted, failed, running, incomplete, corrupt, newer"),
+    "serial": ("=", "the serial number of either instrument (from *IDN?)"),
+    "tag": ("=", "a tag added with `contactrig sessions FILE --tag`"),
+    "text": ("~", "words in the notes or remarks (full text, all words)"),
+    "start": ("<>", "start date or instant, UTC (start>=2026-01-01, start<=2026-01-31)"),
+}
+_STATUSES = ("success", "aborted", "failed", "running", "incomplete", "corrupt", "newer", "other")
+_WHERE = re.compile(r"^\s*([a-z]+)\s*(>=|<=|=|~)\s*(.*?)\s*$", re.S)
+
+_SCHEMA_V1 = """
+CREATE TABLE sessions (
+    path TEXT PRIMARY KEY, size INTEGER, mtime_ns INTEGER, ctime_ns INTEGER, inode INTEGER,
+    content_id TEXT NOT NULL, status TEXT NOT NULL, start_utc TEXT NOT NULL, sample TEXT NOT NULL,
+    operator TEXT NOT NULL, scene TEXT NOT NULL, serials TEXT NOT NULL, record TEXT NOT NULL);
+CREATE INDEX sessions_content ON sessions(content_id);
+CREATE INDEX sessions_start ON sessions(start_utc);
+CREATE TABLE sidecars (path TEXT PRIMARY KEY, size INTEGER, mtime_ns INTEGER);
+CREATE TABLE marks (sidecar TEXT NOT NULL, line INTEGER NOT NULL, content_id TEXT NOT NULL, kind TEXT NOT NULL,
+    text TEXT NOT NULL, who TEXT NOT NULL, at TEXT NOT NULL, file TEXT NOT NULL, PRIMARY KEY (sidecar, line));
+CREATE INDEX marks_content ON marks(content_id);
+CREATE VIRTUAL TABLE notes_text USING fts5(path UNINDEXED, body);
+CREATE VIRTUAL TABLE remarks_text USING fts5(content_id UNINDEXED, body);
+"""
+#: Numbered upgrades: ``_UPGRADES[k]`` takes an index of version k to k + 1.
+_UPGRADES: dict[int, str] = {0: _SCHEMA_V1}
+
+
+@dataclass
+class Refresh:
+    """What a refresh did: files ``read``, ``kept`` (unchanged), ``moved`` (renamed, row kept), ``removed``; ``index``
+    the index file (None: scanned into memory, ``notes`` say why)."""
+
+    index: Path | None
+    read: int = 0
+    kept: int = 0
+    moved: int = 0
+    removed: int = 0
+    notes: list[str] = field(default_factory=list)
+
+
+# --- one file ------------------------------------------------------------------------------------------------------
+
+
+def content_id(start: dict[str, Any]) -> str:
+    """The content id of a session: SHA-256 of its first start record (canonical JSON): the same for a copy, a
+    renamed file and a resumed session, different for every session started."""
+    text = json.dumps(start, sort_keys=True, ensure_ascii=True, default=str, allow_nan=True)
+    return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
+
+
+def _bytes_id(path: Path) -> str:
+    """The content id of an unreadable file: SHA-256 of its bytes (of its first and last 8 MiB beyond 16 MiB)."""
+    h = hashlib.sha256()
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0))
+    except OSError:
+        return "bytes:unreadable:" + hashlib.sha256(str(path).encode()).hexdigest()
+    with os.fdopen(fd, "rb") as f:
+        st = os.fstat(f.fileno())
+        if not stat.S_ISREG(st.st_mode):
+            return "bytes:not-a-file:" + hashlib.sha256(str(path).encode()).hexdigest()
+        if st.st_size <= 16 << 20:
+            h.update(f.read())
+        else:
+            h.update(f.read(8 << 20))
+            f.seek(-(8 << 20), os.SEEK_END)
+            h.update(f.read())
+            h.update(str(st.st_size).encode())
+    return "bytes:" + h.hexdigest()
+
+
+def _utc(text: str) -> str:
+    """An ISO-8601 instant with its UTC offset, as UTC (``2026-01-01T10:00:00.000000+00:00``); "" when unparsable or
+    without an offset (an instant without one cannot be ordered against others)."""
+    try:
+        t = datetime.fromisoformat(text)
+    except (TypeError, ValueError):
+        return ""
+    if t.tzinfo is None:
+        return ""
+    return t.astimezone(UTC).isoformat(timespec="microseconds")
+
+
+def _serial(idn: str) -> str:
+    """The serial number in an ``*IDN?`` reply (maker, model, serial, firmware)."""
+    parts = [p.strip() for p in idn.split(",")]
+    return parts[2] if len(parts) >= 4 else ""
+
+
+def session_record(path: str | Path, *, timeout: float | None = None) -> dict[str, Any]:
+    """Everything the index holds about one file, read once with the bounded reader; never raises for what the file
+    holds. Keys: those of :class:`daq.index.SessionEntry` plus ``content_id``, ``start_utc``, ``end_time``,
+    ``scene_sha256``, ``overrides``, ``instruments`` (``*IDN?`` of source and voltmeter), ``serials``,
+    ``settings`` (the pinned state read back at the start, the delta and instrument settings of the plan),
+    ``invalid_readings``, ``software`` (versions), ``software_version`` and ``fit`` (None: not recorded)."""
+    p = Path(path)
+    session, entry = session_and_entry(p, timeout=timeout)
+    return record_of(p, session, entry)
+
+
+def record_of(p: Path, session: Session | None, entry: SessionEntry) -> dict[str, Any]:
+    """:func:`session_record` of a session already read (None: unreadable) and its index row."""
+    from contactrig.core.fingerprint import sha256_text
+
+    record: dict[str, Any] = {
+        **entry.as_dict(), "content_id": "", "start_utc": _utc(entry.start_time), "end_time": "",
+        "scene_sha256": "", "overrides": {}, "instruments": {}, "serials": [], "settings": {},
+        "invalid_readings": 0, "software": {}, "software_version": "", "fit": None,
+    }  # fmt: skip
+    if session is None:
+        record["content_id"] = _bytes_id(p)
+        return record
+    start = session.start if isinstance(session.start, dict) else {}
+    first = session.runs[0] if session.runs and isinstance(session.runs[0], dict) else start
+    instrument, plan, software = (_mapping(start.get(k)) for k in ("instrument", "plan", "software"))
+    idns = {k: str(instrument[k]) for k in ("source", "voltmeter") if isinstance(instrument.get(k), str)}
+    stop = session.stop or {}
+    invalid = session.summary["n_invalid"].sum() if "n_invalid" in session.summary else 0
+    record.update(
+        content_id=content_id(first),
+        end_time=str(stop.get("stopped", "")),
+        scene_sha256=sha256_text(session.scene_text) if session.scene_text else "",
+        overrides=_mapping(start.get("overrides")),
+        instruments=idns,
+        serials=sorted({s for s in (_serial(v) for v in idns.values()) if s}),
+        settings={
+            "pinned_state": instrument.get("pinned_state") or {},
+            "delta": plan.get("delta") or {},
+            "instrument": plan.get("instrument") or {},
+        },
+        invalid_readings=int(invalid),
+        software={str(k): str(v) for k, v in software.items()},
+        software_version=str(software.get("contactrig", "")),
+    )
+    return json.loads(json.dumps(record, default=str))  # plain JSON values (numpy scalars, non-finite floats)
+
+
+def _mapping(value: Any) -> dict[str, Any]:
+    return value if isinstance(value, dict) else {}
+
+
+#: Files read by one bounded child in a row (the fork is paid once per batch, not once per file).
+BATCH = 48
+
+
+def _load_here(path: Path, *, timeout: float | None = None) -> Session:
+    """The bounded reader's own work (:func:`daq.session_reader.load_session` in its child: regular file, read,
+    checksums and seal), run inside a child that :func:`_read_batch` already bounds."""
+    from daq.bounded import check_regular_file
+    from daq.session_reader import _load
+
+    check_regular_file(path, "session file")
+    return _load(path, True)
+
+
+def _records_here(paths: list[Path]) -> list[dict[str, Any]]:
+    return [record_of(p, *session_and_entry(p, load=_load_here)) for p in paths]
+
+
+def _read_batch(paths: list[Path], timeout: float | None) -> list[dict[str, Any]]:
+    """:func:`session_record` of each of ``paths``, read one after the other in one bounded child process (deadline:
+    that of all their bytes); a batch that hangs or crashes the HDF5 library is read again file by file, each in its
+    own child, so the bad file is found and listed with its reason."""
+    from daq.bounded import call_bounded, timeout_for
+    from daq.errors import SessionFileError
+
+    sizes = [s[0] for s in (_stamp(p) for p in paths) if s is not None]
+    limit = timeout_for(sum(sizes)) + 0.05 * len(paths)
+    try:
+        return call_bounded(_records_here, (paths,), path=paths[0], what="session file", timeout=limit)
+    except (SessionFileError, OSError):
+        return [session_record(p, timeout=timeout) for p in paths]
+
+
+def _read_all(paths: list[Path], jobs: int, timeout: float | None) -> list[dict[str, Any]]:
+    """Records of ``paths`` in order, ``jobs`` bounded children at once (threads waiting on them)."""
+    if not paths:
+        return []
+    size = max(1, min(BATCH, -(-len(paths) // max(1, jobs))))
+    batches = [paths[i : i + size] for i in range(0, len(paths), size)]
+    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
+        return [r for batch in pool.map(lambda b: _read_batch(b, timeout), batches) for r in batch]
+
+
+def entry_of(record: dict[str, Any]) -> SessionEntry:
+    """The :class:`daq.index.SessionEntry` of an index record (for :func:`daq.index.format_table`)."""
+    names = SessionEntry.__dataclass_fields__
+    return SessionEntry(**{k: v for k, v in record.items() if k in names})
+
+
+# --- the index file ------------------------------------------------------------------------------------------------
+
+
+def _is_link(path: Path) -> bool:
+    return path.is_symlink()
+
+
+@contextlib.contextmanager
+def _connect(root: Path, notes: list[str]) -> Iterator[tuple[sqlite3.Connection, Path | None]]:
+    """The index of ``root`` (created or upgraded), or an in-memory one with a note saying why."""
+    index = root / INDEX_NAME
+    con = None
+    where: Path | None = None
+    why = ""
+    if any(_is_link(Path(f"{index}{s}")) for s in ("", "-wal", "-shm", "-journal")):
+        why = f"{index} (or its -wal/-shm) is a symbolic link: not followed"
+    elif not os.access(root, os.W_OK):
+        why = f"{root} is read-only: the index cannot be kept there"
+    else:
+        try:
+            fd = os.open(index, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o644)
+            os.close(fd)
+            con = _open(str(index))
+            where = index
+        except _NewerIndex:
+            why = f"{index} was written by a newer contactrig (schema {_version_of(index)}): left as it is"
+        except (sqlite3.DatabaseError, OSError) as exc:
+            why = f"{index} cannot be used ({exc})"
+            if isinstance(exc, sqlite3.DatabaseError) and not isinstance(exc, sqlite3.OperationalError):
+                with contextlib.suppress(OSError, sqlite3.Error):  # a damaged cache: rebuilt from the files
+                    for suffix in ("-wal", "-shm", ""):
+                        with contextlib.suppress(FileNotFoundError):
+                            os.unlink(f"{index}{suffix}")
+                    con, where, why = _open(str(index)), index, ""
+                    notes.append(f"{index} was damaged: rebuilt from the session files")
+    if con is None:
+        notes.append(f"{why}; the folder was scanned instead")
+        con = _open(":memory:")
+    try:
+        yield con, where
+    finally:
+        con.close()
+
+
+class _NewerIndex(Exception):
+    pass
+
+
+def _version_of(index: Path) -> int:
+    try:
+        with contextlib.closing(sqlite3.connect(f"file:{index}?mode=ro", uri=True)) as c:
+            return int(c.execute("PRAGMA user_version").fetchone()[0])
+    except sqlite3.Error:
+        return -1
+
+
+def _open(name: str) -> sqlite3.Connection:
+    con = sqlite3.connect(name, timeout=30.0, isolation_level=None)
+    con.execute("PRAGMA busy_timeout = 30000")
+    if name != ":memory:":
+        con.execute("PRAGMA journal_mode = WAL")
+        con.execute("PRAGMA synchronous = NORMAL")
+    version = int(con.execute("PRAGMA user_version").fetchone()[0])
+    if version > SCHEMA_VERSION:
+        con.close()
+        raise _NewerIndex
+    if version < SCHEMA_VERSION:
+        con.execute("BEGIN IMMEDIATE")
+        try:
+            version = int(con.execute("PRAGMA user_version").fetchone()[0])  # another process may have done it
+            for k in range(version, SCHEMA_VERSION):
+                for statement in _UPGRADES[k].split(";"):
+                    if statement.strip():
+                        con.execute(statement)
+                con.execute(f"PRAGMA user_version = {k + 1}")
+            con.execute("COMMIT")
+        except BaseException:
+            con.execute("ROLLBACK")
+            raise
+    return con
+
+
+# --- refresh -------------------------------------------------------------------------------------------------------
+
+
+def _walk(root: Path) -> tuple[list[Path], list[Path]]:
+    """Session files and sidecars under ``root`` (as :func:`daq.index.index_sessions`: hidden folders skipped,
+    symbolic links to folders not followed)."""
+    sessions, sidecars = [], []
+    for top, dirs, files in os.walk(root):
+        dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+        for f in sorted(files):
+            if f.lower().endswith(SESSION_SUFFIXES):
+                sessions.append(Path(top) / f)
+            elif f == SIDECAR_NAME:
+                sidecars.append(Path(top) / f)
+    return sessions, sidecars
+
+
+def _stamp(path: Path) -> tuple[int, int, int, int] | None:
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino
+
+
+_Stamp = tuple[int, int, int, int]
+#: A file modified less than this before a refresh began is read again at the next one: a change within the
+#: file system's time resolution would leave size and times as they were (git's "racily clean" entries).
+_SETTLE_NS = 2_000_000_000
+
+
+def _row(path: str, stamp: _Stamp | None, rec: dict[str, Any], settled_ns: int) -> tuple[Any, ...]:
+    trusted = stamp is not None and stamp[1] < settled_ns and rec["status"] != "running"
+    size, mtime, ctime, ino = stamp if stamp is not None and trusted else (None,) * 4
+    return (
+        path, size, mtime, ctime, ino, rec["content_id"], rec["status"], rec["start_utc"], rec["sample"],
+        rec["operator"], rec["scene"], " ".join(rec["serials"]), json.dumps(rec),
+    )  # fmt: skip
+
+
+def _write_session(con: sqlite3.Connection, row: tuple[Any, ...], notes_text: str) -> None:
+    con.execute("INSERT OR REPLACE INTO sessions VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?)", row)
+    con.execute("DELETE FROM notes_text WHERE path = ?", (row[0],))
+    if notes_text:
+        con.execute("INSERT INTO notes_text (path, body) VALUES (?, ?)", (row[0], notes_text))
+
+
+def _delete_session(con: sqlite3.Connection, path: str) -> None:
+    con.execute("DELETE FROM sessions WHERE path = ?", (path,))
+    con.execute("DELETE FROM notes_text WHERE path = ?", (path,))
+
+
+def _changes(
+    known: dict[str, Any], on_disk: dict[str, _Stamp | None]
+) -> tuple[list[str], list[str], list[tuple[str, str]], list[tuple[None, str]]]:
+    """Paths gone, paths changed, moves (old, new: same size, time of modification and inode) and paths to read."""
+    gone = [p for p in known if p not in on_disk]
+    changed = [p for p, s in on_disk.items() if s is None or known.get(p) != s]
+    by_file = {(known[p][0], known[p][1], known[p][3]): p for p in gone if known[p][0] is not None}
+    moves: list[tuple[str, str]] = []
+    to_read: list[tuple[None, str]] = []
+    for p in changed:
+        s = on_disk[p]
+        old = by_file.pop((s[0], s[1], s[3]), None) if s is not None and p not in known else None
+        if old is not None:
+            moves.append((old, p))
+        else:
+            to_read.append((None, p))
+    return gone, changed, moves, to_read
+
+
+def _refresh(con: sqlite3.Connection, root: Path, result: Refresh, jobs: int, timeout: float | None) -> None:
+    """Bring the index ``con`` of ``root`` up to date; paths are kept relative to ``root`` (the index still holds
+    when the folder is moved or mounted elsewhere)."""
+    settled = time.time_ns() - _SETTLE_NS
+    files, sidecars = _walk(root)
+    known = {
+        r[0]: (r[1], r[2], r[3], r[4])
+        for r in con.execute("SELECT path, size, mtime_ns, ctime_ns, inode FROM sessions")
+    }
+    on_disk = {os.path.relpath(f, root): _stamp(f) for f in files}
+    gone, changed, moves, to_read = _changes(known, on_disk)
+    records = _read_all([root / p for _, p in to_read], jobs, timeout)
+    moved_from = {old for old, _ in moves}
+    con.execute("BEGIN IMMEDIATE")
+    try:
+        for p in gone:
+            if not os.path.lexists(root / p) and p not in moved_from:
+                _delete_session(con, p)
+                result.removed += 1
+        for old, new in moves:
+            kept = con.execute("SELECT record, status FROM sessions WHERE path = ?", (old,)).fetchone()
+            if kept is None or kept[1] in UNREADABLE or os.path.lexists(root / old):  # (its reason names the path)
+                rec = session_record(root / new, timeout=timeout)
+                result.read += 1
+            else:
+                rec = json.loads(kept[0])
+                result.moved += 1
+            if kept is not None and not os.path.lexists(root / old):
+                _delete_session(con, old)
+            _write_session(con, _row(new, on_disk[new], rec, settled), rec["notes"])
+        for (_, p), rec in zip(to_read, records, strict=True):
+            same = _stamp(root / p) == on_disk[p]  # else it changed while read: listed, read again next time
+            _write_session(con, _row(p, on_disk[p] if same else None, rec, settled), rec["notes"])
+            result.read += 1
+        result.kept = len(on_disk) - len(changed)
+        _refresh_sidecars(con, root, sidecars)
+        con.execute("COMMIT")
+    except BaseException:
+        con.execute("ROLLBACK")
+        raise
+
+
+def _refresh_sidecars(con: sqlite3.Connection, root: Path, sidecars: Sequence[Path]) -> None:
+    """Reload every sidecar that changed (they are small; a line is never rewritten, only added)."""
+    known = {r[0]: (r[1], r[2]) for r in con.execute("SELECT path, size, mtime_ns FROM sidecars")}
+    present = {os.path.relpath(s, root): s for s in sidecars}
+    changed = {p for p in known if p not in present}
+    for p in changed:
+        con.execute("DELETE FROM sidecars WHERE path = ?", (p,))
+    for p, full in present.items():
+        s = _stamp(full)
+        if s is None or known.get(p) == (s[0], s[1]):
+            continue
+        changed.add(p)
+        con.execute("INSERT OR REPLACE INTO sidecars VALUES (?,?,?)", (p, s[0], s[1]))
+    for p in changed:
+        con.execute("DELETE FROM marks WHERE sidecar = ?", (p,))
+        rows = [(p, i, m["content_id"], m["kind"], m["text"], m["who"], m["at"], m["file"])
+                for i, m in enumerate(read_marks(root / p))]  # fmt: skip
+        con.executemany("INSERT INTO marks VALUES (?,?,?,?,?,?,?,?)", rows)
+    if changed:
+        con.execute("DELETE FROM remarks_text")
+        con.execute(
+            "INSERT INTO remarks_text (content_id, body) SELECT content_id, text FROM marks WHERE kind = 'remark'"
+        )
+
+
+def _root(folder: str | Path) -> Path:
+    from contactrig.core.validation import SettingError
+
+    root = Path(folder)
+    if not root.is_dir():
+        raise SettingError("DIR", str(root), "an existing folder")
+    return root
+
+
+def refresh(folder: str | Path, *, jobs: int = 2, timeout: float | None = None) -> Refresh:
+    """Bring the index of ``folder`` up to date with its files (reads only what changed; ``jobs`` reads at once)."""
+    notes: list[str] = []
+    root = _root(folder)
+    with _connect(root, notes) as (con, where):
+        result = Refresh(where, notes=notes)
+        _refresh(con, root, result, jobs, timeout)
+    return result
+
+
+# --- tags and remarks ----------------------------------------------------------------------------------------------
+
+_MARK_KINDS = {"tag": 64, "remark": 4000}  # kind → longest text allowed (characters)
+
+
+def read_marks(sidecar: Path) -> list[dict[str, str]]:
+    """The tags and remarks of one sidecar, in order; a line that is not one complete mark (a write cut short, an
+    edit by hand) is skipped."""
+    try:
+        fd = os.open(sidecar, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+        with os.fdopen(fd, "rb") as f:
+            raw = f.read(64 << 20)
+    except OSError:
+        return []
+    out = []
+    for line in raw.split(b"\n"):
+        try:
+            mark = json.loads(line)
+        except (ValueError, UnicodeDecodeError):
+            continue
+        keys = ("content_id", "kind", "text", "who", "at", "file")
+        if isinstance(mark, dict) and all(isinstance(mark.get(k), str) for k in keys) and mark["kind"] in _MARK_KINDS:
+            out.append({k: mark[k] for k in keys})
+    return out
+
+
+def add_mark(file: str | Path, kind: str, text: str, *, who: str | None = None) -> dict[str, str]:
+    """Append a tag or remark on the session ``file`` to the sidecar of its folder (the session is not touched) and
+    return it. The session is recognised by its content id: the mark follows a copy or a move."""
+    from contactrig.core.provenance import login_name, now_iso
+    from contactrig.core.validation import SettingError
+
+    option = f"--{kind}"
+    limit = _MARK_KINDS[kind]
+    clean = text.strip()
+    if not clean or len(clean) > limit or any(ord(c) < 32 for c in clean) or (kind == "tag" and " " in clean):
+        what = "one word" if kind == "tag" else "one line of text"
+        raise SettingError(option, text, f"{what}, 1 to {limit} characters, no control characters")
+    p = Path(file)
+    if not p.is_file() or not p.name.lower().endswith(SESSION_SUFFIXES):
+        raise SettingError("FILE", str(p), f"an existing session file ({', '.join(SESSION_SUFFIXES)})")
+    rec = session_record(p)
+    if rec["status"] == "other":
+        raise SettingError("FILE", str(p), "a contactrig session file (this HDF5 file is not one)")
+    mark = {"content_id": rec["content_id"], "kind": kind, "text": clean, "who": who or login_name(),
+            "at": now_iso(), "file": p.name}  # fmt: skip
+    line = (json.dumps(mark, ensure_ascii=True) + "\n").encode()
+    sidecar = p.parent / SIDECAR_NAME
+    fd = os.open(sidecar, os.O_WRONLY | os.O_APPEND | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o644)
+    try:
+        os.write(fd, line)  # one write of one line, O_APPEND: lines of concurrent writers never interleave
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+    return mark
+
+
+# --- search --------------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Condition:
+    """One ``--where`` condition: ``key`` (:data:`WHERE_KEYS`), ``op`` (= ~ >= <=) and ``value``."""
+
+    key: str
+    op: str
+    value: str
+
+
+def parse_where(text: str) -> Condition:
+    """``KEY=VALUE``, ``KEY~VALUE``, ``start>=DATE`` or ``start<=DATE``; SettingError naming ``--where`` otherwise."""
+    from contactrig.core.validation import SettingError
+
+    allowed = "KEY=VALUE, KEY~TEXT or start>=/<=DATE with KEY one of " + ", ".join(WHERE_KEYS)
+    m = _WHERE.match(text)
+    if m is None or m.group(1) not in WHERE_KEYS or not m.group(3):
+        raise SettingError("--where", text, allowed)
+    key, op, value = m.groups()
+    ops = WHERE_KEYS[key][0]
+    if (op in "=~" and op not in ops) or (op in (">=", "<=") and ops != "<>") or (ops == "<>" and op in "=~"):
+        raise SettingError("--where", text, f"{key}: {WHERE_KEYS[key][1]}")
+    if key == "start":
+        _instant(value, op, text)
+    if key == "status" and value not in _STATUSES:
+        raise SettingError("--where", text, "status=" + "|".join(_STATUSES))
+    if key == "text" and not _words(value):
+        raise SettingError("--where", text, "text~WORDS with at least one word")
+    return Condition(key, op, value)
+
+
+def _instant(value: str, op: str, text: str) -> str:
+    """The UTC bound of a ``start`` condition: a date covers its whole day (UTC); an instant needs its offset."""
+    from contactrig.core.validation import SettingError
+
+    try:
+        day = date.fromisoformat(value)
+    except ValueError:
+        bound = _utc(value)
+        if not bound:
+            raise SettingError("--where", text, "a date (2026-01-31) or an instant with its offset") from None
+        return bound
+    t = datetime(day.year, day.month, day.day, tzinfo=UTC) + (timedelta(days=1) if op == "<=" else timedelta())
+    return t.isoformat(timespec="milliseconds")
+
+
+def _words(text: str) -> list[str]:
+    return re.findall(r"\w+", text)
+
+
+def _sql(c: Condition) -> tuple[str, list[Any]]:
+    if c.key in ("sample", "operator", "scene"):
+        if c.op == "=":
+            return f"s.{c.key} = ? COLLATE NOCASE", [c.value]
+        return f"instr(lower(s.{c.key}), lower(?)) > 0", [c.value]
+    if c.key == "status":
+        return "s.status = ?", [c.value]
+    if c.key == "serial":
+        return "(' ' || s.serials || ' ') LIKE ?", [f"% {c.value} %"]
+    if c.key == "tag":
+        return "s.content_id IN (SELECT content_id FROM marks WHERE kind = 'tag' AND text = ?)", [c.value]
+    if c.key == "text":
+        match = " ".join('"' + w + '"' for w in _words(c.value))
+        return (
+            "(s.path IN (SELECT path FROM notes_text WHERE notes_text MATCH ?) OR s.content_id IN "
+            "(SELECT content_id FROM remarks_text WHERE remarks_text MATCH ?))",
+            [match, match],
+        )
+    bound = _instant(c.value, c.op, c.value)
+    return ("s.start_utc != '' AND s.start_utc >= ?" if c.op == ">=" else "s.start_utc != '' AND s.start_utc < ?"), [
+        bound
+    ]
+
+
+_ORDER = {
+    "start": "s.start_utc = '', s.start_utc, s.path",  # a start without its UTC offset: after the others
+    "sample": "lower(s.sample), s.path",
+    "operator": "lower(s.operator), s.path",
+    "status": "s.status, s.path",
+    "path": "s.path",
+}
+
+
+def _select(
+    con: sqlite3.Connection,
+    root: Path,
+    conditions: Iterable[Condition],
+    sort: str,
+    include_other: bool,
+    limit: int | None = None,
+) -> list[dict[str, Any]]:
+    clauses, params = ["1"], []
+    for c in conditions:
+        sql, p = _sql(c)
+        clauses.append(sql)
+        params += p
+    if not include_other:
+        clauses.append("s.status != 'other'")
+    unreadable = "(s.status IN ('corrupt', 'newer', 'other'))"
+    rows = con.execute(
+        f"SELECT s.record, s.path FROM sessions s WHERE {' AND '.join(clauses)} ORDER BY {unreadable}, {_ORDER[sort]} "
+        "LIMIT ?",
+        [*params, -1 if limit is None else max(0, limit)],
+    ).fetchall()
+    marks: dict[str, dict[str, list[dict[str, str]]]] = {}
+    for cid, kind, text, who, at in con.execute("SELECT content_id, kind, text, who, at FROM marks ORDER BY at"):
+        marks.setdefault(cid, {"tag": [], "remark": []})[kind].append({"text": text, "who": who, "at": at})
+    out = []
+    for record, path in rows:
+        rec = json.loads(record)
+        rec["path"] = str(root / path)
+        m = marks.get(rec["content_id"], {})
+        rec["tags"], rec["remarks"] = m.get("tag", []), m.get("remark", [])
+        out.append(rec)
+    return out
+
+
+def query(
+    folder: str | Path,
+    where: Sequence[Condition | str] = (),
+    *,
+    sort: str = "start",
+    include_other: bool = False,
+    jobs: int = 2,
+    timeout: float | None = None,
+    refresh: bool = True,
+    limit: int | None = None,
+) -> tuple[list[dict[str, Any]], Refresh]:
+    """The sessions under ``folder`` that meet every condition of ``where`` (``--where`` texts or
+    :class:`Condition`), each a :func:`session_record` plus ``tags`` and ``remarks`` (each with ``who`` and
+    ``at``), sorted by ``sort`` (:data:`daq.index.SORT_KEYS`; start: by the UTC instant; unreadable files last),
+    after a refresh of the index (``refresh=False``: the index as it is, e.g. for a page that refreshes in the
+    background; ``limit``: at most that many rows, e.g. one page); the :class:`Refresh` says what was read and any note.
+    The console can call this as it is."""
+    from contactrig.core.validation import check_choice
+
+    check_choice("--sort", sort, SORT_KEYS)
+    conditions = [c if isinstance(c, Condition) else parse_where(c) for c in where]
+    root = _root(folder)
+    notes: list[str] = []
+    with _connect(root, notes) as (con, where_):
+        result = Refresh(where_, notes=notes)
+        if refresh or where_ is None:
+            _refresh(con, root, result, jobs, timeout)
+        return _select(con, root, conditions, sort, include_other, limit), result
+
+
+def indexed_rows(folder: str | Path) -> list[tuple[str, str, str, bool, tuple[str, ...]]]:
+    """(path, content id, status, has a reason, tags) of every row of ``folder``'s index as it is, unrefreshed (for
+    checks that the index equals a fresh scan)."""
+    index = Path(folder) / INDEX_NAME
+    with contextlib.closing(sqlite3.connect(f"file:{index}?mode=ro", uri=True)) as con:
+        return _rows_of(con)
+
+
+def _rows_of(con: sqlite3.Connection) -> list[tuple[str, str, str, bool, tuple[str, ...]]]:
+    tags: dict[str, list[str]] = {}
+    for cid, text in con.execute("SELECT content_id, text FROM marks WHERE kind = 'tag'"):
+        tags.setdefault(cid, []).append(text)
+    out = []
+    for path, cid, status, record in con.execute("SELECT path, content_id, status, record FROM sessions"):
+        out.append((path, cid, status, bool(json.loads(record)["note"]), tuple(sorted(tags.get(cid, [])))))
+    return sorted(out)
+
+
+def fresh_scan(folder: str | Path) -> list[tuple[str, str, str, bool, tuple[str, ...]]]:
+    """What :func:`indexed_rows` would hold for an index built now from nothing (in memory; nothing is written)."""
+    root = _root(folder)
+    with contextlib.closing(_open(":memory:")) as con:
+        _refresh(con, root, Refresh(None), 2, None)
+        return _rows_of(con)

@@ -1,0 +1,114 @@
+"""The run index over a large folder (issue 29; targets: first index ≤ 60 s on two cores, refresh after one new
+session ≤ 1 s, a query ≤ 50 ms).
+
+Builds N session files under a temporary folder (100 per sub-folder): K distinct small sessions written through
+the real acquisition path on the simulated bench (different samples, operators, start instants with UTC offsets,
+notes), repeated under N names as hard links (reading a link costs what reading a copy costs: one bounded read in a
+child process, checksums and seal verified), and about 1 % damaged files (real truncated copies and garbage). Then:
+
+  first     daq.run_index.refresh from nothing (every file read, JOBS bounded reads at once)
+  again     a refresh with nothing changed (a stat per file)
+  one new   a refresh after one new session was written
+  query     daq.run_index.query with a --where condition (sample, then full text in notes), index fresh
+
+Run: python tests/benchmarks/bench_run_index.py [N] [--jobs J] [--distinct K]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+from daq import run_index
+from tests.daq.run_files import write_run
+
+
+def _age(path: Path) -> None:
+    t = time.time() - 3600
+    os.utime(path, (t, t))
+
+
+def build(folder: Path, n: int, distinct: int) -> None:
+    """``n`` session files under ``folder`` (1 % damaged), from ``distinct`` real sessions."""
+    src = folder / ".sources"
+    src.mkdir()
+    sources = []
+    for i in range(distinct):
+        offset = ("+00:00", "-05:00", "+09:00")[i % 3]
+        sources.append(write_run(
+            src / f"s{i}.h5", sample=f"sample-{i % 7}", operator=("ann", "bob", "chen")[i % 3],
+            notes="liner re-honed" if i % 5 == 0 else "", started=f"2026-01-{1 + i % 28:02d}T10:00:00.000{offset}",
+        ))  # fmt: skip
+    data = sources[0].read_bytes()
+    for k in range(n):
+        sub = folder / f"day{k // 100:03d}"
+        sub.mkdir(exist_ok=True)
+        out = sub / f"run{k:05d}.h5"
+        if k % 100 == 37:
+            out.write_bytes(data[: len(data) // 2])  # truncated: damaged
+        elif k % 100 == 73:
+            out.write_bytes(os.urandom(4096))  # garbage
+        else:
+            os.link(sources[k % distinct], out)
+    for p in [*src.iterdir(), *folder.rglob("*.h5")]:
+        _age(p)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("n", nargs="?", type=int, default=10_000)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--distinct", type=int, default=20)
+    args = ap.parse_args(argv)
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp) / "lab"
+        folder.mkdir()
+        t = time.perf_counter()
+        build(folder, args.n, args.distinct)
+        print(f"built {args.n} files ({args.distinct} distinct sessions) in {time.perf_counter() - t:.1f} s")
+        print(f"load average before: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+        t = time.perf_counter()
+        r = run_index.refresh(folder, jobs=args.jobs)
+        first = time.perf_counter() - t
+        print(f"first index:   {first:8.2f} s  ({r.read} files read, {args.jobs} at once; target ≤ 60 s at 10 000)")
+        t = time.perf_counter()
+        r = run_index.refresh(folder, jobs=args.jobs)
+        print(f"again:         {time.perf_counter() - t:8.3f} s  ({r.read} read, {r.kept} kept)")
+        shutil.copy(folder / ".sources" / "s1.h5", folder / "day000" / "new.h5")
+        t = time.perf_counter()
+        r = run_index.refresh(folder, jobs=args.jobs)
+        print(f"one new:       {time.perf_counter() - t:8.3f} s  ({r.read} read, {r.kept} kept; target ≤ 1 s)")
+        _age(folder / "day000" / "new.h5")  # settled (a file changed in the last 2 s is read at every refresh)
+        run_index.refresh(folder)
+        for where in (
+            ["sample=sample-3"],
+            ["text~re-honed"],
+            ["status=corrupt"],
+            ["operator=bob", "start>=2026-01-20"],
+        ):
+            t = time.perf_counter()
+            rows, _ = run_index.query(folder, where, refresh=False)
+            sql = time.perf_counter() - t
+            t = time.perf_counter()
+            rows2, _ = run_index.query(folder, where)
+            full = time.perf_counter() - t
+            assert len(rows) == len(rows2)
+            print(f"query {' '.join(where):<32} {sql * 1e3:7.1f} ms from the index, {full * 1e3:7.1f} ms with a "
+                  f"refresh ({len(rows)} sessions; target ≤ 50 ms)")  # fmt: skip
+        t = time.perf_counter()
+        rows, _ = run_index.query(folder, ["text~re-honed"], refresh=False, limit=100)
+        print(f"query text~re-honed, first 100 rows: {(time.perf_counter() - t) * 1e3:7.1f} ms from the index")
+        print(f"index file: {(folder / run_index.INDEX_NAME).stat().st_size / 1e6:.1f} MB")
+        print(f"load average after: {os.getloadavg()[0]:.1f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
