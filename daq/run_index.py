@@ -27,6 +27,7 @@ index holds none: the ``fit`` column is always null until a fit is recorded besi
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import hashlib
 import json
 import os
@@ -41,6 +42,7 @@ from datetime import UTC, date, datetime, timedelta
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from contactrig.core.text import shown
 from daq.index import SESSION_SUFFIXES, SORT_KEYS, SessionEntry, session_and_entry
 
 if TYPE_CHECKING:
@@ -261,7 +263,7 @@ def _read_all(paths: list[Path], jobs: int, timeout: float | None) -> list[dict[
 
 def entry_of(record: dict[str, Any]) -> SessionEntry:
     """The :class:`daq.index.SessionEntry` of an index record (for :func:`daq.index.format_table`)."""
-    names = SessionEntry.__dataclass_fields__
+    names = {f.name for f in dataclasses.fields(SessionEntry) if f.init}
     return SessionEntry(**{k: v for k, v in record.items() if k in names})
 
 
@@ -418,6 +420,13 @@ def _changes(
     return gone, changed, moves, to_read
 
 
+def _key(rel: str) -> str:
+    """The index's key of a relative path: the path itself, or for a file name that is not UTF-8 (SQLite keeps only
+    Unicode text) the name with its undecodable bytes as ``\\xNN``, as it is shown (:func:`contactrig.core.text.shown`);
+    such a file is still read by its real name."""
+    return shown(rel)
+
+
 def _refresh(con: sqlite3.Connection, root: Path, result: Refresh, jobs: int, timeout: float | None) -> None:
     """Bring the index ``con`` of ``root`` up to date; paths are kept relative to ``root`` (the index still holds
     when the folder is moved or mounted elsewhere)."""
@@ -427,9 +436,10 @@ def _refresh(con: sqlite3.Connection, root: Path, result: Refresh, jobs: int, ti
         r[0]: (r[1], r[2], r[3], r[4])
         for r in con.execute("SELECT path, size, mtime_ns, ctime_ns, inode FROM sessions")
     }
-    on_disk = {os.path.relpath(f, root): _stamp(f) for f in files}
+    real = {_key(rel): rel for rel in (os.path.relpath(f, root) for f in files)}
+    on_disk = {k: _stamp(root / rel) for k, rel in real.items()}
     gone, changed, moves, to_read = _changes(known, on_disk)
-    records = _read_all([root / p for _, p in to_read], jobs, timeout)
+    records = _read_all([root / real[p] for _, p in to_read], jobs, timeout)
     moved_from = {old for old, _ in moves}
     con.execute("BEGIN IMMEDIATE")
     try:
@@ -440,7 +450,7 @@ def _refresh(con: sqlite3.Connection, root: Path, result: Refresh, jobs: int, ti
         for old, new in moves:
             kept = con.execute("SELECT record, status FROM sessions WHERE path = ?", (old,)).fetchone()
             if kept is None or kept[1] in UNREADABLE or os.path.lexists(root / old):  # (its reason names the path)
-                rec = session_record(root / new, timeout=timeout)
+                rec = session_record(root / real[new], timeout=timeout)
                 result.read += 1
             else:
                 rec = json.loads(kept[0])
@@ -449,7 +459,7 @@ def _refresh(con: sqlite3.Connection, root: Path, result: Refresh, jobs: int, ti
                 _delete_session(con, old)
             _write_session(con, _row(new, on_disk[new], rec, settled), rec["notes"])
         for (_, p), rec in zip(to_read, records, strict=True):
-            same = _stamp(root / p) == on_disk[p]  # else it changed while read: listed, read again next time
+            same = _stamp(root / real[p]) == on_disk[p]  # else it changed while read: listed, read again next time
             _write_session(con, _row(p, on_disk[p] if same else None, rec, settled), rec["notes"])
             result.read += 1
         result.kept = len(on_disk) - len(changed)

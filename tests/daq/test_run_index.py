@@ -87,7 +87,7 @@ def test_the_index_holds_what_each_session_records(folder):
     assert got["garbage.h5"]["note"] and got["cut.h5"]["note"]
     # sorted by the UTC instant: 2025-12-31T07:00Z < 2026-01-01T10:00Z < 2026-01-02T04:30Z
     assert [os.path.basename(r["path"]) for r in rows[:3]] == ["c.h5", "a.h5", "b.h5"]
-    assert got["b.h5"]["start_utc"] == "2026-01-02T04:30:00.000+00:00"
+    assert got["b.h5"]["start_utc"] == "2026-01-02T04:30:00.000000+00:00"
 
 
 def test_a_refresh_reads_only_what_changed_and_a_move_keeps_the_row(folder):
