@@ -75,8 +75,9 @@ def _our_frames(err: str, command: list[str]) -> list[str]:
     ``contactrig.cli.main`` (``re.sub`` of argv, ``sys.exit(main())``)."""
     frames = re.findall(r'File "([^"]+)", line \d+, in [^\n]*\n?(?:\s+([^\n]*))?', err)
     package = f"{os.sep}contactrig{os.sep}"
+    venv = sys.prefix + os.sep  # CI's venv lives inside the checkout: its console script is not a file of ours
     return [f"{path}: {line}" for path, line in frames
-            if path.startswith(str(ROOT)) or package in path
+            if (path.startswith(str(ROOT)) and not path.startswith(venv)) or package in path
             or (path == command[-1] and ("main(" in line or "re.sub" in line))]  # fmt: skip
 
 
