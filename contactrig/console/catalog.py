@@ -2,8 +2,9 @@
 in a background thread so that a page never waits for a scan of the folder.
 
 A page asks :meth:`Catalog.rows` (the index as it is, ``query(refresh=False)``, one page of rows) and :meth:`kick`
-(a refresh wanted); the refresh thread runs :func:`daq.run_index.refresh` one at a time and counts ``generation``
-up after each, so a page polls until the generation changes and draws again. Tags and remarks are added with
+(a refresh wanted); the refresh thread runs :func:`daq.run_index.refresh` one at a time (kicks while one runs ask for
+one more after it, never for several) and counts ``generation`` up after each, so a page polls until the generation
+changes and draws again. Tags and remarks are added with
 :func:`daq.run_index.add_mark`; a session's own marks are read back from its folder's sidecar by its content id
 (:func:`daq.run_index.read_marks`), so the session page shows a new mark at once; two sessions are compared with
 :func:`daq.session_diff.session_diff`. Nothing here indexes, searches or compares on its own.
@@ -21,8 +22,6 @@ __all__ = ["PAGE_ROWS", "Catalog"]
 
 #: rows on one index page (the newest first); more matching: the page says so (narrow the search)
 PAGE_ROWS = 500
-#: a page's request starts a refresh when the last one began longer ago than this [s]
-KICK_AFTER_S = 2.0
 
 
 @dataclass
@@ -37,7 +36,6 @@ class Catalog:
     notes: list[str] = field(default_factory=list)
     _wanted: threading.Event = field(default_factory=threading.Event)
     _busy: bool = False
-    _started: float = -1e9
     _thread: threading.Thread | None = None
     _lock: threading.Lock = field(default_factory=threading.Lock)
 
@@ -46,14 +44,10 @@ class Catalog:
         """A refresh is under way or wanted."""
         return self._busy or self._wanted.is_set()
 
-    def kick(self, *, force: bool = False) -> None:
-        """Ask for a refresh (none when one began less than :data:`KICK_AFTER_S` ago, unless ``force``)."""
-        import time
-
+    def kick(self) -> None:
+        """Ask for a refresh: now, or after the one under way (which may have missed a change made meanwhile)."""
         with self._lock:
             if self.closed.is_set():
-                return
-            if not force and (self.indexing or time.monotonic() - self._started < KICK_AFTER_S):
                 return
             self._wanted.set()
             if self._thread is None:
@@ -61,15 +55,13 @@ class Catalog:
                 self._thread.start()
 
     def _loop(self) -> None:
-        import time
-
         from daq import run_index
 
         while not self.closed.is_set():
             if not self._wanted.wait(timeout=0.5):
                 continue
             with self._lock:
-                self._busy, self._started = True, time.monotonic()
+                self._busy = True
                 self._wanted.clear()
             try:
                 self.notes = run_index.refresh(self.root).notes
@@ -109,7 +101,7 @@ class Catalog:
         if not clean or len(clean) > 64 or any(ord(c) < 32 for c in clean):
             raise SettingError("who", who, "the name of who writes it, 1 to 64 characters on one line")
         mark = add_mark(path, kind, text, who=clean)
-        self.kick(force=True)
+        self.kick()
         return mark
 
     @staticmethod

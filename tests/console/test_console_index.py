@@ -19,7 +19,7 @@ def indexed(client: Client, **params: Any) -> dict[str, Any]:
     """``/api/sessions`` once a refresh started now has ended."""
     catalog = client.console.catalog
     before = catalog.generation
-    catalog.kick(force=True)
+    catalog.kick()
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline:
         r = client.get("/api/sessions", params={"kick": "0", **params})
@@ -83,7 +83,7 @@ def test_the_page_never_waits_for_a_scan(client: Client, lab: Path, monkeypatch:
         return real(folder, **kw)
 
     monkeypatch.setattr(run_index, "refresh", slow_refresh)
-    client.console.catalog.kick(force=True)
+    client.console.catalog.kick()
     assert entered.wait(10)
     t = time.perf_counter()
     data = client.get("/api/sessions").json()
