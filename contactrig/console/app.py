@@ -231,6 +231,24 @@ def _relative(console: Console, path: str) -> str:
         return path
 
 
+class IndexJSON(JSONResponse):
+    """JSON of index rows: ASCII with escapes, so that text an older contactrig stored with lone surrogates (kept by
+    the index as the file holds it) is still sent; a non-finite number is null (JSON has none)."""
+
+    def render(self, content: Any) -> bytes:
+        return json.dumps(_finite(content), ensure_ascii=True, allow_nan=False, separators=(",", ":")).encode()
+
+
+def _finite(value: Any) -> Any:
+    if isinstance(value, float):
+        return value if value == value and abs(value) != float("inf") else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_finite(v) for v in value]
+    return value
+
+
 async def sessions(request: Request) -> Response:
     """One page of the run index (:meth:`Catalog.rows`: the index as it is, never a scan), the newest first;
     ``where`` (repeated) are ``contactrig sessions --where`` texts, ``sort`` a ``--sort`` key, ``order=asc`` the
@@ -251,8 +269,8 @@ async def sessions(request: Request) -> Response:
                                              descending=request.query_params.get("order") != "asc")  # fmt: skip
     except (ValueError, OSError) as exc:
         return JSONResponse({"error": _one_line(exc)}, status_code=400)
-    return JSONResponse({"sessions": rows, "more": more, "indexing": catalog.indexing, "generation": generation,
-                         "notes": catalog.notes})  # fmt: skip
+    return IndexJSON({"sessions": rows, "more": more, "indexing": catalog.indexing, "generation": generation,
+                      "notes": catalog.notes})  # fmt: skip
 
 
 async def add_mark(request: Request) -> Response:
@@ -279,7 +297,7 @@ async def diff(request: Request) -> Response:
         result = await asyncio.to_thread(console.catalog.diff, a, b)
     except (ValueError, OSError, RuntimeError) as exc:
         return JSONResponse({"error": _one_line(exc)}, status_code=400)
-    return JSONResponse(result)
+    return IndexJSON(result)
 
 
 # -- a new session ------------------------------------------------------------------------------------------------

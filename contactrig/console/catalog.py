@@ -98,8 +98,10 @@ class Catalog:
         if kind not in ("tag", "remark"):
             raise SettingError("kind", kind, "tag or remark")
         clean = who.strip()
-        if not clean or len(clean) > 64 or any(ord(c) < 32 for c in clean):
+        if not clean or len(clean) > 64 or any(ord(c) < 32 for c in clean) or not _utf8(clean):
             raise SettingError("who", who, "the name of who writes it, 1 to 64 characters on one line")
+        if not _utf8(text):
+            raise SettingError(f"--{kind}", text, "text (Unicode without lone surrogates)")
         mark = add_mark(path, kind, text, who=clean)
         self.kick()
         return mark
@@ -120,6 +122,14 @@ class Catalog:
         d = session_diff(a, b, timeout=60)
         d["a"], d["b"] = self.relative(str(a)), self.relative(str(b))
         return d
+
+
+def _utf8(text: str) -> bool:
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
 
 
 def _one_line(exc: BaseException) -> str:

@@ -4,6 +4,7 @@ checked), and the diff of two sessions."""
 
 from __future__ import annotations
 
+import json
 import threading
 import time
 from pathlib import Path
@@ -124,8 +125,11 @@ def test_tags_and_remarks_from_the_session_page(client: Client, lab: Path):
                             ).status_code == 403  # no Origin  # fmt: skip
     for bad, needle in (({"kind": "star"}, "kind"), ({"text": "two words"}, "--tag"), ({"text": ""}, "--tag"),
                         ({"who": ""}, "who"), ({"who": "a\nb"}, "who"), ({"path": "../a.h5"}, "session"),
-                        ({"path": "small.toml"}, "FILE"), ({"text": 3}, "text")):  # fmt: skip
-        r = client.post("/api/session/mark", {**body, **bad})
+                        ({"path": "small.toml"}, "FILE"), ({"text": 3}, "text"), ({"text": "x\udcd8"}, "--tag"),
+                        ({"who": "\udcd8"}, "who")):  # fmt: skip
+        raw = json.dumps({**body, **bad}).encode()  # ASCII with escapes: a lone surrogate as a browser may send it
+        headers = {**client.headers, "content-type": "application/json"}
+        r = client.http.post("/api/session/mark", content=raw, headers=headers)
         assert r.status_code == 400 and needle in r.json()["error"] and "\n" not in r.json()["error"], (bad, r.text)
     assert client.get("/api/session", params={"path": "a.h5"}).json()["marks"] == []
 
