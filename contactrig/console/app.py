@@ -40,6 +40,7 @@ from starlette.responses import (
 )
 from starlette.routing import Route
 
+from contactrig.console.bench_queue import BenchQueue, QueueError
 from contactrig.console.catalog import Catalog
 from contactrig.console.runner import RunState, SessionRun
 from contactrig.console.security import check_token, resolve_under, same_origin
@@ -83,6 +84,8 @@ class Console:
     runs: dict[str, SessionRun] = field(default_factory=dict)
     #: the run index of ``root`` with its background refresh
     catalog: Catalog = field(init=False)
+    #: the bench's queue of planned sessions (its file in ``root``)
+    queue: BenchQueue = field(init=False)
     lock: threading.Lock = field(default_factory=threading.Lock)
     #: set by the first SIGINT/SIGTERM: running sessions stop after their block, no new one starts
     closing: threading.Event = field(default_factory=threading.Event)
@@ -91,6 +94,9 @@ class Console:
 
     def __post_init__(self) -> None:
         self.catalog = Catalog(self.root, self.closed)
+        self.queue = BenchQueue(self.root, start=lambda form: _start(self, form).state.id,
+                                busy=lambda at: self.running_on(at) is not None, closing=self.closing)  # fmt: skip
+        self.queue.load()
 
     def running_on(self, address: str) -> SessionRun | None:
         return next((r for r in self.runs.values() if r.running and r.state.address == address), None)
@@ -495,6 +501,62 @@ async def start_run(request: Request) -> Response:
     return JSONResponse(run.snapshot())
 
 
+# -- the bench's queue -------------------------------------------------------------------------------------------
+
+
+def _queued(console: Console, body: dict[str, Any]) -> tuple[dict[str, Any], str]:
+    """The New-session form of a planned session, checked as a start checks it (scene, overrides, file name), and
+    its bench address."""
+    output = body.get("output")
+    if not isinstance(output, str) or not SAFE_NAME.match(output):
+        raise BadRequest(f"file name {output!r}: expected a plain name ending in .h5 (letters, digits, '.', '_', '-')")
+    if (console.root / output).exists() or (console.root / output).is_symlink():
+        raise BadRequest(f"{output} exists: choose another name")
+    plan, _ = _plan(console, body)
+    form = {"scene": body.get("scene") or "", "sim": bool(body.get("sim")), "sim_speed": body.get("sim_speed"),
+            "overrides": body.get("overrides") or {}, "output": output, "client": str(body.get("client") or "")[:64]}
+    return form, plan.instrument.address
+
+
+async def queue_state(request: Request) -> Response:
+    return JSONResponse(request.app.state.console.queue.snapshot())
+
+
+async def queue_add(request: Request) -> Response:
+    """A planned session at the end of the queue: the New-session form, and ``wait`` (true: it starts at the
+    operator's Start, else as soon as its bench is free)."""
+    console: Console = request.app.state.console
+    body = await _json_body(request)
+    try:
+        form, address = await asyncio.to_thread(_queued, console, body)
+        item = console.queue.add(form, address, bool(body.get("wait")))
+    except (ValueError, OSError) as exc:
+        return JSONResponse({"error": _one_line(exc)}, status_code=409 if isinstance(exc, QueueError) else 400)
+    return JSONResponse(item)
+
+
+async def queue_action(request: Request) -> Response:
+    """``move`` (``{"to": position}``), ``cancel`` or ``start`` (the operator's Start) one queued session."""
+    queue: BenchQueue = request.app.state.console.queue
+    body = await _json_body(request)
+    item, action = request.path_params["item"], request.path_params["action"]
+    try:
+        if action == "move":
+            to = body.get("to")
+            if not isinstance(to, int) or isinstance(to, bool):
+                raise QueueError(f"to {to!r}: expected a position (0 = first)")
+            queue.move(item, to)
+        elif action == "cancel":
+            queue.cancel(item)
+        elif action == "start":
+            queue.go(item)
+        else:
+            return JSONResponse({"error": "no such action"}, status_code=404)
+    except (ValueError, OSError) as exc:
+        return JSONResponse({"error": _one_line(exc)}, status_code=409)
+    return JSONResponse(queue.snapshot())
+
+
 def _run(request: Request) -> SessionRun | None:
     return request.app.state.console.runs.get(request.path_params["run"])
 
@@ -766,6 +828,9 @@ def build_app(console: Console) -> ASGIApp:
         Route("/api/scenes", scenes),
         Route("/api/overrides", overrides_form),
         Route("/api/plan", plan_preview, methods=["POST"]),
+        Route("/api/queue", queue_state),
+        Route("/api/queue", queue_add, methods=["POST"]),
+        Route("/api/queue/{item}/{action}", queue_action, methods=["POST"]),
         Route("/api/runs", runs),
         Route("/api/runs", start_run, methods=["POST"]),
         Route("/api/runs/{run}", run_state),

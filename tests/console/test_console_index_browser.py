@@ -1,6 +1,7 @@
 """The console's index in a browser (issue 29): a folder of a few hundred generated sessions (hard links of a few
 real ones, some damaged), its page opened, searched with the filters, a tag added on a session's page, and two
-sessions compared — the diff names the one instrument setting that differs."""
+sessions compared — the diff names the one instrument setting that differs. Then the bench's queue: two planned
+sessions, reordered, one cancelled, the other started with Start."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from tests.console.conftest import ConsoleProcess, scene_text
-from tests.console.test_console_browser import CHROMIUM, DRIVER, open_console, shot, text_of, wait
+from tests.console.test_console_browser import CHROMIUM, DRIVER, continue_all, open_console, shot, text_of, wait
 from tests.daq.run_files import write_run
 
 pytest.importorskip("selenium", reason="Selenium is not installed: pip install '.[console]'")
@@ -155,3 +156,35 @@ def test_search_tag_and_diff_on_a_folder_of_sessions(browser, console, folder, t
     row = browser.find_element(By.XPATH, "//tr[td[text()='settings.delta.nplc']]")
     assert [c.text for c in row.find_elements(By.TAG_NAME, "td")] == ["settings.delta.nplc", "1", "2"]  # JSON numbers
     shot(browser, "diff", tmp_path)
+
+
+def queued(driver: webdriver.Chrome) -> list[str]:
+    script = "return [...document.querySelectorAll('#queue-table tr.queued td:nth-child(2)')].map((c) => c.textContent)"
+    return list(driver.execute_script(script))
+
+
+def test_the_queue_page(browser, console, folder, tmp_path):
+    open_console(browser, console, "#/new")
+    for name in ("plan-1.h5", "plan-2.h5"):
+        browser.get(f"{console.base}/#/new")
+        wait(browser, lambda d: "plan:" in text_of(d, "#plan"))
+        fill(browser, "sim-speed", "inf")
+        fill(browser, "output", name)
+        browser.find_element(By.ID, "queue-wait").click()
+        browser.find_element(By.ID, "btn-enqueue").click()
+        wait(browser, lambda d, n=name: n in queued(d))
+    assert queued(browser) == ["plan-1.h5", "plan-2.h5"]
+    assert "waits for your Start" in text_of(browser, "#queue-table")
+    browser.find_elements(By.CSS_SELECTOR, "#queue-table button.down")[0].click()
+    wait(browser, lambda d: queued(d) == ["plan-2.h5", "plan-1.h5"])
+    shot(browser, "queue", tmp_path)
+    browser.find_elements(By.CSS_SELECTOR, "#queue-table button.cancel")[1].click()
+    wait(browser, lambda d: queued(d) == ["plan-2.h5"])
+    browser.find_element(By.CSS_SELECTOR, "#queue-table button.start").click()
+    link = wait(browser, lambda d: d.find_elements(By.CSS_SELECTOR, "#queue-started a.started"))
+    assert link[0].text == "plan-2.h5" and queued(browser) == []
+    link[0].click()
+    wait(browser, lambda d: "#/run/" in d.current_url)
+    continue_all(browser)
+    assert "success" in text_of(browser, "#stop-record")
+    assert not (folder / "plan-1.h5").exists()

@@ -181,12 +181,20 @@ async function showNew() {
     if (r.error) { error.textContent = r.error; return; }
     location.hash = `#/run/${encodeURIComponent(r.id)}`;
   });
+  const wait = el("input", { type: "checkbox", id: "queue-wait" });
+  const enqueue = el("button", { id: "btn-enqueue", text: "Add to the queue" });
+  enqueue.addEventListener("click", async () => {
+    const r = await api("/api/queue", { ...body(form), output: name.value, wait: wait.checked, client: CLIENT });
+    if (r.error) { error.textContent = r.error; return; }
+    location.hash = "#/queue";
+  });
   main(el("h1", { text: "New session" }),
     el("label", {}, "Scene: ", scene),
     el("label", {}, sim, " simulated bench (no instruments); instrument time × 1/", speed),
     el("h2", { text: "This run (over the scene)" }), ...rows,
     el("label", {}, "Session file (in the console's folder): ", name),
-    el("h2", { text: "Plan" }), plan, error, el("p", { class: "buttons" }, start));
+    el("h2", { text: "Plan" }), plan, error, el("p", { class: "buttons" }, start),
+    el("p", {}, enqueue, el("label", { class: "inline" }, wait, " waits for my Start (else: starts when its bench is free)")));
   await preview();
 }
 
@@ -424,6 +432,46 @@ async function showDiff(arg) {
     ...d.notes.map((n) => el("p", { class: "small", text: `note: ${n}` })));
 }
 
+// ---- the bench's queue: planned sessions, started one after the other on their bench address ------------------------
+let queueTimer = null;
+
+async function showQueue() {
+  const list = el("table", { id: "queue-table" });
+  const said = el("p", { class: "error", id: "queue-error" });
+  const started = el("div", { id: "queue-started" });
+  main(el("h1", { text: "Queue" }), el("p", { class: "small", text: "Each planned session starts when the session before it on its bench has ended (or at your Start); the queue is kept in the folder, so it outlives a console restart." }),
+    said, list, started, el("p", {}, el("a", { href: "#/new", text: "plan another session (New session → Add to the queue)" })));
+  const act = async (id, action, extra) => {
+    const r = await api(`/api/queue/${encodeURIComponent(id)}/${action}`, extra || {});
+    said.textContent = r.error || "";
+    draw(r.error ? null : r);
+  };
+  const draw = async (q) => {
+    if (!q) q = await api("/api/queue");
+    if (location.hash !== "#/queue") return;
+    said.textContent = q.broken || said.textContent;
+    const head = el("tr", {}, ...["#", "file", "scene", "bench", "overrides", "state", ""].map((h) => el("th", { text: h })));
+    const rows = (q.items || []).map((it, k) => {
+      const f = it.form;
+      const state = it.error ? `refused: ${it.error}` : it.wait && !it.go ? "waits for your Start" : "starts when the bench is free";
+      const ov = Object.entries(f.overrides || {}).map(([key, v]) => `${key}=${v}`).join(", ");
+      return el("tr", { class: "queued" }, el("td", { text: k + 1 }), el("td", { class: "text", text: f.output }), el("td", { class: "text", text: f.scene || "(default)" }),
+        el("td", { text: f.sim ? `${it.address} (simulated)` : it.address }), el("td", { class: "text", text: ov }), el("td", { class: it.error ? "error" : "", text: state }),
+        el("td", {},
+          el("button", { class: "up", onclick: () => act(it.id, "move", { to: Math.max(0, k - 1) }), text: "↑" }),
+          el("button", { class: "down", onclick: () => act(it.id, "move", { to: Math.min(q.items.length - 1, k + 1) }), text: "↓" }),
+          (it.wait && !it.go) || it.error ? el("button", { class: "go start", onclick: () => act(it.id, "start"), text: "Start" }) : "",
+          el("button", { class: "cancel", onclick: () => act(it.id, "cancel"), text: "Cancel" })));
+    });
+    list.replaceChildren(head, ...rows);
+    if (!rows.length) list.append(el("tr", {}, el("td", { colspan: 7, text: "(nothing queued)" })));
+    started.replaceChildren(...(q.started || []).length ? [el("h2", { text: "Started from the queue" })] : [],
+      ...(q.started || []).map((s) => el("p", {}, el("a", { class: "started", href: `#/run/${encodeURIComponent(s.run)}`, text: s.file }))));
+  };
+  const poll = async () => { queueTimer = null; await draw(); if (location.hash === "#/queue") queueTimer = setTimeout(poll, 1000); };
+  await poll();
+}
+
 // ---- a session written by another process (`contactrig acquire` in a terminal), followed from its file ----------
 // Status, plot and ETA as `contactrig watch` sees them; no Continue/Stop: control stays with the process that writes
 // it (Enter / s / q and Ctrl-C at its terminal).
@@ -462,6 +510,7 @@ function showFollow(path) {
 function route() {
   if (source) { source.close(); source = null; }
   if (followTimer) { clearTimeout(followTimer); followTimer = null; }
+  if (queueTimer) { clearTimeout(queueTimer); queueTimer = null; }
   keys = null;
   const hash = location.hash || "#/sessions";
   const [, page, ...rest] = hash.split("/");
@@ -471,6 +520,7 @@ function route() {
   else if (page === "session") showSession(arg);
   else if (page === "follow") showFollow(arg);
   else if (page === "diff") showDiff(arg);
+  else if (page === "queue") showQueue();
   else showSessions();
 }
 
