@@ -308,5 +308,7 @@ def test_overrides_from_the_form_are_the_runs(client: Client, folder: Path):
     s = load_session(folder / "over.h5")
     assert s.start["sample"] == given["session.sample"] and s.start["operator"] == given["session.operator"]
     assert s.start["overrides"] == given and "S-42" not in s.scene_text
-    row = next(r for r in client.get("/api/sessions").json()["sessions"] if r["path"] == "over.h5")
+    from tests.console.test_console_index import indexed
+
+    row = next(r for r in indexed(client)["sessions"] if r["path"] == "over.h5")
     assert row["sample"] == given["session.sample"] and row["notes"] == given["session.notes"]
