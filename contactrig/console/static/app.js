@@ -78,7 +78,7 @@ async function showSessions() {
   const load = async (kick, poll) => {
     const mine = ++asked;
     if (timer) { clearTimeout(timer); timer = null; }
-    const q = new URLSearchParams({ sort: sortKey });
+    const q = new URLSearchParams({ sort: sortKey, order: sortKey === "start" ? "desc" : "asc" }); // newest first; A to Z
     if (!kick) q.set("kick", "0");
     for (const [id, , key] of FILTERS) if (inputs[id].value.trim()) q.append("where", key + inputs[id].value.trim());
     if (status.value) q.append("where", `status=${status.value}`);
