@@ -238,8 +238,8 @@ def _relative(console: Console, path: str) -> str:
 
 
 class IndexJSON(JSONResponse):
-    """JSON of index rows: ASCII with escapes, so that text an older contactrig stored with lone surrogates (kept by
-    the index as the file holds it) is still sent; a non-finite number is null (JSON has none)."""
+    """JSON of what files and sidecars hold: ASCII with escapes, so that text an older contactrig stored with lone
+    surrogates (kept by the index as the file holds it) is still sent; a non-finite number is null (JSON has none)."""
 
     def render(self, content: Any) -> bytes:
         return json.dumps(_finite(content), ensure_ascii=True, allow_nan=False, separators=(",", ":")).encode()
@@ -513,8 +513,9 @@ def _queued(console: Console, body: dict[str, Any]) -> tuple[dict[str, Any], str
     if (console.root / output).exists() or (console.root / output).is_symlink():
         raise BadRequest(f"{output} exists: choose another name")
     plan, _ = _plan(console, body)
+    client = str(body.get("client") or "")[:64]
     form = {"scene": body.get("scene") or "", "sim": bool(body.get("sim")), "sim_speed": body.get("sim_speed"),
-            "overrides": body.get("overrides") or {}, "output": output, "client": str(body.get("client") or "")[:64]}
+            "overrides": body.get("overrides") or {}, "output": output, "client": client}  # fmt: skip
     return form, plan.instrument.address
 
 
@@ -700,7 +701,7 @@ async def session_details(request: Request) -> Response:
         details = await asyncio.to_thread(_details, path)
     except (ValueError, OSError, RuntimeError) as exc:
         return JSONResponse({"error": _one_line(exc)}, status_code=400)
-    return JSONResponse(details, headers={"cache-control": "no-store"})
+    return IndexJSON(details, headers={"cache-control": "no-store"})
 
 
 def _contactrig(args: list[str], cwd: Path, closed: threading.Event | None = None) -> dict[str, Any]:
