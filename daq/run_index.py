@@ -663,6 +663,7 @@ def _select(
     sort: str,
     include_other: bool,
     limit: int | None = None,
+    descending: bool = False,
 ) -> list[dict[str, Any]]:
     clauses, params = ["1"], []
     for c in conditions:
@@ -672,8 +673,11 @@ def _select(
     if not include_other:
         clauses.append("s.status != 'other'")
     unreadable = "(s.status IN ('corrupt', 'newer', 'other'))"
+    order = _ORDER[sort]
+    if descending:  # newest (last) first; a start without its offset and unreadable files still last
+        order = ", ".join(t if t.endswith("= ''") else f"{t} DESC" for t in order.split(", "))
     rows = con.execute(
-        f"SELECT s.record, s.path FROM sessions s WHERE {' AND '.join(clauses)} ORDER BY {unreadable}, {_ORDER[sort]} "
+        f"SELECT s.record, s.path FROM sessions s WHERE {' AND '.join(clauses)} ORDER BY {unreadable}, {order} "
         "LIMIT ?",
         [*params, -1 if limit is None else max(0, limit)],
     ).fetchall()
@@ -700,12 +704,14 @@ def query(
     timeout: float | None = None,
     refresh: bool = True,
     limit: int | None = None,
+    descending: bool = False,
 ) -> tuple[list[dict[str, Any]], Refresh]:
     """The sessions under ``folder`` that meet every condition of ``where`` (``--where`` texts or
     :class:`Condition`), each a :func:`session_record` plus ``tags`` and ``remarks`` (each with ``who`` and
     ``at``), sorted by ``sort`` (:data:`daq.index.SORT_KEYS`; start: by the UTC instant; unreadable files last),
     after a refresh of the index (``refresh=False``: the index as it is, e.g. for a page that refreshes in the
-    background; ``limit``: at most that many rows, e.g. one page); the :class:`Refresh` says what was read and any note.
+    background; ``limit``: at most that many rows, e.g. one page; ``descending``: the sort reversed, e.g. the newest
+    first, unreadable files still last); the :class:`Refresh` says what was read and any note.
     The console can call this as it is."""
     from contactrig.core.validation import check_choice
 
@@ -717,7 +723,7 @@ def query(
         result = Refresh(where_, notes=notes)
         if refresh or where_ is None:
             _refresh(con, root, result, jobs, timeout)
-        return _select(con, root, conditions, sort, include_other, limit), result
+        return _select(con, root, conditions, sort, include_other, limit, descending), result
 
 
 def indexed_rows(folder: str | Path) -> list[tuple[str, str, str, bool, tuple[str, ...]]]:

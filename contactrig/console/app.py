@@ -2,8 +2,9 @@
 
 Every request passes :class:`Guard` first (token, Host, Origin on state changes, security headers). The pages are one
 static HTML shell with its script and stylesheet served from this package (no CDN, no inline script; the page
-builds its DOM with ``textContent``, so a string from a file is never markup). Sessions are listed by
-:func:`daq.index.index_sessions` (the one index, as ``contactrig sessions``); a session is acquired by
+builds its DOM with ``textContent``, so a string from a file is never markup). Sessions are listed, searched, marked
+and compared through :class:`~contactrig.console.catalog.Catalog` (:mod:`daq.run_index`, the one index, as
+``contactrig sessions --where``, refreshed in the background); a session is acquired by
 :class:`~contactrig.console.runner.SessionRun` (``daq.acquire.acquire`` in a child process); fit, report and export
 run the ``contactrig`` commands themselves, so the page shows what the terminal prints.
 """
@@ -39,6 +40,8 @@ from starlette.responses import (
 )
 from starlette.routing import Route
 
+from contactrig.console.bench_queue import BenchQueue, QueueError
+from contactrig.console.catalog import Catalog
 from contactrig.console.runner import RunState, SessionRun
 from contactrig.console.security import check_token, resolve_under, same_origin
 
@@ -79,12 +82,21 @@ class Console:
     #: the token's cookie: one per port, so two consoles on one machine do not overwrite each other's
     cookie: str = COOKIE
     runs: dict[str, SessionRun] = field(default_factory=dict)
-    index_cache: dict[Any, Any] = field(default_factory=dict)
+    #: the run index of ``root`` with its background refresh
+    catalog: Catalog = field(init=False)
+    #: the bench's queue of planned sessions (its file in ``root``)
+    queue: BenchQueue = field(init=False)
     lock: threading.Lock = field(default_factory=threading.Lock)
     #: set by the first SIGINT/SIGTERM: running sessions stop after their block, no new one starts
     closing: threading.Event = field(default_factory=threading.Event)
     #: set when every session has ended and the server goes down: event streams end
     closed: threading.Event = field(default_factory=threading.Event)
+
+    def __post_init__(self) -> None:
+        self.catalog = Catalog(self.root, self.closed)
+        self.queue = BenchQueue(self.root, start=lambda form: _start(self, form).state.id,
+                                busy=lambda at: self.running_on(at) is not None, closing=self.closing)  # fmt: skip
+        self.queue.load()
 
     def running_on(self, address: str) -> SessionRun | None:
         return next((r for r in self.runs.values() if r.running and r.state.address == address), None)
@@ -225,21 +237,73 @@ def _relative(console: Console, path: str) -> str:
         return path
 
 
+class IndexJSON(JSONResponse):
+    """JSON of what files and sidecars hold: ASCII with escapes, so that text an older contactrig stored with lone
+    surrogates (kept by the index as the file holds it) is still sent; a non-finite number is null (JSON has none)."""
+
+    def render(self, content: Any) -> bytes:
+        return json.dumps(_finite(content), ensure_ascii=True, allow_nan=False, separators=(",", ":")).encode()
+
+
+def _finite(value: Any) -> Any:
+    if isinstance(value, float):
+        return value if value == value and abs(value) != float("inf") else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_finite(v) for v in value]
+    return value
+
+
 async def sessions(request: Request) -> Response:
-    """The index of DIR (:func:`daq.index.index_sessions`, cached per file by size and time of change)."""
-    from daq.index import SORT_KEYS, index_sessions
+    """One page of the run index (:meth:`Catalog.rows`: the index as it is, never a scan), the newest first;
+    ``where`` (repeated) are ``contactrig sessions --where`` texts, ``sort`` a ``--sort`` key, ``order=asc`` the
+    oldest first. A refresh is started in the background (``kick=0``: not); ``indexing`` and ``generation`` let the
+    page poll until it has ended and draw again."""
+    from daq.index import SORT_KEYS
 
     console: Console = request.app.state.console
+    catalog = console.catalog
     sort = request.query_params.get("sort", "start")
     sort = sort if sort in SORT_KEYS else "start"
-    sample = request.query_params.get("sample") or None
-    entries = await asyncio.to_thread(index_sessions, console.root, sort=sort, sample=sample, cache=console.index_cache)
-    rows = []
-    for e in entries:
-        d = e.as_dict()
-        d["path"] = _relative(console, e.path)
-        rows.append(d)
-    return JSONResponse({"sessions": rows})
+    where = [w for w in request.query_params.getlist("where") if w.strip()]
+    if request.query_params.get("kick") != "0":
+        catalog.kick()
+    generation = catalog.generation
+    try:
+        rows, more = await asyncio.to_thread(catalog.rows, where, sort,
+                                             descending=request.query_params.get("order") != "asc")  # fmt: skip
+    except (ValueError, OSError) as exc:
+        return JSONResponse({"error": _one_line(exc)}, status_code=400)
+    return IndexJSON({"sessions": rows, "more": more, "indexing": catalog.indexing, "generation": generation,
+                      "notes": catalog.notes})  # fmt: skip
+
+
+async def add_mark(request: Request) -> Response:
+    """A tag or remark on a session: ``{"path", "kind": "tag"|"remark", "text", "who"}``
+    (:func:`daq.run_index.add_mark`: one line appended to the folder's sidecar, the session never touched)."""
+    console: Console = request.app.state.console
+    body = await _json_body(request)
+    try:
+        path = _session_file(console, body.get("path"))
+        kind, text, who = (body.get(k) for k in ("kind", "text", "who"))
+        if not all(isinstance(v, str) for v in (kind, text, who)):
+            raise BadRequest("kind, text and who: expected text (kind tag or remark)")
+        mark = await asyncio.to_thread(console.catalog.add_mark, path, str(kind), str(text), str(who))
+    except (ValueError, OSError) as exc:
+        return JSONResponse({"error": _one_line(exc)}, status_code=400)
+    return JSONResponse({"mark": {k: mark[k] for k in ("kind", "text", "who", "at")}})
+
+
+async def diff(request: Request) -> Response:
+    """Why two sessions differ (:func:`daq.session_diff.session_diff`): ``a`` and ``b``, paths in the folder."""
+    console: Console = request.app.state.console
+    try:
+        a, b = (_session_file(console, request.query_params.get(k)) for k in ("a", "b"))
+        result = await asyncio.to_thread(console.catalog.diff, a, b)
+    except (ValueError, OSError, RuntimeError) as exc:
+        return JSONResponse({"error": _one_line(exc)}, status_code=400)
+    return IndexJSON(result)
 
 
 # -- a new session ------------------------------------------------------------------------------------------------
@@ -437,6 +501,63 @@ async def start_run(request: Request) -> Response:
     return JSONResponse(run.snapshot())
 
 
+# -- the bench's queue -------------------------------------------------------------------------------------------
+
+
+def _queued(console: Console, body: dict[str, Any]) -> tuple[dict[str, Any], str]:
+    """The New-session form of a planned session, checked as a start checks it (scene, overrides, file name), and
+    its bench address."""
+    output = body.get("output")
+    if not isinstance(output, str) or not SAFE_NAME.match(output):
+        raise BadRequest(f"file name {output!r}: expected a plain name ending in .h5 (letters, digits, '.', '_', '-')")
+    if (console.root / output).exists() or (console.root / output).is_symlink():
+        raise BadRequest(f"{output} exists: choose another name")
+    plan, _ = _plan(console, body)
+    client = str(body.get("client") or "")[:64]
+    form = {"scene": body.get("scene") or "", "sim": bool(body.get("sim")), "sim_speed": body.get("sim_speed"),
+            "overrides": body.get("overrides") or {}, "output": output, "client": client}  # fmt: skip
+    return form, plan.instrument.address
+
+
+async def queue_state(request: Request) -> Response:
+    return JSONResponse(request.app.state.console.queue.snapshot())
+
+
+async def queue_add(request: Request) -> Response:
+    """A planned session at the end of the queue: the New-session form, and ``wait`` (true: it starts at the
+    operator's Start, else as soon as its bench is free)."""
+    console: Console = request.app.state.console
+    body = await _json_body(request)
+    try:
+        form, address = await asyncio.to_thread(_queued, console, body)
+        item = console.queue.add(form, address, bool(body.get("wait")))
+    except (ValueError, OSError) as exc:
+        return JSONResponse({"error": _one_line(exc)}, status_code=409 if isinstance(exc, QueueError) else 400)
+    return JSONResponse(item)
+
+
+async def queue_action(request: Request) -> Response:
+    """``move`` (``{"to": position}``), ``cancel`` or ``start`` (the operator's Start) one queued session."""
+    queue: BenchQueue = request.app.state.console.queue
+    body = await _json_body(request)
+    item, action = request.path_params["item"], request.path_params["action"]
+    try:
+        if action == "move":
+            to = body.get("to")
+            if not isinstance(to, int) or isinstance(to, bool):
+                raise QueueError(f"to {to!r}: expected a position (0 = first)")
+            queue.move(item, to)
+        elif action == "cancel":
+            queue.cancel(item)
+        elif action == "start":
+            queue.go(item)
+        else:
+            return JSONResponse({"error": "no such action"}, status_code=404)
+    except (ValueError, OSError) as exc:
+        return JSONResponse({"error": _one_line(exc)}, status_code=409)
+    return JSONResponse(queue.snapshot())
+
+
 def _run(request: Request) -> SessionRun | None:
     return request.app.state.console.runs.get(request.path_params["run"])
 
@@ -555,9 +676,11 @@ def _details(path: Path) -> dict[str, Any]:
                 "resumed_from": r.get("resumed_from"), "stop": r.get("stop"), "notes": r.get("notes")}
                for i, r in enumerate(runs)]  # fmt: skip
     said = [*s.warnings, *(str(n.message) for n in notes)]
+    first = runs[0] if runs else (s.start if isinstance(s.start, dict) else {})
     return {"status": s.status, "stop": s.stop, "history": history, "blocks": summary_rows(s.summary),
             "sample": s.start.get("sample"), "operator": s.start.get("operator"), "notes": s.start.get("notes"),
-            "runs": len(runs), "weights": _planned_weights(s.start), "warnings": said}  # fmt: skip
+            "runs": len(runs), "weights": _planned_weights(s.start), "warnings": said,
+            "marks": Catalog.marks_of(path, first)}  # fmt: skip
 
 
 def _planned_weights(start: dict[str, Any]) -> list[float]:
@@ -578,7 +701,7 @@ async def session_details(request: Request) -> Response:
         details = await asyncio.to_thread(_details, path)
     except (ValueError, OSError, RuntimeError) as exc:
         return JSONResponse({"error": _one_line(exc)}, status_code=400)
-    return JSONResponse(details, headers={"cache-control": "no-store"})
+    return IndexJSON(details, headers={"cache-control": "no-store"})
 
 
 def _contactrig(args: list[str], cwd: Path, closed: threading.Event | None = None) -> dict[str, Any]:
@@ -665,25 +788,27 @@ async def follow(request: Request) -> Response:
 
 
 def _overlay(console: Console, sample: str, leave_out: str) -> list[dict[str, Any]]:
-    """Past sessions of ``sample`` (the same text, case-insensitive): per weight, the mean of the block means."""
-    from daq.index import index_sessions
+    """Past sessions of ``sample`` (the run index's ``sample=``: the same text, case-insensitive): per weight, the
+    mean of the block means."""
+    from daq.run_index import UNREADABLE, Condition, query
     from daq.session_file import load_session
 
     found = []
-    for e in index_sessions(console.root, cache=console.index_cache):
-        rel = _relative(console, e.path)
-        if rel == leave_out or e.sample.casefold() != sample.casefold() or e.status in ("corrupt", "newer", "other"):
+    rows = query(console.root, [Condition("sample", "=", sample)])[0] if sample else []
+    for e in rows:
+        rel = _relative(console, e["path"])
+        if rel == leave_out or e["status"] in UNREADABLE:
             continue
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:
-                summary = load_session(e.path, timeout=30).summary
+                summary = load_session(e["path"], timeout=30).summary
             except Exception:
                 continue
         ok = summary[~summary["compliance"]] if "compliance" in summary.columns else summary
         means = ok.groupby("weight_kg")["mean_ohm"].mean()
         points = [{"weight_kg": float(w), "mean_ohm": float(m)} for w, m in means.items() if m == m]
-        found.append({"path": rel, "start": e.start_time, "points": points})
+        found.append({"path": rel, "start": e["start_time"], "points": points})
     return found[-MAX_OVERLAID:]
 
 
@@ -704,6 +829,9 @@ def build_app(console: Console) -> ASGIApp:
         Route("/api/scenes", scenes),
         Route("/api/overrides", overrides_form),
         Route("/api/plan", plan_preview, methods=["POST"]),
+        Route("/api/queue", queue_state),
+        Route("/api/queue", queue_add, methods=["POST"]),
+        Route("/api/queue/{item}/{action}", queue_action, methods=["POST"]),
         Route("/api/runs", runs),
         Route("/api/runs", start_run, methods=["POST"]),
         Route("/api/runs/{run}", run_state),
@@ -713,6 +841,8 @@ def build_app(console: Console) -> ASGIApp:
         Route("/api/session", session_details),
         Route("/api/overlay", overlay),
         Route("/api/follow", follow),
+        Route("/api/session/mark", add_mark, methods=["POST"]),
+        Route("/api/diff", diff),
         Route("/api/session/{action}", session_action, methods=["POST"]),
     ]
     app = Starlette(routes=routes)

@@ -105,6 +105,8 @@ def serve(
     sock = bind(host, port)
     port = sock.getsockname()[1]
     console = make_console(root, host, port, allowed=allowed_hosts)
+    console.catalog.kick()  # the index refreshed from the start, in the background: the first page finds it ready
+    console.queue.begin()  # a queue left by the last console goes on
     stored = store_token(console.token, token_folder or default_token_folder(), port)
     where = "127.0.0.1" if host in ALL_INTERFACES else host
     shown = f"[{where}]" if ":" in where else where

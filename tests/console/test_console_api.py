@@ -86,17 +86,18 @@ def test_the_token_is_stored_private(tmp_path: Path):
 
 
 def test_sessions_index_is_the_shared_index(client: Client, folder: Path):
-    """The page's rows are ``daq.index.index_sessions``'s; a hostile sample comes back as the same string (JSON
-    escapes it; the page puts it in the DOM as text, see the browser tests)."""
-    from daq.index import index_sessions
+    """The page's rows are ``daq.run_index.query``'s (see test_console_index.py); a hostile sample comes back as the
+    same string (JSON escapes it; the page puts it in the DOM as text, see the browser tests)."""
+    from daq.run_index import query
+    from tests.console.test_console_index import indexed
 
     hostile = "".join(HOSTILE.values()) + "x" * 100_000
     (folder / "hostile.toml").write_text(scene_text(sample=hostile, weights="[5.44]", repeats=1), encoding="utf-8")
     run = client.start("hostile.h5", scene="hostile.toml")
     assert client.drive(run)["stop"]["status"] == "success"
-    rows = client.get("/api/sessions").json()["sessions"]
-    expected = index_sessions(folder)
-    assert [r["path"] for r in rows] == [Path(e.path).relative_to(folder).as_posix() for e in expected]
+    rows = indexed(client)["sessions"]
+    expected, _ = query(folder, refresh=False, descending=True)
+    assert [r["path"] for r in rows] == [Path(e["path"]).relative_to(folder).as_posix() for e in expected]
     assert rows[0]["sample"] == hostile
 
 
@@ -269,7 +270,7 @@ def test_real_bench_path_over_loopback_lan(client: Client, folder: Path):
 @pytest.mark.slow
 def test_exports_sorting_and_filtering(client: Client, folder: Path):
     """Export CSV and xlsx (``contactrig export`` itself) beside the session, served back from DIR; the index
-    sorts and filters as ``contactrig sessions --sort/--sample`` does."""
+    sorts and filters as ``contactrig sessions --sort/--where`` does."""
     (folder / "other.toml").write_text(scene_text(weights="[5.44]", repeats=1, sample="B sample"), encoding="utf-8")
     for name, scene in (("one.h5", "small.toml"), ("two.h5", "other.toml")):
         assert client.drive(client.start(name, scene=scene))["stop"]["status"] == "success"
@@ -280,9 +281,11 @@ def test_exports_sorting_and_filtering(client: Client, folder: Path):
         for link in r["links"]:
             assert client.get(link).status_code == 200
     assert client.post("/api/session/export", {"path": "../one.h5"}).status_code == 400
-    by_sample = [r["path"] for r in client.get("/api/sessions", params={"sort": "sample"}).json()["sessions"]]
+    from tests.console.test_console_index import indexed
+
+    by_sample = [r["path"] for r in indexed(client, sort="sample", order="asc")["sessions"]]
     assert by_sample == ["one.h5", "two.h5"]  # "Al-Si …" before "B sample"
-    only = client.get("/api/sessions", params={"sample": "b SAM"}).json()["sessions"]
+    only = indexed(client, where="sample~b SAM")["sessions"]
     assert [r["path"] for r in only] == ["two.h5"]
 
 
@@ -305,5 +308,7 @@ def test_overrides_from_the_form_are_the_runs(client: Client, folder: Path):
     s = load_session(folder / "over.h5")
     assert s.start["sample"] == given["session.sample"] and s.start["operator"] == given["session.operator"]
     assert s.start["overrides"] == given and "S-42" not in s.scene_text
-    row = next(r for r in client.get("/api/sessions").json()["sessions"] if r["path"] == "over.h5")
+    from tests.console.test_console_index import indexed
+
+    row = next(r for r in indexed(client)["sessions"] if r["path"] == "over.h5")
     assert row["sample"] == given["session.sample"] and row["notes"] == given["session.notes"]

@@ -44,8 +44,8 @@ def test_the_sessions_index_lists_a_file_with_bad_text_and_answers(client: Clien
 
     _older_session(folder / "old.h5", monkeypatch, sample="Kolben-\udcd8")
     _older_session(folder / os.fsdecode(b"name-\xff.h5"), monkeypatch)
-    r = client.get("/api/sessions")
-    assert r.status_code == 200
-    rows = {row["path"]: row for row in r.json()["sessions"]}
+    from tests.console.test_console_index import indexed
+
+    rows = {row["path"]: row for row in indexed(client)["sessions"]}  # indexed() checks the status (200)
     assert rows["old.h5"]["sample"] == "Kolben-\\xd8"
     assert "file name is not UTF-8" in rows["name-\\xff.h5"]["note"]

@@ -39,27 +39,62 @@ function fmtDuration(s) {
   return `${Math.floor(s / 60)} min ${String(Math.round(s % 60)).padStart(2, "0")} s`;
 }
 
-// ---- sessions ----------------------------------------------------------------------------------------------
+// ---- sessions: the run index (daq.run_index), searched with the filters of `contactrig sessions --where` ---------
 let sortKey = "start";
+const chosen = []; // the sessions picked to compare (two at most; the oldest pick drops out)
+// the filters: [element id, label, --where key and operator, input type]
+const FILTERS = [["f-text", "notes and remarks contain", "text~", "search"], ["f-sample", "sample", "sample~", "text"],
+  ["f-operator", "operator", "operator~", "text"], ["f-scene", "scene", "scene~", "text"], ["f-serial", "instrument serial", "serial=", "text"],
+  ["f-tag", "tag", "tag=", "text"], ["f-from", "started from (UTC day)", "start>=", "date"], ["f-to", "started until (UTC day)", "start<=", "date"]];
+const STATUSES = ["", "success", "aborted", "failed", "running", "incomplete", "corrupt", "newer"];
+
+function markText(m) { return `${m.text} — ${m.who}, ${m.at}`; }
 
 async function showSessions() {
-  const filter = el("input", { id: "filter", placeholder: "sample contains…" });
+  const inputs = {};
+  const boxes = FILTERS.map(([id, label, , type]) => {
+    inputs[id] = el("input", { id, type, placeholder: type === "search" ? "search: words in notes and remarks" : "" });
+    return el("label", { class: type === "search" ? "search" : "filter" }, `${label} `, inputs[id]);
+  });
+  const status = el("select", { id: "f-status" }, ...STATUSES.map((s) => el("option", { value: s, text: s || "any" })));
   const table = el("table", { id: "sessions-table" });
   const runsBox = el("div", { id: "console-runs" });
-  main(el("h1", { text: "Sessions" }), runsBox, el("label", {}, "Filter by sample: ", filter), table);
+  const state = el("p", { id: "index-state", class: "small" });
+  const compare = el("button", { id: "btn-compare", disabled: "disabled", text: "Why do these two runs differ?" });
+  compare.addEventListener("click", () => { location.hash = `#/diff/${encodeURIComponent(JSON.stringify(chosen))}`; });
+  main(el("h1", { text: "Sessions" }), runsBox, boxes[0], el("div", { class: "filters" }, ...boxes.slice(1), el("label", { class: "filter" }, "status ", status)),
+    el("p", {}, compare, el("span", { id: "compare-picked", class: "small" })), state, table);
   const runs = await api("/api/runs");
   if ((runs.runs || []).length) runsBox.append(el("h2", { text: "Started from this console" }));
   for (const r of runs.runs || []) {
     runsBox.append(el("p", {}, el("a", { href: `#/run/${encodeURIComponent(r.id)}`, text: `${r.file}: ${r.phase}, ${r.blocks}/${r.blocks_planned} blocks` })));
   }
-  const load = async () => {
-    const q = new URLSearchParams({ sort: sortKey });
-    if (filter.value) q.set("sample", filter.value);
+  const picked = () => {
+    compare.disabled = chosen.length !== 2;
+    document.getElementById("compare-picked").textContent = chosen.length ? ` A: ${chosen[0]}` + (chosen[1] ? ` · B: ${chosen[1]}` : " (pick one more)") : " (tick two sessions)";
+  };
+  picked();
+  let asked = 0, shownGeneration = -1, timer = null;
+  const load = async (kick, poll) => {
+    const mine = ++asked;
+    if (timer) { clearTimeout(timer); timer = null; }
+    const q = new URLSearchParams({ sort: sortKey, order: sortKey === "start" ? "desc" : "asc" }); // newest first; A to Z
+    if (!kick) q.set("kick", "0");
+    for (const [id, , key] of FILTERS) if (inputs[id].value.trim()) q.append("where", key + inputs[id].value.trim());
+    if (status.value) q.append("where", `status=${status.value}`);
     const data = await api(`/api/sessions?${q}`);
-    const cols = [["start", "start"], ["status", "status"], ["blocks", null], ["kind", null], ["sample", "sample"], ["operator", "operator"], ["file", "path"], ["", null]];
+    if (mine !== asked || !document.body.contains(table)) return; // a newer search, or another page, meanwhile
+    if (data.indexing) timer = setTimeout(() => { if (document.body.contains(table)) load(false, true); }, 700);
+    state.textContent = (data.error ? `${data.error} ` : "") + (data.indexing ? "updating the index from the files… (shown: the index as it is) " : "")
+      + (data.more ? "more sessions match than are shown: narrow the search. " : "") + (data.notes || []).join(" ");
+    state.className = data.error ? "error" : "small";
+    if (data.error) return;
+    if (poll && data.generation === shownGeneration) return; // nothing new: the table stays as it is
+    shownGeneration = data.generation;
+    const cols = [["", null], ["start", "start"], ["status", "status"], ["blocks", null], ["kind", null], ["sample", "sample"], ["operator", "operator"], ["file", "path"], ["tags", null], ["", null]];
     const head = el("tr", {}, ...cols.map(([name, key]) => {
       const th = el("th", { text: name + (key === sortKey ? " ▾" : "") });
-      if (key) th.addEventListener("click", () => { sortKey = key; load(); });
+      if (key) th.addEventListener("click", () => { sortKey = key; load(false); });
       return th;
     }));
     const rows = (data.sessions || []).map((s) => {
@@ -70,19 +105,35 @@ async function showSessions() {
         action.append(el("button", { class: "resume", onclick: () => resume(s.path, s.kind === "simulated"), text: "Resume" }));
       }
       if (s.status === "running") action.append(el("a", { class: "follow", href: `#/follow/${encodeURIComponent(s.path)}`, text: "Follow live" }));
-      const status = ["corrupt", "newer"].includes(s.status) ? s.status.toUpperCase() : s.status;
-      const row = el("tr", {}, el("td", { text: s.start_shown || s.start_time || "" }),
-        el("td", { class: s.status, text: status }), el("td", { text: blocks }), el("td", { text: s.kind }),
-        el("td", { class: "sample text", text: s.sample }), el("td", { class: "text", text: s.operator }), el("td", { class: "text" }, link), action);
+      const pick = el("input", { type: "checkbox", class: "pick", title: "compare" });
+      pick.checked = chosen.includes(s.path);
+      pick.addEventListener("change", () => {
+        const at = chosen.indexOf(s.path);
+        if (pick.checked && at < 0) chosen.push(s.path);
+        if (!pick.checked && at >= 0) chosen.splice(at, 1);
+        while (chosen.length > 2) chosen.shift();
+        for (const box of table.querySelectorAll("input.pick")) box.checked = chosen.includes(box.dataset.path);
+        picked();
+      });
+      pick.dataset.path = s.path;
+      const tags = el("td", { class: "tags" }, ...(s.tags || []).map((t) => el("span", { class: "tag", title: `${t.who}, ${t.at}`, text: t.text })));
+      const st = ["corrupt", "newer"].includes(s.status) ? s.status.toUpperCase() : s.status;
+      const row = el("tr", {}, el("td", {}, pick), el("td", { text: s.start_shown || s.start_time || "" }),
+        el("td", { class: s.status, text: st }), el("td", { text: blocks }), el("td", { text: s.kind }),
+        el("td", { class: "sample text", text: s.sample }), el("td", { class: "text", text: s.operator }), el("td", { class: "text" }, link), tags, action);
       const out = [row];
-      if (s.note && !["success", "running"].includes(s.status)) out.push(el("tr", {}, el("td", { colspan: 8, class: "note", text: s.note })));
+      if (s.note && !["success", "running"].includes(s.status)) out.push(el("tr", {}, el("td", { colspan: 10, class: "note", text: s.note })));
+      for (const m of s.remarks || []) out.push(el("tr", {}, el("td"), el("td", { colspan: 9, class: "remark text", text: `remark: ${markText(m)}` })));
       return out;
     }).flat();
     table.replaceChildren(head, ...rows);
-    if (!rows.length) table.append(el("tr", {}, el("td", { colspan: 8, text: "(no session files)" })));
+    if (!rows.length) table.append(el("tr", {}, el("td", { colspan: 10, text: data.indexing ? "(the index is being built…)" : "(no session matches)" })));
   };
-  filter.addEventListener("input", load);
-  await load();
+  let typing = null;
+  const later = () => { clearTimeout(typing); typing = setTimeout(() => load(false), 250); };
+  for (const i of Object.values(inputs)) i.addEventListener("input", later);
+  status.addEventListener("change", () => load(false));
+  await load(true);
 }
 
 async function resume(path, sim) {
@@ -130,12 +181,20 @@ async function showNew() {
     if (r.error) { error.textContent = r.error; return; }
     location.hash = `#/run/${encodeURIComponent(r.id)}`;
   });
+  const wait = el("input", { type: "checkbox", id: "queue-wait" });
+  const enqueue = el("button", { id: "btn-enqueue", text: "Add to the queue" });
+  enqueue.addEventListener("click", async () => {
+    const r = await api("/api/queue", { ...body(form), output: name.value, wait: wait.checked, client: CLIENT });
+    if (r.error) { error.textContent = r.error; return; }
+    location.hash = "#/queue";
+  });
   main(el("h1", { text: "New session" }),
     el("label", {}, "Scene: ", scene),
     el("label", {}, sim, " simulated bench (no instruments); instrument time × 1/", speed),
     el("h2", { text: "This run (over the scene)" }), ...rows,
     el("label", {}, "Session file (in the console's folder): ", name),
-    el("h2", { text: "Plan" }), plan, error, el("p", { class: "buttons" }, start));
+    el("h2", { text: "Plan" }), plan, error, el("p", { class: "buttons" }, start),
+    el("p", {}, enqueue, el("label", { class: "inline" }, wait, " waits for my Start (else: starts when its bench is free)")));
   await preview();
 }
 
@@ -319,6 +378,7 @@ async function showSession(path) {
     el("p", {}, "status ", el("strong", { id: "session-status", text: d.status }), " · sample ", el("span", { id: "session-sample", text: d.sample ?? "" }), " · operator ", el("span", { text: d.operator ?? "" }),
       ` · ${d.runs} run(s)`),
     el("p", {}, "notes: ", el("span", { id: "session-notes", class: "text", text: d.notes || "(none)" })),
+    marksBox(path, d.marks || []),
     d.status === "running" ? el("p", {}, el("a", { id: "to-follow", href: `#/follow/${encodeURIComponent(path)}`, text: "being written by another process: follow it live" })) : "",
     el("h2", { text: "Stop record" }), el("p", { id: "session-stop", text: stop }),
     el("p", { class: "buttons" },
@@ -329,6 +389,87 @@ async function showSession(path) {
     links, out, overlayToggle(d.sample, path, (o) => { view.overlays = o; drawPlot(canvas, view); }), canvas,
     el("h2", { text: "History" }), history, el("h2", { text: "Blocks" }), blocks);
   drawPlot(canvas, view);
+}
+
+// Tags and remarks (daq.run_index: the folder's sidecar, never the sealed session), with who and when; one more added
+// here (who: remembered in this browser).
+function marksBox(path, marks) {
+  const list = el("ul", { id: "marks" });
+  const show = (m) => list.append(el("li", { class: "text" }, el("strong", { text: `${m.kind}: ` }), markText(m)));
+  marks.forEach(show);
+  const kind = el("select", { id: "mark-kind" }, el("option", { value: "tag", text: "tag (one word)" }), el("option", { value: "remark", text: "remark" }));
+  const text = el("input", { id: "mark-text", size: 50 });
+  const who = el("input", { id: "mark-who", size: 16, value: localStorage.getItem("contactrig-who") || "" });
+  const error = el("span", { class: "error", id: "mark-error" });
+  const add = el("button", { id: "btn-mark", text: "Add" });
+  add.addEventListener("click", async () => {
+    const r = await api("/api/session/mark", { path, kind: kind.value, text: text.value, who: who.value });
+    error.textContent = r.error || "";
+    if (r.error) return;
+    localStorage.setItem("contactrig-who", who.value);
+    show(r.mark);
+    text.value = "";
+  });
+  return el("div", { id: "marks-box" }, el("h2", { text: "Tags and remarks" }), list,
+    el("p", {}, kind, " ", text, " by ", who, " ", add, " ", error));
+}
+
+// ---- why two runs differ (daq.session_diff): every field that differs, side by side -----------------------------
+async function showDiff(arg) {
+  let pair = [];
+  try { pair = JSON.parse(arg); } catch (e) { pair = []; }
+  main(el("h1", { text: "Why do these two runs differ?" }), el("p", { text: "comparing…" }));
+  const d = await api(`/api/diff?${new URLSearchParams({ a: pair[0] || "", b: pair[1] || "" })}`);
+  if (d.error) { main(el("h1", { text: "Why do these two runs differ?" }), el("p", { class: "error", id: "diff-error", text: d.error })); return; }
+  const link = (p) => el("a", { href: `#/session/${encodeURIComponent(p)}`, text: p });
+  const show = (v) => (v === null || v === undefined ? "—" : typeof v === "object" ? JSON.stringify(v) : String(v));
+  const table = el("table", { id: "diff-table" }, el("tr", {}, el("th", { text: "field" }), el("th", {}, "A: ", link(d.a)), el("th", {}, "B: ", link(d.b))),
+    ...d.differences.map((x) => el("tr", {}, el("td", { class: "field", text: x.field }), el("td", { class: "text", text: show(x.a) }), el("td", { class: "text", text: show(x.b) }))));
+  if (!d.differences.length) table.append(el("tr", {}, el("td", { colspan: 3, text: "(no differences)" })));
+  main(el("h1", { text: "Why do these two runs differ?" }), table,
+    el("p", { id: "diff-same", text: `${d.same} field(s) the same` }),
+    d.scene_lines.length ? el("h2", { text: "Scene text (- in A, + in B)" }) : "", d.scene_lines.length ? el("pre", { id: "diff-scene", text: d.scene_lines.join("\n") }) : "",
+    ...d.notes.map((n) => el("p", { class: "small", text: `note: ${n}` })));
+}
+
+// ---- the bench's queue: planned sessions, started one after the other on their bench address ------------------------
+let queueTimer = null;
+
+async function showQueue() {
+  const list = el("table", { id: "queue-table" });
+  const said = el("p", { class: "error", id: "queue-error" });
+  const started = el("div", { id: "queue-started" });
+  main(el("h1", { text: "Queue" }), el("p", { class: "small", text: "Each planned session starts when the session before it on its bench has ended (or at your Start); the queue is kept in the folder, so it outlives a console restart." }),
+    said, list, started, el("p", {}, el("a", { href: "#/new", text: "plan another session (New session → Add to the queue)" })));
+  const act = async (id, action, extra) => {
+    const r = await api(`/api/queue/${encodeURIComponent(id)}/${action}`, extra || {});
+    said.textContent = r.error || "";
+    draw(r.error ? null : r);
+  };
+  const draw = async (q) => {
+    if (!q) q = await api("/api/queue");
+    if (location.hash !== "#/queue") return;
+    said.textContent = q.broken || said.textContent;
+    const head = el("tr", {}, ...["#", "file", "scene", "bench", "overrides", "state", ""].map((h) => el("th", { text: h })));
+    const rows = (q.items || []).map((it, k) => {
+      const f = it.form;
+      const state = it.error ? `refused: ${it.error}` : it.wait && !it.go ? "waits for your Start" : "starts when the bench is free";
+      const ov = Object.entries(f.overrides || {}).map(([key, v]) => `${key}=${v}`).join(", ");
+      return el("tr", { class: "queued" }, el("td", { text: k + 1 }), el("td", { class: "text", text: f.output }), el("td", { class: "text", text: f.scene || "(default)" }),
+        el("td", { text: f.sim ? `${it.address} (simulated)` : it.address }), el("td", { class: "text", text: ov }), el("td", { class: it.error ? "error" : "", text: state }),
+        el("td", {},
+          el("button", { class: "up", onclick: () => act(it.id, "move", { to: Math.max(0, k - 1) }), text: "↑" }),
+          el("button", { class: "down", onclick: () => act(it.id, "move", { to: Math.min(q.items.length - 1, k + 1) }), text: "↓" }),
+          (it.wait && !it.go) || it.error ? el("button", { class: "go start", onclick: () => act(it.id, "start"), text: "Start" }) : "",
+          el("button", { class: "cancel", onclick: () => act(it.id, "cancel"), text: "Cancel" })));
+    });
+    list.replaceChildren(head, ...rows);
+    if (!rows.length) list.append(el("tr", {}, el("td", { colspan: 7, text: "(nothing queued)" })));
+    started.replaceChildren(...(q.started || []).length ? [el("h2", { text: "Started from the queue" })] : [],
+      ...(q.started || []).map((s) => el("p", {}, el("a", { class: "started", href: `#/run/${encodeURIComponent(s.run)}`, text: s.file }))));
+  };
+  const poll = async () => { queueTimer = null; await draw(); if (location.hash === "#/queue") queueTimer = setTimeout(poll, 1000); };
+  await poll();
 }
 
 // ---- a session written by another process (`contactrig acquire` in a terminal), followed from its file ----------
@@ -369,6 +510,7 @@ function showFollow(path) {
 function route() {
   if (source) { source.close(); source = null; }
   if (followTimer) { clearTimeout(followTimer); followTimer = null; }
+  if (queueTimer) { clearTimeout(queueTimer); queueTimer = null; }
   keys = null;
   const hash = location.hash || "#/sessions";
   const [, page, ...rest] = hash.split("/");
@@ -377,6 +519,8 @@ function route() {
   else if (page === "run") showRun(arg);
   else if (page === "session") showSession(arg);
   else if (page === "follow") showFollow(arg);
+  else if (page === "diff") showDiff(arg);
+  else if (page === "queue") showQueue();
   else showSessions();
 }
 
