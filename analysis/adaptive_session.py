@@ -34,7 +34,9 @@ __all__ = [
     "adaptive_plan",
     "adaptive_source",
     "build_design",
+    "evidence_line",
     "replay_suggestions",
+    "session_evidence",
     "terminal_chooser",
 ]
 
@@ -82,6 +84,10 @@ def settings_of(plan: SessionPlan, budget_min: float, *, simulated: bool, seed: 
     }
 
 
+#: model curves of the scenes seen (``watch`` re-reads a session every few seconds; the rig takes seconds to build)
+_CURVES: dict[str, Any] = {}
+
+
 def build_design(scene: Any, settings: Mapping[str, Any]) -> SequentialDesign:
     """The :class:`SequentialDesign` of ``settings`` (:func:`settings_of`, or a start record's ``adaptive``)."""
     from analysis.design import model_curves
@@ -89,8 +95,12 @@ def build_design(scene: Any, settings: Mapping[str, Any]) -> SequentialDesign:
 
     weights = [float(w) for w in settings["weights_kg"]]
     noise = NoiseModel(**settings["noise"])
+    key = json.dumps([scene.text, sorted(set(weights))])
+    if key not in _CURVES:
+        _CURVES.clear()
+        _CURVES[key] = model_curves(scene, sorted(set(weights)))
     return SequentialDesign(
-        model_curves(scene, sorted(set(weights))), weights, CostModel(**settings["cost"]),
+        _CURVES[key], weights, CostModel(**settings["cost"]),
         budget_s=float(settings["budget_s"]), noise=noise, film_ohm_m2=float(settings["film_ohm_m2"]),
         series_ohm=float(settings["series_ohm"]), threshold=float(settings["threshold"]), seed=int(settings["seed"]),
     )  # fmt: skip
@@ -193,25 +203,52 @@ class AdaptiveSteps:
         pass
 
     # -- what the file and the screen get ---------------------------------------------------------------------------
-    def evidence_line(self, state: Mapping[str, Any] | None = None) -> str:
-        """``evidence: Hertz leads by ΔQAIC 4.2 of 10 (42 %) · ĉ 3.1 · 12 of 60 min`` — the live line's evidence."""
-        d = self.design
-        ev = d.evidence()
-        spent = f"{d.spent_s / 60:.0f} of {d.budget_s / 60:.0f} min"
-        if ev is None:
-            return f"evidence: not yet (the fit needs ≥ 2 seatings at ≥ 3 weights) · {spent}"
-        from sims.models import model_label
-
-        margin = "no separable rival" if not math.isfinite(ev.margin) else f"Δ{ev.criterion} {ev.margin:.1f}"
-        pct = 0 if not math.isfinite(ev.margin) else min(100, max(0, round(100 * ev.margin / d.threshold)))
-        return (f"evidence: {model_label(ev.leader)} leads, {margin} of {d.threshold:g} ({pct} %) · ĉ {ev.c_hat:.2g} "
-                f"· {spent}")  # fmt: skip
+    def evidence_line(self) -> str:
+        """The live line's evidence (:func:`evidence_line`)."""
+        return evidence_line(self.design)
 
     def record(self) -> dict[str, Any]:
         """The stop record's ``adaptive``: every suggestion with its evidence and the operator's action, the stop
         decision, the last state."""
         return json.loads(json.dumps({"entries": self.entries, "decision": self.decision, "final": self.last},
                                      allow_nan=False))  # fmt: skip
+
+
+def evidence_line(design: SequentialDesign) -> str:
+    """``evidence: Hertz leads, ΔQAIC 4.2 of 10 (42 %) · ĉ 3.1 · 12 of 60 min`` — what the live line and ``watch``
+    show after each block: the leader, its margin over the nearest separable rival against the decisive threshold
+    (the progress to a decision), ĉ and the bench time against the budget."""
+    from sims.models import model_label
+
+    d = design
+    ev = d.evidence()
+    spent = f"{d.spent_s / 60:.0f} of {d.budget_s / 60:.0f} min"
+    if ev is None:
+        return f"evidence: not yet (the fit needs ≥ 2 seatings at ≥ 3 weights) · {spent}"
+    margin = "no separable rival" if not math.isfinite(ev.margin) else f"Δ{ev.criterion} {ev.margin:.1f}"
+    pct = 0 if not math.isfinite(ev.margin) else min(100, max(0, round(100 * ev.margin / d.threshold)))
+    return (f"evidence: {model_label(ev.leader)} leads, {margin} of {d.threshold:g} ({pct} %) · ĉ {ev.c_hat:.2g} "
+            f"· {spent}")  # fmt: skip
+
+
+def session_evidence(session: Any) -> str:
+    """``watch``'s line for an adaptive session (a loaded :class:`daq.session_file.Session`, running or finished):
+    the design rebuilt from its start record and fed its blocks (:func:`evidence_line`), and how it ended; "" for a
+    fixed-plan session."""
+    from contactrig.core.scene import parse_scene
+
+    settings = session.start.get("adaptive") if isinstance(session.start, dict) else None
+    if not isinstance(settings, dict):
+        return ""
+    design = build_design(parse_scene(session.scene_text, "recorded scene"), settings)
+    for w, v in zip(session.summary["weight_kg"], session.summary["mean_ohm"], strict=True):
+        if math.isfinite(float(v)):
+            design.ingest(float(w), float(v))
+    line = evidence_line(design)
+    stop = session.stop if isinstance(session.stop, dict) else None
+    if stop is not None and isinstance(stop.get("reason"), str):
+        line += f" · {stop['reason']}"
+    return line
 
 
 def terminal_chooser(stream: Any = None, read: Callable[[], str] = input) -> Chooser:

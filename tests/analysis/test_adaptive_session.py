@@ -115,3 +115,11 @@ def test_schema_3_files_are_still_read(press_session, tmp_path: Path) -> None:
         h5.attrs["contactrig_schema"] = 3
     s = load_session(path)
     assert s.schema_version == 3 and "adaptive" not in s.start
+
+
+def test_watch_shows_the_evidence_and_the_stop_reason(press_session) -> None:
+    from analysis.watch import state_from_session, status_line
+
+    path, result = press_session
+    line = status_line(state_from_session(load_session(path)))
+    assert "evidence: Greenwood–Tripp leads" in line and "(100 %)" in line and result.reason in line
