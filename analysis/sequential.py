@@ -47,11 +47,12 @@ session has no series to separate them) from the session once Σ(n_i − 1) ≥ 
 seating once ≥ 4 weights have ≥ 2 seatings (relative misfit of the best physical fit's means beyond the seating
 scatter / n_i); until then the prior's (Tab. 1's, or the simulated bench's), said.
 
-**Intervals of an adaptive session**: the design depends on the data only through the placements, and the likelihood
-of the data given the placements is the same as for a fixed design (the design is ancillary for likelihood
-inference: Box & Hill 1967, Technometrics 9:57; Ford, Titterington & Kitsos 1989, Technometrics 31:49), so ``fit``'s
-estimates and intervals keep their meaning; what optional stopping changes is the error rate of the stop rule, which
-is why the threshold is calibrated by simulating the loop.
+**Intervals of an adaptive session**: the placements depend on the data only through earlier blocks, so the
+likelihood — the estimates and Δ(Q)AIC of ``fit`` — is that of a fixed design with the same placements (Ford,
+Titterington & Wu 1985, Biometrika 72:545); t-intervals keep their level asymptotically when the design settles (Lai &
+Wei 1982, Ann. Stat. 10:154), not exactly for few seatings. What optional stopping changes is the error rate of the
+stop rule, which is why the threshold is calibrated by simulating the loop. Box & Hill 1967 (Technometrics 9:57):
+the discrimination criterion.
 """
 
 from __future__ import annotations
