@@ -62,12 +62,12 @@ def _setup(scene_name: str, noise_name: str) -> dict:
     }
 
 
-def _design(setup: dict, budget_min: float, threshold: float) -> object:
+def _design(setup: dict, budget_min: float, threshold: float, n_forward: int = 100) -> object:
     from analysis.sequential import SequentialDesign
 
     return SequentialDesign(setup["curves"], setup["weights"], setup["cost"], budget_s=60 * budget_min,
                             noise=setup["noise"], film_ohm_m2=setup["film"], series_ohm=setup["series"],
-                            threshold=threshold, n_forward=100)  # fmt: skip
+                            threshold=threshold, n_forward=n_forward)  # fmt: skip
 
 
 _SETUPS: dict[tuple[str, str], dict] = {}
@@ -77,15 +77,21 @@ def _adaptive_one(args: tuple) -> tuple[str, str, float, int, bool]:
     """One adaptive session: (status, leader, bench time [s], blocks, wrong)."""
     from analysis.sequential import simulate_loop
 
-    scene_name, noise_name, truth, seed, budget_min, threshold = args
+    scene_name, noise_name, truth, seed, budget_min, threshold, n_forward, check_every = args
     key = (scene_name, noise_name)
     if key not in _SETUPS:
         _SETUPS[key] = _setup(scene_name, noise_name)
     setup = _SETUPS[key]
-    design = _design(setup, budget_min, threshold)
+    design = _design(setup, budget_min, threshold, n_forward)
     rng = np.random.default_rng([seed, 27])
     status, leader, spent, blocks = simulate_loop(
-        design, truth, rng, film_ohm_m2=setup["film"], series_ohm=setup["series"], noise=setup["noise"]
+        design,
+        truth,
+        rng,
+        film_ohm_m2=setup["film"],
+        series_ohm=setup["series"],
+        noise=setup["noise"],
+        check_every=check_every,
     )
     wrong = status == "decisive" and truth not in design.groups[leader]
     return status, leader, spent, blocks, wrong
@@ -129,7 +135,7 @@ def run(args: argparse.Namespace, threshold: float, seed0: int, pool: ProcessPoo
             setup = _setup(scene_name, noise_name)
             models = list(setup["curves"].area_m2)
             fixed = _fixed(setup, args.sessions, args.budget_min, seed0) if not args.no_fixed else {}
-            jobs = [(scene_name, noise_name, t, seed0 + i, args.budget_min, threshold)
+            jobs = [(scene_name, noise_name, t, seed0 + i, args.budget_min, threshold, args.forward, args.check_every)
                     for t in models for i in range(args.sessions)]  # fmt: skip
             results = list(pool.map(_adaptive_one, jobs, chunksize=4))
             for j, truth in enumerate(models):
@@ -175,6 +181,8 @@ def main() -> int:
     p.add_argument("--calibrate", action="store_true", help="choose the threshold on separate seeds first")
     p.add_argument("--grid", default="10,15,20,30")
     p.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    p.add_argument("--forward", type=int, default=100, help="futures of the predictive probability (100)")
+    p.add_argument("--check-every", type=int, default=4, help="blocks between futility checks (4)")
     p.add_argument("--no-fixed", action="store_true", help="leave out the fixed plan (faster)")
     args = p.parse_args()
     from analysis.sequential import DECISIVE_DELTA
