@@ -36,7 +36,9 @@ __all__ = [
     "build_design",
     "evidence_line",
     "replay_suggestions",
+    "session_design",
     "session_evidence",
+    "session_state",
     "terminal_chooser",
 ]
 
@@ -231,19 +233,44 @@ def evidence_line(design: SequentialDesign) -> str:
             f"· {spent}")  # fmt: skip
 
 
-def session_evidence(session: Any) -> str:
-    """``watch``'s line for an adaptive session (a loaded :class:`daq.session_file.Session`, running or finished):
-    the design rebuilt from its start record and fed its blocks (:func:`evidence_line`), and how it ended; "" for a
-    fixed-plan session."""
+def session_design(session: Any) -> SequentialDesign | None:
+    """The design of an adaptive session (a loaded :class:`daq.session_file.Session`, running or finished) rebuilt
+    from its start record and fed its blocks in the order they were taken; None for a fixed-plan session."""
     from contactrig.core.scene import parse_scene
 
     settings = session.start.get("adaptive") if isinstance(session.start, dict) else None
     if not isinstance(settings, dict):
-        return ""
+        return None
     design = build_design(parse_scene(session.scene_text, "recorded scene"), settings)
     for w, v in zip(session.summary["weight_kg"], session.summary["mean_ohm"], strict=True):
         if math.isfinite(float(v)):
             design.ingest(float(w), float(v))
+    return design
+
+
+def session_state(session: Any) -> dict[str, Any] | None:
+    """What a view shows of an adaptive session (the console's JSON): :meth:`SequentialDesign.report` of the
+    session so far, with ``evidence_line`` and, once it has ended, its ``stop_record`` (status, reason, the
+    recorded decision); None for a fixed-plan session."""
+    design = session_design(session)
+    if design is None:
+        return None
+    state = design.report()
+    state["evidence_line"] = evidence_line(design)
+    stop = session.stop if isinstance(session.stop, dict) else None
+    if stop is not None:
+        adaptive = stop.get("adaptive")
+        decision = adaptive.get("decision") if isinstance(adaptive, dict) else None
+        state["stop_record"] = {"status": stop.get("status"), "reason": stop.get("reason"), "decision": decision}
+    return state
+
+
+def session_evidence(session: Any) -> str:
+    """``watch``'s line for an adaptive session: :func:`evidence_line` of the design rebuilt from the file, and the
+    stop reason once it has ended; "" for a fixed-plan session."""
+    design = session_design(session)
+    if design is None:
+        return ""
     line = evidence_line(design)
     stop = session.stop if isinstance(session.stop, dict) else None
     if stop is not None and isinstance(stop.get("reason"), str):

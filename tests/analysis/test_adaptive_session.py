@@ -123,3 +123,33 @@ def test_watch_shows_the_evidence_and_the_stop_reason(press_session) -> None:
     path, result = press_session
     line = status_line(state_from_session(load_session(path)))
     assert "evidence: Greenwood–Tripp leads" in line and "(100 %)" in line and result.reason in line
+
+
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (["--budget-min", "5"], "--budget-min only applies to --adaptive"),
+        (["--adaptive", "--budget-min", "-5"], "--budget-min = -5.0 is not allowed"),
+        (["--adaptive", "--resume"], "--adaptive does not resume"),
+    ],
+)
+def test_bad_adaptive_options_are_one_line_errors(args, says, tmp_path: Path, capsys) -> None:
+    from contactrig.cli.main import main
+
+    assert main(["acquire", "--sim", *args, "-o", str(tmp_path / "x.h5")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert says in err and len(err.splitlines()) == 1 and not (tmp_path / "x.h5").exists()
+
+
+def test_session_state_is_plain_data_for_the_console(press_session) -> None:
+    """What the console shows, as JSON: the report of the design rebuilt from the file, with the stop record."""
+    import json
+
+    from analysis.adaptive_session import session_state
+
+    path, result = press_session
+    state = session_state(load_session(path))
+    assert state is not None
+    assert json.loads(json.dumps(state, allow_nan=False)) == state
+    assert state["stop"]["status"] == "decisive" and state["stop_record"]["reason"] == result.reason
+    assert state["progress"] == 1.0 and state["evidence"]["leader"] == "greenwood_tripp"
