@@ -2,10 +2,11 @@
 
 For the paper's rig and the press scene, under Tab. 1's noise and iid re-seating (15 %), and for every contact model as
 the truth, ``--sessions`` adaptive sessions are simulated (:func:`analysis.sequential.simulate_loop`: suggestion →
-simulated block with the simulated bench's noise structure → evidence → stop), and as many sessions of the fixed plan
-(:func:`analysis.design.chosen_plan`, simulated by :func:`analysis.design.simulate_plan`, judged once at its end
-by the fit's rule Δ(Q)AIC ≥ 10). Reported per condition: the rate of a wrong model declared decisive (a leader that
-is not the truth nor equivalent to it on this bench), the decisive rate, the futile rate and the mean bench time
+simulated block with the simulated bench's noise structure → evidence → stop), beside the fixed plan
+(:func:`analysis.design.chosen_plan` from 200 sessions per candidate plan, then ≥ 500 sessions of it simulated by
+:func:`analysis.design.simulate_plan`, judged once at its end by the fit's rule Δ(Q)AIC ≥ 10). Reported per
+condition: the rate of a wrong model declared decisive (a leader that is not the truth nor equivalent to it on this
+bench), the decisive rate, the futile rate and the mean bench time
 (the same :class:`analysis.sequential.CostModel` for both: placing 60 s, re-seating 5 s, the plan's block time).
 
 ``--calibrate``: the decisive threshold of the adaptive loop (optional stopping inflates the fixed-sample rule's
@@ -104,7 +105,7 @@ def _fixed(setup: dict, sessions: int, budget_min: float, seed: int) -> dict[str
 
     curves, cost, w = setup["curves"], setup["cost"], setup["weights"]
     plans = candidate_plans(min(w), max(w), cost.block_s)
-    result = design(curves, plans, film_ohm_m2=setup["film"], series_ohm=setup["series"], n_sessions=min(sessions, 200),
+    result = design(curves, plans, film_ohm_m2=setup["film"], series_ohm=setup["series"], n_sessions=200,
                     noise=setup["noise"], seed=seed)  # fmt: skip
     plan = chosen_plan(result)
     groups = _design(setup, budget_min, 10.0).groups
@@ -113,7 +114,7 @@ def _fixed(setup: dict, sessions: int, budget_min: float, seed: int) -> dict[str
     out = {}
     rng = np.random.default_rng([seed, 15])
     for truth in curves.area_m2:
-        fits = simulate_plan(curves, plan, truth, setup["film"], setup["series"], rng, sessions, 0.15, 1e-7,
+        fits = simulate_plan(curves, plan, truth, setup["film"], setup["series"], rng, max(sessions, 500), 0.15, 1e-7,
                              setup["noise"])  # fmt: skip
         decisive, who = _decisive(fits, max(n - 2, 1), 10.0, groups)
         models = list(curves.area_m2)
