@@ -340,7 +340,7 @@ def replay_suggestions(path: str) -> tuple[bool, str]:
     if not isinstance(settings, dict) or not isinstance(recorded, dict):
         return False, f"{path} is not a complete adaptive session (no adaptive records)"
     design = build_design(parse_scene(session.scene_text, f"{path} (recorded scene)"), settings)
-    summary = session.summary.sort_values("block" if "started" not in session.summary else "started", kind="stable")
+    summary = session.summary  # in the order the blocks were taken (the file's order)
     by_block = {e["block"]: e for e in recorded.get("entries", [])}
     checked = 0
     for _, row in summary.iterrows():
