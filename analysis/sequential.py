@@ -57,6 +57,7 @@ the discrimination criterion.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -637,8 +638,9 @@ class SequentialDesign:
         if self.spent_s >= self.budget_s:
             return (
                 "futile",
-                f"stop — the budget ({self.budget_s / 60:.0f} min) is spent without a decision: " + self.why(),
-            )
+                f"stop — the budget ({self.budget_s / 60:.0f} min) is spent without a decision: " + self.why()
+                + "; what would: " + self.what_would(),
+            )  # fmt: skip
         if ev is None:
             return None
         p = self.predictive() if p_decisive is None else p_decisive
@@ -647,6 +649,8 @@ class SequentialDesign:
                 f"stop — P(decisive within the remaining {max(self.budget_s - self.spent_s, 0) / 60:.0f} min) = "
                 f"{100 * p:.0f} % < {100 * FUTILE_P:.0f} %: with this scatter no placement tells these models apart; "
                 + self.why()
+                + "; what would: "
+                + self.what_would()
             )
         return None
 
@@ -657,6 +661,50 @@ class SequentialDesign:
         mu = self.series + self.film / ac + cc
         fit = fit_film_series(mu, mu, *self._ac[b])
         return float(np.max(np.abs(fit.predicted_ohm - mu) / mu))
+
+    def _leading_pair(self) -> tuple[str, str | None]:
+        """The leader (the first model before there is evidence) and its nearest rival (None: only one model)."""
+        ev = self.evidence()
+        lead = ev.leader if ev is not None else self.models[0]
+        others = [k for k in self.models if k != lead]
+        if ev is not None:
+            others.sort(key=lambda k: ev.delta[k])
+        return lead, (others[0] if others else None)
+
+    def what_would(self) -> str:
+        """What would make the leading pair separable within the budget (the expected Δ(Q)AIC of the whole budget
+        spread over the allowed weights ≥ the threshold both ways, the prior's film and series): the largest SD of
+        each noise component, the others as they are, that does it, and the factor by which all of them together
+        would have to shrink. A first answer to "what would it take"; the load range is that of the bench."""
+        lead, rival = self._leading_pair()
+        if rival is None:
+            return "nothing: only one model"
+        noise, _ = self.noise()
+        counts = np.full(self.weights_kg.size, self._seatings_in_budget())
+        params = (self.series, self.film)
+
+        def separable(nm: NoiseModel) -> bool:
+            return bool(min(self.expected_delta(lead, rival, counts, params, nm),
+                            self.expected_delta(rival, lead, counts, params, nm)) >= self.threshold)  # fmt: skip
+
+        def largest(make: Any) -> float | None:
+            return _largest_factor(lambda f: separable(make(f)))
+
+        parts = []
+        for comp, words in COMPONENT_WORDS.items():
+            sd = getattr(noise, comp)
+            f = largest(lambda x, c=comp, v=sd: dataclasses.replace(noise, **{c: x * v})) if sd > 0 else None
+            if f is not None and f < 1.0:
+                parts.append(f"{words} below {100 * f * sd:.2g} % (now {100 * sd:.2g} %)")
+        scale = largest(lambda x: NoiseModel(x * noise.series_sd, x * noise.reseat_sd, x * noise.lack_sd))
+        pair = f"{_label(lead)} and {_label(rival)}"
+        within = f"within {self.budget_s / 60:.0f} min"
+        if scale is None:
+            return f"no noise reduction tells {pair} apart {within} on these loads: a wider load range or another bench"
+        if scale >= 1.0:
+            return f"{pair} are separable {within} with this noise, in expectation"
+        alone = "; or ".join(parts) if parts else "no single component reduced alone is enough"
+        return f"to tell {pair} apart {within}: {alone}; or every component × {scale:.3g}"
 
     def why(self) -> str:
         """The reason the evidence does (not) move: the dominant noise component against the model difference."""
@@ -707,7 +755,22 @@ class SequentialDesign:
             "suggestion": None if stop is not None else self.suggest().as_dict(),
             "stop": None if stop is None else {"status": stop[0], "reason": stop[1]},
             "why": self.why(),
+            "what_would": self.what_would(),
         }
+
+
+def _largest_factor(ok: Any) -> float | None:
+    """The largest f in (0, 1] with ``ok(f)`` (monotone: true below some f), by bisection in log f; None when even
+    f = 10⁻⁶ is not."""
+    if ok(1.0):
+        return 1.0
+    if not ok(1e-6):
+        return None
+    lo, hi = 1e-6, 1.0
+    for _ in range(40):
+        mid = math.sqrt(lo * hi)
+        lo, hi = (mid, hi) if ok(mid) else (lo, mid)
+    return lo
 
 
 def _subset(curves: ModelCurves, ac: dict[str, tuple[np.ndarray, np.ndarray]], used: np.ndarray) -> ModelCurves:

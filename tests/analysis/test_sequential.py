@@ -152,3 +152,19 @@ def test_wrong_model_rarely_declared_decisive() -> None:
             wrong += status == "decisive" and truth not in d.groups[leader]
     assert wrong <= 1
     assert decisive >= 12
+
+
+def test_what_would_it_take_scales_the_noise_as_the_noncentrality_says() -> None:
+    """With iid noise (ĉ = 1) the expected Δ(Q)AIC scales as 1/SD², so the noise factor that makes a pair separable
+    within the budget is √(Δ/threshold) exactly; the futility message carries it."""
+    import re
+
+    d = _design(budget_min=20.0, exponent_b=0.98)
+    counts = np.full(W.size, d._seatings_in_budget())
+    delta = min(float(d.expected_delta(a, b, counts, (0.0, FILM), d.prior)) for a, b in (("a", "b"), ("b", "a")))
+    assert delta < d.threshold  # not separable as it is
+    text = d.what_would()
+    found = re.search(r"every component × ([0-9.e-]+)", text)
+    assert found is not None, text
+    assert float(found.group(1)) == pytest.approx(math.sqrt(delta / d.threshold), rel=0.01)
+    assert "re-seating scatter below" in text
