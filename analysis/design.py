@@ -233,8 +233,10 @@ def simulate_plan(
     return {m: _session_fits(values, sigma, *curves.at(m, w)) for m in curves.area_m2}
 
 
-def told_apart(fits: dict[str, SessionFits], truth: str, other: str, dof: int) -> np.ndarray:
-    """Per session: does the fit put ``truth`` ahead of ``other`` by Δ(Q)AIC ≥ :data:`DELTA_AIC`, as
+def told_apart(
+    fits: dict[str, SessionFits], truth: str, other: str, dof: int, *, threshold: float = DELTA_AIC
+) -> np.ndarray:
+    """Per session: does the fit put ``truth`` ahead of ``other`` by Δ(Q)AIC ≥ ``threshold`` (:data:`DELTA_AIC`), as
     :func:`analysis.fit.compare_models` ranks — ĉ = the smallest χ²/ν of the physical fits (of all when none is
     physical), QAIC when ĉ > 1.5; a physical fit ranked before an unphysical one, a load-dependent one before a
     load-independent one, whatever their (Q)AIC."""
@@ -246,7 +248,7 @@ def told_apart(fits: dict[str, SessionFits], truth: str, other: str, dof: int) -
     t, o = fits[truth], fits[other]
     same = t.unphysical == o.unphysical
     first = (t.unphysical < o.unphysical) | (same & (t.load_independent <= o.load_independent))
-    return np.asarray(((o.chi2 - t.chi2) / scale >= DELTA_AIC) & first)
+    return np.asarray(((o.chi2 - t.chi2) / scale >= threshold) & first)
 
 
 def candidate_plans(

@@ -172,7 +172,8 @@ def state_from_session(session: Any) -> LiveState:
             s["started"], strict=True,
         )
     )  # fmt: skip
-    state = LiveState(Path(session.path).name, session.status, rows, _planned(session.start))
+    state = LiveState(Path(session.path).name, session.status, rows, _planned(session.start),
+                      note=_adaptive_note(session))  # fmt: skip
     if rows:
         rd = session.readings
         cur = rd[rd["block"] == rows[-1].block]
@@ -183,6 +184,19 @@ def state_from_session(session: Any) -> LiveState:
             current_valid=cur["valid"].to_numpy(dtype=bool),
         )
     return state
+
+
+def _adaptive_note(session: Any) -> str:
+    """An adaptive session's evidence and progress (:func:`analysis.adaptive_session.session_evidence`); a failure
+    to compute it is said in the note, never raised (the view goes on)."""
+    if not isinstance(session.start, dict) or "adaptive" not in session.start:
+        return ""
+    try:
+        from analysis.adaptive_session import session_evidence
+
+        return session_evidence(session)
+    except Exception as exc:
+        return f"(evidence not available: {type(exc).__name__}: {exc})"
 
 
 # ---- drawing -------------------------------------------------------------------------------------------------------

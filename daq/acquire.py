@@ -307,6 +307,7 @@ def acquire(
     resume_chooser: ResumeChooser | None = None,
     overrides: Mapping[str, Any] | None = None,
     allow_change: bool = False,
+    adaptive: Callable[[SessionPlan], Any] | None = None,
 ) -> AcquisitionResult:
     """Run a bench session and write it to ``output`` (see the module docstring for the order of work).
 
@@ -328,24 +329,32 @@ def acquire(
     ``overrides``: ``{scene key: value}`` of this run (:mod:`daq.overrides`: ``acquire --address``, ``--sample``
     …), validated as the scene keys and recorded apart from the scene text; a resumed run keeps the earlier run's
     and states a change (a different sample is refused unless ``allow_change``).
+
+    ``adaptive``: given the plan, the steps of an adaptive session (``acquire --adaptive``,
+    :func:`analysis.adaptive_session.adaptive_source`): an iterable of steps chosen as the blocks come in (it gets
+    every block as a writer), with its ``plan`` (block numbers), ``settings`` (recorded in the start record's
+    ``adaptive``), ``plan_lines()``, ``say``/``paused`` (the live display) and the ``stop_reason`` and ``record()``
+    the engine puts in the stop record; the operator is asked by the steps themselves. Not with ``resume``.
     """
     path = Path(output)
     bench = bench if bench is not None else VisaBench()
     scene, prior = _scene_and_prior(scene, path, resume=resume, force=force, simulated=bench.simulated)
     check_bench(overrides or {}, simulated=bench.simulated)
     plan, run_overrides, changes = _overridden_plan(scene, prior, overrides or {}, allow_change)
+    source, plan = _adaptive_steps(adaptive, plan, resume=resume)
     check = getattr(bench, "check", None)  # a bench's own part of the scene (the --sim simulation), before any output
     if check is not None:
         check(plan)
     sf = _prepare_file(path, plan, resume=resume, force=force, fsync=fsync)
     try:
         steps, order = _announce(plan, prior, bench, stream=stream, quiet=quiet, yes=yes, prompter=prompter,
-                                 resume_chooser=resume_chooser, changes=changes)  # fmt: skip
+                                 resume_chooser=resume_chooser, changes=changes, source=source)  # fmt: skip
     except BaseException:
         sf.discard()
         raise
     opened = _open_bench(bench, plan, sf, run=prior.runs)
-    ask = prompter or (answer_yes if yes else terminal_prompter(stream))
+    ask = prompter or (answer_yes if yes or source is not None else terminal_prompter(stream))
+    writers = [*extra_writers, *([] if source is None else [source])]
     display: LiveDisplay | None = None
     outcome: RunOutcome | None = None
     notices: list[Callable[[str], None]] = []
@@ -366,14 +375,15 @@ def acquire(
             start["override_changes"] = [c.as_dict() for c in changes]
             if "session.operator" in run_overrides:
                 start["operator_source"] = "override"
-            start["loading_order_kg"] = _loading_order(steps)
+            start["loading_order_kg"] = _loading_order(steps) if isinstance(steps, list) else []
             start["resume_choices"] = list(order.choices)
             display = LiveDisplay(plan.blocks_planned, done=len(prior.done), stream=stream, quiet=quiet)
             notices.append(display.message)
+            _attach(source, start, display)
             for note in opened.notes:
                 display.message(note)
             kept = [plan.session.weights_kg[wi] for wi in sorted(order.leave_out)]
-            outcome = _run(opened.link, plan, start, sf, display, (steps, kept, prior), ask, interrupts, extra_writers)
+            outcome = _run(opened.link, plan, start, sf, display, (steps, kept, prior), ask, interrupts, writers)
         finally:
             interrupts.phase = "writing"  # deferred, never raised: the run has ended already
             _clean_up(opened.link, display, sf, outcome)
@@ -389,6 +399,26 @@ def acquire(
     )
 
 
+def _adaptive_steps(
+    adaptive: Callable[[SessionPlan], Any] | None, plan: SessionPlan, *, resume: bool
+) -> tuple[Any, SessionPlan]:
+    """The steps of an adaptive session (None for a fixed plan) and the plan they number their blocks in."""
+    if adaptive is None:
+        return None, plan
+    if resume:
+        raise SessionStateError("--adaptive does not resume a session: start a new one")
+    source = adaptive(plan)
+    return source, source.plan
+
+
+def _attach(source: Any, start: dict[str, Any], display: LiveDisplay) -> None:
+    """An adaptive session's settings into the start record; its evidence line after each block to the display,
+    and the operator asked with the bar cleared."""
+    if source is not None:
+        start["adaptive"] = dict(source.settings)
+        source.say, source.paused = display.message, display.paused
+
+
 def _announce(
     plan: SessionPlan,
     prior: _Prior,
@@ -400,13 +430,20 @@ def _announce(
     prompter: Prompter | None,
     resume_chooser: ResumeChooser | None,
     changes: Sequence[OverrideChange] = (),
-) -> tuple[list[PlaceWeight | Measure], _Order]:
-    """Ask about the weights an earlier run skipped, then print the plan; returns the steps still to take."""
+    source: Any = None,
+) -> tuple[Iterable[PlaceWeight | Measure], _Order]:
+    """Ask about the weights an earlier run skipped, then print the plan; returns the steps still to take (an
+    adaptive session's ``source``: its own lines, its steps)."""
     out = stream if stream is not None else sys.stderr
 
     def say(text: str) -> None:
         if not quiet:
             print(text, file=out, flush=True)
+
+    if source is not None:
+        for line in source.plan_lines():
+            say(line)
+        return source, _Order()
 
     chooser = resume_chooser if resume_chooser is not None else None if yes else terminal_resume_chooser(stream)
     order = _resume_order(plan, prior, chooser, say)
@@ -476,7 +513,7 @@ def _run(
     start: dict[str, Any],
     sf: SessionFile,
     display: LiveDisplay,
-    todo: tuple[list[PlaceWeight | Measure], list[float], _Prior],
+    todo: tuple[Iterable[PlaceWeight | Measure], list[float], _Prior],
     prompter: Prompter,
     interrupts: Interrupts,
     extra_writers: Sequence[Writer] = (),

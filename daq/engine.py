@@ -181,6 +181,7 @@ class AcquisitionEngine:
         self.blocks_before = blocks_before
         self.readings_before = readings_before
         self.skipped_before = tuple(float(w) for w in skipped_before)
+        self._steps: object = None
 
     def _emit_exchanges(self, block: int) -> None:
         ex = self.link.take_exchanges()
@@ -197,6 +198,7 @@ class AcquisitionEngine:
     def run(self, steps: Iterable[PlaceWeight | Measure]) -> RunOutcome:
         """Carry out ``steps``; close the link; write the stop record. Never raises: see ``RunOutcome.error``."""
         state = _RunState(skipped=list(self.skipped_before))
+        self._steps = steps
         try:
             self._carry_out(steps, state)
         except KeyboardInterrupt:
@@ -233,6 +235,8 @@ class AcquisitionEngine:
             if not state.skipped
             else f"plan done; weights skipped by the operator: {', '.join(f'{w:g} kg' for w in state.skipped)}"
         )
+        # steps that decide themselves when to end (an adaptive session, analysis.sequential) say why
+        state.reason = str(getattr(steps, "stop_reason", "") or state.reason)
 
     def _place(self, step: PlaceWeight, state: _RunState) -> None:
         """Ask the operator to place the weight: go on, skip its blocks, or stop."""
@@ -277,6 +281,7 @@ class AcquisitionEngine:
             blocks_done=self.blocks_before + len(state.done),
             readings_done=self.readings_before + sum(int(r.reading.size) for r in state.done),
             weights_skipped=tuple(state.skipped),
+            adaptive=self.adaptive_record(),
         )
         stop_error = None
         for w in self.writers:
@@ -288,6 +293,16 @@ class AcquisitionEngine:
         if stop_error is not None and state.error is None:
             state.error = stop_error
         return stop
+
+    def adaptive_record(self) -> dict[str, Any] | None:
+        """The record of the steps, when they keep one (an adaptive session's suggestions), for the stop record."""
+        record = getattr(self._steps, "record", None)
+        if not callable(record):
+            return None
+        try:
+            return dict(record())
+        except Exception as exc:  # the stop record is written whatever: it says the record failed
+            return {"error": f"{type(exc).__name__}: {exc}"}
 
     def _close(self, current: Measure | None) -> BaseException | None:
         err = None

@@ -178,6 +178,8 @@ class StopRecord:
     blocks_done: int
     readings_done: int
     weights_skipped: tuple[float, ...] = ()
+    #: an adaptive session's record (schema 4): suggestions, evidence, operator's actions, stop decision
+    adaptive: dict[str, Any] | None = None
 
 
 # ---- the session's history, from its run records and stop records ------------------------------------------------

@@ -1,6 +1,6 @@
 """The one declaration of the HDF5 session file: layout, columns with their units, records, upgrades and seal.
 
-Layout (schema 3; every numeric field has a ``units`` attribute)::
+Layout (schema 4; every numeric field has a ``units`` attribute)::
 
     /                         attrs contactrig_format, contactrig_schema, creator, HDF5_Version, h5py_version,
                               file_time, default="entry"
@@ -20,7 +20,10 @@ Layout (schema 3; every numeric field has a ``units`` attribute)::
     /entry/runs/run_<k>       NXcollection: ``record`` (JSON) for each run (the first and every --resume)
     /entry/stop               NXcollection: ``record`` (JSON: status, reason, counts, checksums, and — schema 3 —
                               ``seal``: SHA-256 of start record, scene text, run records, summary, readings,
-                              exchanges and the stop record itself); absent = incomplete
+                              exchanges and the stop record itself); absent = incomplete. Schema 4: an
+                              adaptive session (``acquire --adaptive``) has ``adaptive`` in its start record (the
+                              sequential design's settings) and in its stop record (every suggestion, the evidence
+                              behind it and what the operator did, and the stop decision: :mod:`analysis.sequential`)
 
 The writer (:mod:`daq.session_writer`) creates every table from these declarations and the reader
 (:mod:`daq.session_reader`) checks every member against them; the seal (:func:`seal`) is computed by the one and
@@ -56,7 +59,7 @@ __all__ = [
 ]
 
 FORMAT_NAME = "contactrig-session"
-SCHEMA_VERSION = 3
+SCHEMA_VERSION = 4
 
 
 def _upgrade_1(raw: dict[str, Any]) -> dict[str, Any]:
@@ -73,10 +76,16 @@ def _upgrade_2(raw: dict[str, Any]) -> dict[str, Any]:
     return raw
 
 
+def _upgrade_3(raw: dict[str, Any]) -> dict[str, Any]:
+    """Schema 3 → 4: the ``adaptive`` records of an adaptive session (start and stop record). Nothing to convert: a
+    schema-3 file is a fixed-plan session, without them."""
+    return raw
+
+
 # Upgrade functions, keyed by the schema they read: UPGRADES[k](raw) turns a loaded schema-k structure into a
 # schema-(k+1) one, so every older file keeps loading. A file opened to be continued (--resume) is upgraded in place
 # (:func:`_upgrade_in_place`).
-UPGRADES: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {1: _upgrade_1, 2: _upgrade_2}
+UPGRADES: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {1: _upgrade_1, 2: _upgrade_2, 3: _upgrade_3}
 
 STR = h5py.string_dtype()
 SUMMARY_FIELDS: dict[str, tuple[Any, str]] = {
@@ -130,7 +139,6 @@ def software_versions() -> dict[str, str]:
     return {**provenance.software_versions(), "h5py": h5py.version.version, "hdf5": h5py.version.hdf5_version}
 
 
-
 #: Fields of the records that readers rely on, with their JSON types (absent is allowed, except
 #: REQUIRED_STOP_FIELDS in the stop record).
 STOP_FIELDS: dict[str, tuple[type, ...]] = {
@@ -144,6 +152,7 @@ STOP_FIELDS: dict[str, tuple[type, ...]] = {
     "sha256_blocks": (str,),
     "seal": (dict,),
     "weights_skipped": (list,),
+    "adaptive": (dict,),  # schema 4: suggestions, evidence, operator's actions, stop decision
 }
 START_FIELDS: dict[str, tuple[type, ...]] = {
     "imported": (bool,),
@@ -154,6 +163,7 @@ START_FIELDS: dict[str, tuple[type, ...]] = {
     "sample": (str,),
     "host": (str,),
     "started": (str,),
+    "adaptive": (dict,),  # schema 4: the sequential design's settings
 }
 REQUIRED_STOP_FIELDS = {"status", "reason", "blocks_in_file", "sha256_blocks"}
 
@@ -203,7 +213,6 @@ def seal(raw: Mapping[str, Any], stop: Mapping[str, Any]) -> dict[str, str]:
         "exchanges": table_digest(raw["exchanges"], EXCHANGE_FIELDS),
         "stop": sha(canonical({k: v for k, v in stop.items() if k != "seal"})),
     }
-
 
 
 def chain_digest(hashes: Iterable[str]) -> str:

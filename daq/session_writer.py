@@ -49,6 +49,7 @@ from instruments.transport import Exchange
 
 __all__ = ["BlockBatch", "SessionFile"]
 
+
 def _open_h5(path: Path, mode: str) -> h5py.File:
     """Open for writing and hold the writer's lock (:mod:`daq.session_lock`): HDF5 takes its ``flock`` on the file
     as it opens it (before reading or writing a byte; a file another process holds is refused), and the same lock
@@ -693,6 +694,8 @@ class SessionFile:
             "run": self.run,
             "sha256_blocks": chain_digest(self._block_hashes),
         }
+        if stop.adaptive is not None:
+            record["adaptive"] = stop.adaptive
         _require_room(self.path, self.file, 0, margin=64 << 10)  # the stop record: a few kB
         try:
             self._h5.flush()

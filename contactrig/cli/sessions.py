@@ -9,6 +9,7 @@ import argparse
 import json
 import math
 import sys
+from typing import Any
 
 from contactrig.cli.options import add_max_memory_option
 
@@ -48,6 +49,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--quiet", action="store_true",
         help="no plan, no progress bar or block lines and no notes on stderr (the prompts, errors and the final line "
         "stay; what the notes say is in the start record)",
+    )  # fmt: skip
+    acq.add_argument(
+        "--adaptive", action="store_true",
+        help="choose each next placement as the session goes (the largest expected gain in evidence per minute), "
+        "show the evidence after each block and stop when decisive or futile (issue 27; see Bench day)",
+    )  # fmt: skip
+    acq.add_argument(
+        "--budget-min", type=float, default=None, metavar="MIN",
+        help="--adaptive: bench time allowed, in minutes (default 60); futile when P(decisive within it) < 5 %%",
     )  # fmt: skip
     _add_override_options(acq)
     add_max_memory_option(acq)  # --sim: the rig simulation behind the simulated bench
@@ -152,10 +162,12 @@ def acquire_command(args: argparse.Namespace) -> int:
         raise ValueError("--allow-change only applies to --resume")
     speed = args.sim_speed if args.sim_speed is not None else DEFAULT_SIM_SPEED
     bench = SimulatedRigBench(speed) if args.sim else VisaBench()
+    adaptive = _adaptive(args)
     live = _live_view(args)
     result = acquire(
         args.scene, args.output, bench=bench, yes=args.yes, resume=args.resume, force=args.force, extra_writers=live,
         overrides=overrides_by_option(vars(args)), allow_change=args.allow_change, quiet=args.quiet,
+        adaptive=adaptive,
     )  # fmt: skip
     print(
         f"{safe(result.path)}: {result.status}, {result.blocks_done} of {result.blocks_planned} blocks — "
@@ -165,6 +177,20 @@ def acquire_command(args: argparse.Namespace) -> int:
     if result.status == "success":
         return 0
     return 1 if result.status == "aborted" else 2  # aborted: stopped early (Ctrl-C, q); failed: an error
+
+
+def _adaptive(args: argparse.Namespace) -> Any:
+    """``--adaptive [--budget-min N]``: the steps chosen as the session goes (analysis.adaptive_session)."""
+    if args.budget_min is not None and not args.adaptive:
+        raise ValueError("--budget-min only applies to --adaptive")
+    if not args.adaptive:
+        return None
+    if args.resume:
+        raise ValueError("--adaptive does not resume a session: start a new one (without --resume)")
+    from analysis.adaptive_session import DEFAULT_BUDGET_MIN, adaptive_source, terminal_chooser
+
+    budget = DEFAULT_BUDGET_MIN if args.budget_min is None else args.budget_min
+    return adaptive_source(budget, simulated=args.sim, choose=None if args.yes else terminal_chooser())
 
 
 def _live_view(args: argparse.Namespace) -> list:
@@ -182,6 +208,7 @@ def replay_command(args: argparse.Namespace) -> int:
     from daq.replay import replay_session
 
     report = replay_session(args.session, pace=args.pace)
+    report = _replay_suggestions(args.session, report)
     if args.json:
         from contactrig.cli.options import json_units
 
@@ -200,6 +227,23 @@ def replay_command(args: argparse.Namespace) -> int:
         return 0
     print(f"contactrig replay: error: {safe(report.verdict())}", file=sys.stderr)
     return 2  # a replay that does not reproduce the recording is an error, not a run stopped early
+
+
+def _replay_suggestions(path: str, report: Any) -> Any:
+    """An adaptive session: its suggestions rebuilt from the recorded blocks and compared with the recorded ones
+    (analysis.adaptive_session.replay_suggestions); the result is one more note, or a difference."""
+    import dataclasses
+
+    from daq import load_session
+
+    if not isinstance(load_session(path).start.get("adaptive"), dict):
+        return report
+    from analysis.adaptive_session import replay_suggestions
+
+    same, text = replay_suggestions(path)
+    if same:
+        return dataclasses.replace(report, notes=(*report.notes, f"adaptive: {text}"))
+    return dataclasses.replace(report, differences=(*report.differences, f"adaptive: {text}"), identical=False)
 
 
 def import_command(args: argparse.Namespace) -> int:

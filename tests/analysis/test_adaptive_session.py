@@ -1,0 +1,155 @@
+"""``acquire --sim --adaptive`` (analysis.adaptive_session, issue 27 §2): the session follows the suggestions on the
+simulated bench, ends decisive and says why; every suggestion is in the stop record (schema 4) and replays bit for
+bit; the file fits; an old (schema 3) file is still read; the operator may place another weight."""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import h5py
+import pytest
+
+from analysis.adaptive_session import adaptive_source, replay_suggestions
+from analysis.simulated_session import SimulatedRigBench
+from contactrig.core.scene import parse_scene
+from daq import load_session
+from daq.acquire import acquire
+
+PRESS = Path(__file__).resolve().parents[2] / "contactrig" / "scenes" / "press.toml"
+
+
+def _scene(models: str = '"greenwood_tripp", "pasaribu_schipper"', noise: str = "iid") -> object:
+    """The packaged press scene with two models (8.5 % apart after refitting R_s, σ_f) and ``noise``."""
+    text = PRESS.read_text()
+    text = re.sub(r"^models\s*=.*$", f"models = [{models}]", text, count=1, flags=re.M)
+    text = re.sub(r'^sim_noise = "tab1"', f'sim_noise = "{noise}"', text, count=1, flags=re.M)
+    return parse_scene(text, "press (test)")
+
+
+@pytest.fixture(scope="module")
+def press_session(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, object]:
+    path = tmp_path_factory.mktemp("adaptive") / "press.h5"
+    result = acquire(_scene(), path, bench=SimulatedRigBench(math.inf), yes=True, quiet=True,
+                     adaptive=adaptive_source(30.0, simulated=True))  # fmt: skip
+    return path, result
+
+
+def test_press_iid_ends_decisive_and_says_why(press_session) -> None:
+    """Greenwood–Tripp is the simulated truth: the session ends decisive for it, with the margin, long before the
+    budget; the stop record carries every suggestion, its evidence and what the operator did."""
+    path, result = press_session
+    assert result.status == "success"
+    assert result.reason.startswith("decisive: Greenwood–Tripp") and "≥ 10" in result.reason
+    s = load_session(path)
+    assert s.schema_version == 4
+    assert s.start["adaptive"]["budget_s"] == 1800.0
+    record = s.stop["adaptive"]
+    assert record["decision"]["status"] == "decisive"
+    entries = record["entries"]
+    assert entries and all(e["operator"] == "took the suggestion" for e in entries)
+    assert entries[0]["suggestion"]["action"] == "place" and entries[-1]["evidence"] is not None
+    assert record["final"]["evidence"]["leader"] == "greenwood_tripp"
+    assert s.summary["block"].size < 200
+
+
+def test_replay_reproduces_every_suggestion_and_the_session_fits(press_session) -> None:
+    path, _ = press_session
+    same, text = replay_suggestions(str(path))
+    assert same, text
+    from analysis.fit import compare_models
+    from analysis.measured import MeasuredCurve
+
+    s = load_session(path)
+    curve = MeasuredCurve.from_summary(s.summary)
+    assert not curve.paired  # unequal seatings per weight: the fit's unpaired rule
+    areas = {k: 1e-8 * curve.weight_kg ** (1.0 if k == "a" else 0.5) for k in ("a", "b")}
+    assert compare_models(curve, areas, height_m=1e-6, n_boot=0).ranking  # fits without error
+
+
+def test_a_changed_suggestion_is_found(press_session, tmp_path: Path) -> None:
+    """replay_suggestions compares: an edited recorded suggestion is reported (the seal is not what is tested)."""
+    path, _ = press_session
+    copy = tmp_path / "edited.h5"
+    copy.write_bytes(path.read_bytes())
+    import json
+
+    with h5py.File(copy, "r+") as h5:
+        rec = json.loads(h5["entry/stop/record"][()])
+        rec["adaptive"]["entries"][-1]["suggestion"]["weight_kg"] = 123.0
+        rec.pop("seal")
+        del h5["entry/stop/record"]
+        h5["entry/stop"].create_dataset("record", data=json.dumps(rec), dtype=h5py.string_dtype())
+        h5.attrs["contactrig_schema"] = 2  # unsealed schema: the reader does not refuse it for the missing seal
+    with pytest.warns(UserWarning):
+        same, text = replay_suggestions(str(copy))
+    assert not same and "differs" in text
+
+
+def test_operator_may_place_another_weight(tmp_path: Path) -> None:
+    """The operator's own choice is placed and recorded beside the suggestion it replaced."""
+    asked = []
+
+    def choose(placement, state, allowed):
+        asked.append(placement.weight_kg)
+        if len(asked) == 4:
+            return 10.0
+        return None if len(asked) > 5 else placement.weight_kg
+
+    path = tmp_path / "own.h5"
+    result = acquire(_scene(), path, bench=SimulatedRigBench(math.inf), yes=True, quiet=True,
+                     adaptive=adaptive_source(30.0, simulated=True, choose=choose))  # fmt: skip
+    record = load_session(path).stop["adaptive"]
+    actions = [e["operator"] for e in record["entries"]]
+    assert "placed 10 kg instead" in actions and actions[-1] == "stopped the session"
+    assert record["decision"]["status"] == "operator" and result.reason.startswith("operator")
+
+
+def test_schema_3_files_are_still_read(press_session, tmp_path: Path) -> None:
+    """A schema-3 file (no adaptive records) loads through the upgrade chain."""
+    path = tmp_path / "fixed.h5"
+    text = re.sub(r"^repeats = 6", "repeats = 2", PRESS.read_text(), count=1, flags=re.M)
+    acquire(parse_scene(text, "press, 2 repeats"), path, bench=SimulatedRigBench(math.inf), yes=True, quiet=True)
+    with h5py.File(path, "r+") as h5:
+        h5.attrs["contactrig_schema"] = 3
+    s = load_session(path)
+    assert s.schema_version == 3 and "adaptive" not in s.start
+
+
+def test_watch_shows_the_evidence_and_the_stop_reason(press_session) -> None:
+    from analysis.watch import state_from_session, status_line
+
+    path, result = press_session
+    line = status_line(state_from_session(load_session(path)))
+    assert "evidence: Greenwood–Tripp leads" in line and "(100 %)" in line and result.reason in line
+
+
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (["--budget-min", "5"], "--budget-min only applies to --adaptive"),
+        (["--adaptive", "--budget-min", "-5"], "--budget-min = -5.0 is not allowed"),
+        (["--adaptive", "--resume"], "--adaptive does not resume"),
+    ],
+)
+def test_bad_adaptive_options_are_one_line_errors(args, says, tmp_path: Path, capsys) -> None:
+    from contactrig.cli.main import main
+
+    assert main(["acquire", "--sim", *args, "-o", str(tmp_path / "x.h5")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert says in err and len(err.splitlines()) == 1 and not (tmp_path / "x.h5").exists()
+
+
+def test_session_state_is_plain_data_for_the_console(press_session) -> None:
+    """What the console shows, as JSON: the report of the design rebuilt from the file, with the stop record."""
+    import json
+
+    from analysis.adaptive_session import session_state
+
+    path, result = press_session
+    state = session_state(load_session(path))
+    assert state is not None
+    assert json.loads(json.dumps(state, allow_nan=False)) == state
+    assert state["stop"]["status"] == "decisive" and state["stop_record"]["reason"] == result.reason
+    assert state["progress"] == 1.0 and state["evidence"]["leader"] == "greenwood_tripp"
