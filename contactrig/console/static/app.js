@@ -321,7 +321,12 @@ function renderAsk(ask, weight, id, s, refused) {
 // An adaptive session's next placement (analysis.sequential's suggestion, in its words) as the big prompt: take it
 // (Enter, as at the terminal), place another of the allowed weights (as typing a weight there), or stop (q).
 function renderSuggestion(ask, weight, p, send) {
-  weight.textContent = p.suggestion.text;
+  // big: what to do ("place 7.44 kg (2 seatings)"); beneath it, the rest of the analysis's sentence (why, or the
+  // expected gain per minute)
+  const text = p.suggestion.text, why = p.suggestion.why;
+  const cut = why ? text.lastIndexOf(`: ${why}`) : text.lastIndexOf(" (expected gain");
+  weight.replaceChildren(el("span", { id: "suggestion", text: cut > 0 ? text.slice(0, cut) : text }),
+    el("span", { id: "suggestion-detail", class: "small", text: cut > 0 ? text.slice(cut).replace(/^: /, "").trim() : "" }));
   const take = () => send({ decision: "go" }), quit = () => send({ decision: "quit" });
   const other = el("span", { id: "other-weight" });
   const another = () => {
@@ -357,7 +362,8 @@ function evidenceBox(box) {
     if (end) {
       const status = (end.decision && end.decision.status) || (a.stop_record && a.stop_record.status) || "";
       const reason = end.stop_reason || (end.decision && end.decision.reason) || "";
-      parts.push(el("p", { id: "adaptive-stop", class: `stopped ${status}` }, el("strong", { text: `${status}: ` }), reason));
+      const label = reason.startsWith(`${status}:`) ? "" : `${status}: `; // "decisive: …" says it already
+      parts.push(el("p", { id: "adaptive-stop", class: `stopped ${status}` }, el("strong", { text: label }), reason));
       if (status !== "decisive" && a.what_would && !reason.includes(a.what_would)) parts.push(el("p", { id: "adaptive-what-would", text: `what would: ${a.what_would}` }));
     }
     box.replaceChildren(...parts);
