@@ -10,6 +10,7 @@ sets it up (there it ends decisive for Greenwood–Tripp in a few minutes of ben
 from __future__ import annotations
 
 import re
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -112,3 +113,19 @@ def test_follow_of_a_fixed_plan_has_no_adaptive_state(press_client: Client, fold
     run = press_client.start("fixed.h5")
     assert press_client.drive(run)["end"]["code"] == 0
     assert press_client.get("/api/follow", params={"path": "fixed.h5"}).json()["adaptive"] is None
+
+
+def test_a_queued_adaptive_session_keeps_its_budget(press_client: Client) -> None:
+    """The queue's form keeps adaptive and its budget (checked when queued, as a start checks it); started from the
+    queue, the session asks suggestions and runs with that budget."""
+    base = {"scene": "press_iid.toml", "sim": True, "sim_speed": "inf", "output": "q.h5", "client": "t"}
+    r = press_client.post("/api/queue", {**base, "adaptive": True, "budget_min": "-1"})
+    assert r.status_code == 400 and "budget_min" in r.json()["error"]
+    assert press_client.post("/api/queue", {**base, "adaptive": True, "budget_min": "20"}).status_code == 200
+    deadline = time.monotonic() + 30
+    while not (started := press_client.get("/api/queue").json()["started"]):
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    end = press_client.drive(started[0]["run"], lambda s: {"decision": "go"} if s["prompt"]["event"] == "suggest"
+                             else {"decision": "quit"}, timeout=120)  # fmt: skip
+    assert end["budget_min"] == 20.0 and end["adaptive_stop"] is not None and end["adaptive"] is not None
