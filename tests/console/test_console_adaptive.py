@@ -129,3 +129,24 @@ def test_a_queued_adaptive_session_keeps_its_budget(press_client: Client) -> Non
     end = press_client.drive(started[0]["run"], lambda s: {"decision": "go"} if s["prompt"]["event"] == "suggest"
                              else {"decision": "quit"}, timeout=120)  # fmt: skip
     assert end["budget_min"] == 20.0 and end["adaptive_stop"] is not None and end["adaptive"] is not None
+
+
+def test_stop_at_a_suggestion_and_stop_after_the_block(press_client: Client) -> None:
+    """Stop at a suggestion (``quit``, the terminal's ``q``) ends the session with the operator's reason; "stop after
+    this block" (SIGINT, as Ctrl-C) while it measures ends it aborted, the source idle, the state still shown."""
+    run = press_client.start("op.h5", scene="press_iid.toml", adaptive=True, budget_min="30")
+    seen: list[str] = []
+
+    def decide(s: dict[str, Any]) -> dict[str, Any]:
+        if s["prompt"]["id"] not in seen:
+            seen.append(s["prompt"]["id"])
+        return {"decision": "go" if len(seen) < 3 else "quit"}
+
+    end = press_client.drive(run, decide, timeout=120)
+    assert end["adaptive_stop"]["decision"]["status"] == "operator"
+    assert end["stop"]["reason"].startswith("operator: stopped at the suggestion ")
+    assert end["stop"]["reason"] == end["adaptive_stop"]["stop_reason"] and end["adaptive"]["what_would"]
+    run = press_client.start("int.h5", scene="press_iid.toml", adaptive=True, budget_min="30", sim_speed="20")
+    end = press_client.drive(run, lambda s: press_client.post(f"/api/runs/{run}/stop", {"client": "tester"})
+                             and {"decision": "go"}, timeout=120)  # fmt: skip
+    assert end["stop"]["status"] == "aborted" and end["adaptive"] is not None, end["stop"]

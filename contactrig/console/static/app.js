@@ -245,7 +245,9 @@ function showRun(id) {
     const lastBlock = s.blocks[s.blocks.length - 1];
     const invalid = s.blocks.reduce((a, b) => a + b.n_invalid, 0);
     info.textContent = (s.budget_min === null ? `ETA ${fmtDuration(s.eta_s)} measuring + ${s.weights_left} weight(s) still to place · ` : "") + `invalid readings ${invalid}` + (s.sim ? " · simulated bench" : ` · ${s.address}`);
-    if (s.adaptive) drawEvidence(s.adaptive, s.phase === "ended" ? s.adaptive_stop : null);
+    // once ended: the design's stop decision, or (stopped by Ctrl-C / Stop after this block) the stop record's
+    const decided = s.adaptive_stop && s.adaptive_stop.decision ? s.adaptive_stop : s.stop ? { decision: { status: s.stop.status }, stop_reason: s.stop.reason } : null;
+    if (s.adaptive) drawEvidence(s.adaptive, s.phase === "ended" ? decided : null);
     const b = lastBlock;
     block.textContent = b ? `last block ${b.number}/${s.blocks_planned}: ${b.weight_kg} kg repeat ${b.repeat}: ` + (b.compliance ? "COMPLIANCE: excluded" : `R = ${b.mean_text || "—"}${b.sem_text ? ` ± ${b.sem_text}` : ""} (SEM, n = ${b.n}, ${b.n_invalid} invalid)`) : "";
     last = { blocks: s.blocks, readings: lastBlock ? lastBlock.readings_ohm : [] };
