@@ -55,6 +55,7 @@ def test_adaptive_session_in_the_browser(browser: Any, console: ConsoleProcess, 
         browser.find_element(By.ID, field).clear()
         browser.find_element(By.ID, field).send_keys(value)
     browser.find_element(By.ID, "adaptive").click()
+    wait(browser, lambda d: "adaptive: the weights above are the placements allowed" in text_of(d, "#plan"))
     browser.find_element(By.ID, "start").click()
     wait(browser, lambda d: "#/run/" in d.current_url)
 

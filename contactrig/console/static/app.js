@@ -174,10 +174,11 @@ async function showNew() {
     const mine = ++asked;
     const r = await api("/api/plan", body(form));
     if (mine !== asked) return;
-    plan.textContent = r.error ? "" : r.lines.join("\n") + `\nbench address: ${r.address}`;
+    plan.textContent = r.error ? "" : r.lines.join("\n") + `\nbench address: ${r.address}`
+      + (adaptive.checked && !r.error ? `\nadaptive: the weights above are the placements allowed; the blocks and the time follow the suggestions, within ${budget.value || 60} min of bench time` : "");
     error.textContent = r.error || "";
   };
-  for (const i of [scene, sim, speed]) i.addEventListener("change", preview);
+  for (const i of [scene, sim, speed, adaptive, budget]) i.addEventListener("change", preview);
   const start = el("button", { id: "start", class: "go", text: "Start session" });
   start.addEventListener("click", async () => {
     const r = await api("/api/runs", { ...body(form), output: name.value, client: CLIENT });
