@@ -164,7 +164,8 @@ def pipe_adaptive(
     ``acquire(adaptive=…)`` takes (:func:`analysis.adaptive_session.adaptive_source`, the operator asked over the
     pipe) and a function that sends the session's last state once it has ended.
 
-    Before each placement the question ``suggest`` carries the suggestion, the allowed weights and the state the
+    After every block the design's state goes to the page (``evidence``); before each placement the question
+    ``suggest`` carries the suggestion, the allowed weights and the state the
     design reports (:meth:`analysis.sequential.SequentialDesign.report`, with its evidence line; strict JSON, an
     event that could not be sent would end the channel): the page shows it, nothing is computed here. The answer
     (:func:`_chosen`) as at the terminal: take it, place another allowed weight, or stop."""
@@ -192,6 +193,7 @@ def pipe_adaptive(
     def factory(plan: Any) -> Any:
         steps = make(plan)
         held.append(steps)
+        _report_after_blocks(steps, channel, state_of)
         return steps
 
     def final() -> None:
@@ -207,6 +209,23 @@ def pipe_adaptive(
                       "stop_reason": steps.stop_reason})  # fmt: skip
 
     return factory, final
+
+
+def _report_after_blocks(steps: Any, channel: _Channel, state_of: Callable[[Any], dict[str, Any]]) -> None:
+    """After every block the steps ingest (their writer method, wrapped for this instance), the design's state to the
+    page (an ``evidence`` event). ``report()`` is deterministic (its generator seeded by the block count): the
+    suggestions, and their replay, are not changed by it."""
+    ingest = steps.block
+
+    def block(rec: Any) -> None:
+        ingest(rec)
+        try:
+            state = state_of(steps.design.report())
+        except Exception as exc:  # the page says so; the acquisition goes on
+            state = {"error": f"{type(exc).__name__}: {exc}"}
+        channel.send({"event": "evidence", "adaptive": state})
+
+    setattr(steps, "block", block)  # noqa: B010 (a method of the instance, not of the class)
 
 
 def _chosen(answer: dict[str, Any], suggested_kg: float, allowed: Sequence[float]) -> float | str | None:

@@ -60,7 +60,8 @@ class RunState:
     block_times: list[float] = field(default_factory=list)
     version: int = 0
     #: an adaptive session: its budget [min] (None: a fixed plan), the design's last state (the analysis's JSON, as
-    #: the child sent it with each suggestion and at the end) and, once ended, its stop decision and reason
+    #: the child sent it after each block, with each suggestion and at the end) and, once ended, its stop decision
+    #: and reason
     budget_min: float | None = None
     adaptive: dict[str, Any] | None = None
     adaptive_stop: dict[str, Any] | None = None
@@ -146,12 +147,8 @@ class SessionRun:
                 s.phase, s.prompt = str(kind), event
                 if kind == "prompt":
                     s.weights_left = max(s.weights_left - 1, 0)
-            elif kind == "suggest":  # an adaptive session's next placement: the state apart, the question as asked
-                s.adaptive = event.get("adaptive") if isinstance(event.get("adaptive"), dict) else s.adaptive
-                s.phase, s.prompt = "prompt", {k: v for k, v in event.items() if k != "adaptive"}
-            elif kind == "adaptive":  # its last state, once it has ended
-                s.adaptive = event.get("adaptive") if isinstance(event.get("adaptive"), dict) else s.adaptive
-                s.adaptive_stop = {"decision": event.get("decision"), "stop_reason": event.get("stop_reason")}
+            elif kind in ("suggest", "evidence", "adaptive"):
+                _adaptive_event(s, str(kind), event)
             elif kind == "stop":
                 s.stop = event
                 s.blocks_planned = int(event.get("blocks_planned") or s.blocks_planned)
@@ -242,6 +239,17 @@ class SessionRun:
                     pipe.close()
                 except OSError:
                     pass
+
+
+def _adaptive_event(s: RunState, kind: str, event: dict[str, Any]) -> None:
+    """An adaptive session's events: its state after a block (``evidence``), its next placement (``suggest``: the
+    state apart, the question as asked), its last state once it has ended (``adaptive``, with the stop decision)."""
+    if isinstance(event.get("adaptive"), dict):
+        s.adaptive = event["adaptive"]
+    if kind == "suggest":
+        s.phase, s.prompt = "prompt", {k: v for k, v in event.items() if k != "adaptive"}
+    elif kind == "adaptive":
+        s.adaptive_stop = {"decision": event.get("decision"), "stop_reason": event.get("stop_reason")}
 
 
 def _fits(asked: dict[str, Any], answer: dict[str, Any]) -> str | None:

@@ -150,3 +150,50 @@ def test_stop_at_a_suggestion_and_stop_after_the_block(press_client: Client) -> 
     end = press_client.drive(run, lambda s: press_client.post(f"/api/runs/{run}/stop", {"client": "tester"})
                              and {"decision": "go"}, timeout=120)  # fmt: skip
     assert end["stop"]["status"] == "aborted" and end["adaptive"] is not None, end["stop"]
+
+
+class _Pipe:
+    """The child's channel without a console: events collected, every suggestion taken."""
+
+    def __init__(self) -> None:
+        self.events: list[dict[str, Any]] = []
+
+    def send(self, event: dict[str, Any]) -> None:
+        self.events.append(event)
+
+    def ask(self, event: dict[str, Any]) -> dict[str, Any]:
+        self.send(event)
+        return {"decision": "go"}
+
+
+def test_the_child_sends_the_design_state_after_every_block(tmp_path: Path) -> None:
+    """After every block the design's state (``evidence``, its ``blocks`` the count so far), before each placement
+    the suggestion with the state the stop record keeps for it; the extra reports change no suggestion (replay)."""
+    import json
+    import math
+
+    from analysis.adaptive_session import replay_suggestions
+    from analysis.simulated_session import SimulatedRigBench
+    from contactrig.console.child import pipe_adaptive
+    from contactrig.core.scene import parse_scene
+    from daq import load_session
+    from daq.acquire import acquire
+
+    pipe = _Pipe()
+    factory, final = pipe_adaptive(pipe, 30.0, simulated=True)
+    path = tmp_path / "child.h5"
+    acquire(parse_scene(press_iid_text(), "press (test)"), path, bench=SimulatedRigBench(math.inf), quiet=True,
+            adaptive=factory)  # fmt: skip
+    final()
+    s = load_session(path)
+    after = [e["adaptive"] for e in pipe.events if e["event"] == "evidence"]
+    assert [a["blocks"] for a in after] == list(range(1, len(s.summary) + 1))
+    asked = [e for e in pipe.events if e["event"] == "suggest"]
+    entries = s.stop["adaptive"]["entries"]
+    assert len(asked) == len(entries)
+    for e, rec in zip(asked, entries, strict=True):
+        kept = {k: e["adaptive"][k] for k in ("suggestion", "evidence", "p_decisive", "progress", "noise")}
+        assert kept == json.loads(json.dumps({k: rec[k] for k in kept}))
+    assert pipe.events[-1]["event"] == "adaptive" and pipe.events[-1]["decision"] == s.stop["adaptive"]["decision"]
+    same, text = replay_suggestions(str(path))
+    assert same, text
