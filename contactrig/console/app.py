@@ -602,7 +602,7 @@ def _brief(run: SessionRun) -> dict[str, Any]:
     s = run.state
     blocks = s.blocks_before + len(s.blocks)
     return {"id": s.id, "file": s.file, "phase": s.phase, "address": s.address, "blocks": blocks,
-            "blocks_planned": s.blocks_planned}  # fmt: skip
+            "blocks_planned": s.blocks_planned, "budget_min": s.budget_min}  # fmt: skip
 
 
 async def run_state(request: Request) -> Response:

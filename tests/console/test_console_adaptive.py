@@ -80,6 +80,7 @@ def test_adaptive_start_suggestions_answers_and_stop(press_client: Client, folde
 
     end = press_client.drive(run, decide, timeout=120)
     assert end["budget_min"] == 30.0 and end["end"]["code"] == 0, end
+    assert press_client.get("/api/runs").json()["runs"][0]["budget_min"] == 30.0
     assert len(asked) >= 5
     # the state the page shows is the design's report: progress in [0, 1], the threshold, the reason
     first = states[0]

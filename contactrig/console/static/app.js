@@ -67,7 +67,7 @@ async function showSessions() {
   const runs = await api("/api/runs");
   if ((runs.runs || []).length) runsBox.append(el("h2", { text: "Started from this console" }));
   for (const r of runs.runs || []) {
-    runsBox.append(el("p", {}, el("a", { href: `#/run/${encodeURIComponent(r.id)}`, text: `${r.file}: ${r.phase}, ${r.blocks}/${r.blocks_planned} blocks` })));
+    runsBox.append(el("p", {}, el("a", { href: `#/run/${encodeURIComponent(r.id)}`, text: `${r.file}: ${r.phase}, ` + (r.budget_min === null || r.budget_min === undefined ? `${r.blocks}/${r.blocks_planned} blocks` : `${r.blocks} blocks (adaptive, budget ${r.budget_min} min)`) })));
   }
   const picked = () => {
     compare.disabled = chosen.length !== 2;
