@@ -427,9 +427,12 @@ def _start(console: Console, body: dict[str, Any]) -> SessionRun:
         address = str(overrides.get("instrument.address", address))
         sample = str(overrides.get("session.sample", sample))
     speed = _speed(body) or recorded_speed  # a resumed simulated session keeps its speed unless the form sets one
+    budget = _budget(body, resume=resume)
     request = {"scene": None if scene_path is None else str(scene_path), "output": str(console.root / output),
                "sim": bool(body.get("sim")), "sim_speed": speed, "resume": resume, "overrides": overrides,
                "allow_change": bool(body.get("allow_change"))}  # fmt: skip
+    if budget is not None:  # as `acquire --adaptive --budget-min N`: the child runs analysis.adaptive_session
+        request["adaptive"] = {"budget_min": budget}
     client = str(body.get("client") or "")[:64]
     with console.lock:
         if console.closing.is_set():
@@ -439,10 +442,36 @@ def _start(console: Console, body: dict[str, Any]) -> SessionRun:
             raise BadRequest(f"a session is running on {address} already ({busy.state.file}): one at a time per bench")
         state = RunState(id=secrets.token_hex(8), file=output, address=address, controller=client,
                          sim=bool(body.get("sim")), resume=resume, blocks_planned=blocks_planned,
-                         blocks_before=before, weights_left=weights, sample=sample)  # fmt: skip
+                         blocks_before=before, weights_left=weights, sample=sample, budget_min=budget)  # fmt: skip
         run = SessionRun(state, request, cwd=str(console.root))
         console.runs[state.id] = run
     return run
+
+
+def _budget(body: dict[str, Any], *, resume: bool) -> float | None:
+    """The form's ``adaptive`` (a checkbox) and ``budget_min`` (empty: the default, 60 min), checked as ``acquire
+    --adaptive --budget-min`` checks them; None for a fixed plan."""
+    from analysis.adaptive_session import DEFAULT_BUDGET_MIN
+    from contactrig.core.validation import check_range
+
+    given = body.get("budget_min")
+    if not body.get("adaptive"):
+        if given not in (None, ""):
+            raise BadRequest("budget_min only applies to an adaptive session (tick adaptive)")
+        return None
+    if resume:
+        raise BadRequest("adaptive: an adaptive session is not resumed: start a new one")
+    if given in (None, ""):
+        return DEFAULT_BUDGET_MIN
+    try:
+        budget = float(given)
+    except (TypeError, ValueError):
+        raise BadRequest(f"budget_min {given!r}: expected minutes of bench time, a number > 0") from None
+    try:
+        check_range("--budget-min", budget, 0.0, 24 * 60.0, lo_open=True, unit="min")
+    except ValueError as exc:
+        raise BadRequest(f"budget_min: {exc}") from None
+    return budget
 
 
 def _overrides(body: dict[str, Any]) -> dict[str, Any]:
@@ -516,6 +545,8 @@ def _queued(console: Console, body: dict[str, Any]) -> tuple[dict[str, Any], str
     client = str(body.get("client") or "")[:64]
     form = {"scene": body.get("scene") or "", "sim": bool(body.get("sim")), "sim_speed": body.get("sim_speed"),
             "overrides": body.get("overrides") or {}, "output": output, "client": client}  # fmt: skip
+    if _budget(body, resume=False) is not None:  # an adaptive session keeps its budget in the queue
+        form.update(adaptive=True, budget_min=body.get("budget_min"))
     return form, plan.instrument.address
 
 
@@ -571,7 +602,7 @@ def _brief(run: SessionRun) -> dict[str, Any]:
     s = run.state
     blocks = s.blocks_before + len(s.blocks)
     return {"id": s.id, "file": s.file, "phase": s.phase, "address": s.address, "blocks": blocks,
-            "blocks_planned": s.blocks_planned}  # fmt: skip
+            "blocks_planned": s.blocks_planned, "budget_min": s.budget_min}  # fmt: skip
 
 
 async def run_state(request: Request) -> Response:
@@ -583,7 +614,9 @@ async def run_state(request: Request) -> Response:
 
 async def answer(request: Request) -> Response:
     """The operator's answer to one question: ``{"prompt": id, "decision": "go"|"skip"|"quit"}`` to a weight,
-    ``{"prompt": id, "measure": bool}`` on resume. 409 (and nothing done) when that question is not the one asked now
+    ``{"prompt": id, "measure": bool}`` on resume, ``{"prompt": id, "decision": "go"|"quit"}`` or ``{"prompt": id,
+    "decision": "place", "weight_kg": w}`` to an adaptive session's suggestion. 409 (and nothing done) when that
+    question is not the one asked now
     or was answered already: a late, duplicate or foreign answer never answers another question."""
     run = _run(request)
     body = await _json_body(request)
@@ -593,9 +626,12 @@ async def answer(request: Request) -> Response:
     if not isinstance(prompt, str) or not prompt:
         return JSONResponse({"error": "prompt: expected the id of the question answered"}, status_code=400)
     if "decision" in body:
-        if body["decision"] not in ("go", "skip", "quit"):
-            return JSONResponse({"error": "decision: expected go, skip or quit"}, status_code=400)
+        if body["decision"] not in ("go", "skip", "quit", "place"):
+            return JSONResponse({"error": "decision: expected go, skip, quit or (an adaptive session's) place"},
+                                status_code=400)  # fmt: skip
         reply: dict[str, Any] = {"decision": body["decision"]}
+        if body["decision"] == "place":  # another weight than the suggested one: which (checked against the question)
+            reply["weight_kg"] = body.get("weight_kg")
     elif isinstance(body.get("measure"), bool):
         reply = {"measure": body["measure"]}
     else:

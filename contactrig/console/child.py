@@ -33,12 +33,12 @@ import threading
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, TextIO
 
-from contactrig.console.view import block_row
+from contactrig.console.view import block_row, strict_json
 from daq.engine import Decision, OperatorQuit
 from daq.plan import PlaceWeight
 from daq.records import BlockRecord, StopRecord
 
-__all__ = ["ConsoleWriter", "main", "pipe_prompter", "pipe_resume_chooser"]
+__all__ = ["ConsoleWriter", "main", "pipe_adaptive", "pipe_prompter", "pipe_resume_chooser"]
 
 #: readings of a block sent to the console (the plot of the current block); more are counted, not sent
 MAX_READINGS_SENT = 2000
@@ -157,6 +157,94 @@ def pipe_resume_chooser(channel: _Channel) -> Callable[[float], bool]:
     return choose
 
 
+def pipe_adaptive(
+    channel: _Channel, budget_min: float, *, simulated: bool
+) -> tuple[Callable[[Any], Any], Callable[[], None]]:
+    """An adaptive session from the console (``acquire --adaptive --budget-min N``): the factory
+    ``acquire(adaptive=…)`` takes (:func:`analysis.adaptive_session.adaptive_source`, the operator asked over the
+    pipe) and a function that sends the session's last state once it has ended.
+
+    After every block the design's state goes to the page (``evidence``); before each placement the question
+    ``suggest`` carries the suggestion, the allowed weights and the state the
+    design reports (:meth:`analysis.sequential.SequentialDesign.report`, with its evidence line; strict JSON, an
+    event that could not be sent would end the channel): the page shows it, nothing is computed here. The answer
+    (:func:`_chosen`) as at the terminal: take it, place another allowed weight, or stop."""
+    from analysis.adaptive_session import adaptive_source, evidence_line
+
+    held: list[Any] = []  # the session's AdaptiveSteps, once acquire has made them
+
+    def state_of(state: Any) -> dict[str, Any]:
+        out = dict(strict_json(state))
+        out["evidence_line"] = evidence_line(held[0].design) if held else ""
+        return out
+
+    def choose(placement: Any, state: Any, allowed: Sequence[float]) -> float | None:
+        while True:
+            answer = channel.ask({
+                "event": "suggest", "weight_kg": placement.weight_kg, "suggestion": strict_json(placement.as_dict()),
+                "allowed_kg": [float(w) for w in allowed], "adaptive": state_of(state),
+            })  # fmt: skip
+            chosen = _chosen(answer, float(placement.weight_kg), allowed)
+            if not isinstance(chosen, str):  # "again": not an answer to this question
+                return chosen
+
+    make = adaptive_source(budget_min, simulated=simulated, choose=choose)
+
+    def factory(plan: Any) -> Any:
+        steps = make(plan)
+        held.append(steps)
+        _report_after_blocks(steps, channel, state_of)
+        return steps
+
+    def final() -> None:
+        if not held:
+            return
+        steps = held[0]
+        try:
+            last = steps.last if steps.last is not None else steps.design.report()
+            state = state_of(last)
+        except Exception as exc:  # the page says so; the session and its file are not touched
+            state = {"error": f"{type(exc).__name__}: {exc}"}
+        channel.send({"event": "adaptive", "adaptive": state, "decision": strict_json(steps.decision),
+                      "stop_reason": steps.stop_reason})  # fmt: skip
+
+    return factory, final
+
+
+def _report_after_blocks(steps: Any, channel: _Channel, state_of: Callable[[Any], dict[str, Any]]) -> None:
+    """After every block the steps ingest (their writer method, wrapped for this instance), the design's state to the
+    page (an ``evidence`` event). ``report()`` is deterministic (its generator seeded by the block count): the
+    suggestions, and their replay, are not changed by it."""
+    ingest = steps.block
+
+    def block(rec: Any) -> None:
+        ingest(rec)
+        try:
+            state = state_of(steps.design.report())
+        except Exception as exc:  # the page says so; the acquisition goes on
+            state = {"error": f"{type(exc).__name__}: {exc}"}
+        channel.send({"event": "evidence", "adaptive": state})
+
+    setattr(steps, "block", block)  # noqa: B010 (a method of the instance, not of the class)
+
+
+def _chosen(answer: dict[str, Any], suggested_kg: float, allowed: Sequence[float]) -> float | str | None:
+    """The weight [kg] an answer to a suggestion places: ``go`` the suggested one (Enter at the terminal), ``place``
+    with ``weight_kg`` one of the allowed (a weight typed), ``quit`` None (``q``: stop); anything else ``"again"``
+    (the question is asked anew, as the terminal asks again)."""
+    decision = answer.get("decision")
+    if decision == "go":
+        return suggested_kg
+    if decision == "quit":
+        return None
+    weight = answer.get("weight_kg")
+    if decision == "place" and isinstance(weight, (int, float)) and not isinstance(weight, bool):
+        hit = [w for w in allowed if math.isclose(w, float(weight), rel_tol=1e-6)]
+        if hit:
+            return float(hit[0])
+    return "again"
+
+
 class _Lines:
     """A text stream whose lines (acquire's plan, its live line, its notes) become ``line`` events."""
 
@@ -179,7 +267,8 @@ class _Lines:
 
 
 def run(request: dict[str, Any], channel: _Channel) -> int:
-    """One ``acquire`` as ``request`` says (scene, output, sim, sim_speed, resume, overrides); returns the exit
+    """One ``acquire`` as ``request`` says (scene, output, sim, sim_speed, resume, overrides, adaptive: its
+    ``budget_min``); returns the exit
     code of ``contactrig acquire`` (0 done, 1 stopped early, 2 error)."""
     from analysis.simulated_session import DEFAULT_SIM_SPEED, SimulatedRigBench
     from analysis.watch import Guarded
@@ -188,10 +277,16 @@ def run(request: dict[str, Any], channel: _Channel) -> int:
 
     speed = request.get("sim_speed") or DEFAULT_SIM_SPEED
     bench = SimulatedRigBench(float(speed)) if request.get("sim") else VisaBench()  # the plan's VISA library
+    adaptive: Callable[[Any], Any] | None = None
+    final: Callable[[], None] | None = None
+    if isinstance(request.get("adaptive"), dict):  # the steps ask the operator themselves (no weight prompt)
+        adaptive, final = pipe_adaptive(channel, float(request["adaptive"]["budget_min"]),
+                                        simulated=bool(request.get("sim")))  # fmt: skip
     try:
         result = acquire(
             request.get("scene"), request["output"], bench=bench, resume=bool(request.get("resume")),
-            prompter=pipe_prompter(channel), resume_chooser=pipe_resume_chooser(channel), stream=_Lines(channel),  # type: ignore[arg-type]
+            prompter=None if adaptive is not None else pipe_prompter(channel), adaptive=adaptive,
+            resume_chooser=pipe_resume_chooser(channel), stream=_Lines(channel),  # type: ignore[arg-type]
             extra_writers=[Guarded(ConsoleWriter(channel), "console")],
             overrides=request.get("overrides") or None, allow_change=bool(request.get("allow_change")),
         )  # fmt: skip
@@ -201,6 +296,9 @@ def run(request: dict[str, Any], channel: _Channel) -> int:
     except Exception as exc:  # the one-line error, as the CLI prints it
         channel.send({"event": "end", "code": 2, "error": f"{type(exc).__name__}: {exc}"})
         return 2
+    finally:
+        if final is not None:
+            final()
     code = 0 if result.status == "success" else 1 if result.status == "aborted" else 2
     channel.send({"event": "end", "code": code, "status": result.status, "reason": result.reason})
     return code

@@ -59,6 +59,12 @@ class RunState:
     started_at: float = field(default_factory=time.monotonic)
     block_times: list[float] = field(default_factory=list)
     version: int = 0
+    #: an adaptive session: its budget [min] (None: a fixed plan), the design's last state (the analysis's JSON, as
+    #: the child sent it after each block, with each suggestion and at the end) and, once ended, its stop decision
+    #: and reason
+    budget_min: float | None = None
+    adaptive: dict[str, Any] | None = None
+    adaptive_stop: dict[str, Any] | None = None
 
     def public(self) -> dict[str, Any]:
         """The JSON the pages get (strings from files inside are data: pages show them with textContent)."""
@@ -70,7 +76,8 @@ class RunState:
             "lines": self.lines[-MAX_LINES:], "blocks": blocks, "blocks_planned": self.blocks_planned,
             "blocks_before": self.blocks_before, "stop": self.stop, "end": self.end,
             "stop_requests": self.stop_requests, "eta_s": eta, "weights_left": self.weights_left,
-            "sample": self.sample,
+            "sample": self.sample, "budget_min": self.budget_min, "adaptive": self.adaptive,
+            "adaptive_stop": self.adaptive_stop,
             "version": self.version,
         }  # fmt: skip
 
@@ -140,6 +147,8 @@ class SessionRun:
                 s.phase, s.prompt = str(kind), event
                 if kind == "prompt":
                     s.weights_left = max(s.weights_left - 1, 0)
+            elif kind in ("suggest", "evidence", "adaptive"):
+                _adaptive_event(s, str(kind), event)
             elif kind == "stop":
                 s.stop = event
                 s.blocks_planned = int(event.get("blocks_planned") or s.blocks_planned)
@@ -164,9 +173,12 @@ class SessionRun:
             if asked is None or asked.get("id") != prompt_id:
                 now = "nothing is asked now" if asked is None else f"the question now is: {_question(asked)}"
                 return f"this answer names a question that is not asked ({now}): it was not used"
-            wanted = "decision" if asked.get("event") == "prompt" else "measure"
+            wanted = "decision" if asked.get("event") in ("prompt", "suggest") else "measure"
             if wanted not in answer:
                 return f"{_question(asked)} needs {wanted!r}: the answer was not used"
+            refused = _fits(asked, answer)
+            if refused is not None:
+                return f"{_question(asked)}: {refused}: the answer was not used"
             if self.proc.stdin is None or self.proc.poll() is not None:
                 return "the acquisition process has ended: the answer was not used"
             try:
@@ -229,8 +241,42 @@ class SessionRun:
                     pass
 
 
+def _adaptive_event(s: RunState, kind: str, event: dict[str, Any]) -> None:
+    """An adaptive session's events: its state after a block (``evidence``), its next placement (``suggest``: the
+    state apart, the question as asked), its last state once it has ended (``adaptive``, with the stop decision)."""
+    if isinstance(event.get("adaptive"), dict):
+        s.adaptive = event["adaptive"]
+    if kind == "suggest":
+        s.phase, s.prompt = "prompt", {k: v for k, v in event.items() if k != "adaptive"}
+    elif kind == "adaptive":
+        s.adaptive_stop = {"decision": event.get("decision"), "stop_reason": event.get("stop_reason")}
+
+
+def _fits(asked: dict[str, Any], answer: dict[str, Any]) -> str | None:
+    """Why a decision does not answer the question asked (None: it does): a weight's question takes go, skip or quit;
+    an adaptive session's suggestion go (take it), place (another of the allowed weights, ``weight_kg``) or quit."""
+    decision = answer.get("decision")
+    if "decision" not in answer:
+        return None
+    if asked.get("event") == "prompt":
+        return None if decision in ("go", "skip", "quit") else f"{decision!r} is not one of go, skip, quit"
+    if decision in ("go", "quit"):
+        return None
+    if decision != "place":
+        return f"{decision!r} is not one of go (take the suggestion), place (another weight), quit"
+    allowed = [float(w) for w in asked.get("allowed_kg") or []]
+    weight = answer.get("weight_kg")
+    if isinstance(weight, (int, float)) and not isinstance(weight, bool) and any(
+            abs(w - weight) <= 1e-6 * abs(w) for w in allowed):  # fmt: skip
+        return None
+    return f"weight_kg {weight!r} is not one of the allowed weights ({', '.join(f'{w:g}' for w in allowed)} kg)"
+
+
 def _question(asked: dict[str, Any]) -> str:
-    """The question in words: ``place 5.44 kg`` or ``5.44 kg was skipped: measure it now?``."""
+    """The question in words: ``place 5.44 kg``, ``5.44 kg was skipped: measure it now?`` or an adaptive session's
+    suggestion (``suggested: re-seat 5 kg …``)."""
     if asked.get("event") == "resume_choice":
         return f"'{asked.get('weight_kg')} kg was skipped: measure it now?'"
+    if asked.get("event") == "suggest":
+        return f"'suggested: {(asked.get('suggestion') or {}).get('text', asked.get('weight_kg'))}'"
     return f"'place {asked.get('weight_kg')} kg'"

@@ -14,7 +14,7 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-__all__ = ["block_row", "fit_curves", "follow", "summary_rows"]
+__all__ = ["block_row", "fit_curves", "follow", "strict_json", "summary_rows"]
 
 #: summary columns a page gets per block (the rest stay in the file)
 BLOCK_COLUMNS = ("block", "run", "weight_kg", "repeat", "mean_ohm", "sem_ohm", "n", "n_invalid", "compliance")
@@ -78,8 +78,34 @@ def follow(path: Path, now: float | None = None) -> dict[str, Any]:
         "status_line": status_line(state, now), "eta_s": state.eta_s(now), "blocks": summary_rows(session.summary),
         "blocks_planned": state.blocks_planned, "readings_ohm": readings, "command": _command(session),
         "host": str(session.start.get("host") or ""), "sample": str(session.start.get("sample") or ""),
-        "warnings": list(session.warnings),
+        "warnings": list(session.warnings), "adaptive": _adaptive(session),
     }  # fmt: skip
+
+
+def _adaptive(session: Any) -> dict[str, Any] | None:
+    """An adaptive session's evidence and, once ended, its stop reason, from the file
+    (:func:`analysis.adaptive_session.session_state`, strict JSON: non-finite numbers null); None for a fixed plan,
+    ``{"error": …}`` when the design cannot be rebuilt from the file (the page says so)."""
+    from analysis.adaptive_session import session_state
+
+    if not isinstance(session.start, dict) or not isinstance(session.start.get("adaptive"), dict):
+        return None
+    try:
+        state = session_state(session)
+    except Exception as exc:  # a damaged or newer record: said on the page, the rest of the page stays
+        return {"error": f"the adaptive record could not be read: {type(exc).__name__}: {exc}"}
+    return None if state is None else strict_json(state)
+
+
+def strict_json(value: Any) -> Any:
+    """``value`` (the analysis's JSON-like state) as strict JSON: a non-finite number becomes null."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {str(k): strict_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [strict_json(v) for v in value]
+    return value
 
 
 def fit_curves(fit_json: dict[str, Any]) -> list[dict[str, Any]]:

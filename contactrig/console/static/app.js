@@ -67,7 +67,7 @@ async function showSessions() {
   const runs = await api("/api/runs");
   if ((runs.runs || []).length) runsBox.append(el("h2", { text: "Started from this console" }));
   for (const r of runs.runs || []) {
-    runsBox.append(el("p", {}, el("a", { href: `#/run/${encodeURIComponent(r.id)}`, text: `${r.file}: ${r.phase}, ${r.blocks}/${r.blocks_planned} blocks` })));
+    runsBox.append(el("p", {}, el("a", { href: `#/run/${encodeURIComponent(r.id)}`, text: `${r.file}: ${r.phase}, ` + (r.budget_min === null || r.budget_min === undefined ? `${r.blocks}/${r.blocks_planned} blocks` : `${r.blocks} blocks (adaptive, budget ${r.budget_min} min)`) })));
   }
   const picked = () => {
     compare.disabled = chosen.length !== 2;
@@ -153,6 +153,9 @@ async function showNew() {
   const scene = el("select", { id: "scene" }, ...(scenes.scenes || []).map((s) => el("option", { value: s.id, text: s.label })));
   const sim = el("input", { type: "checkbox", id: "sim", checked: "checked" });
   const speed = el("input", { id: "sim-speed", value: "1000", size: 8 });
+  // adaptive (acquire --adaptive --budget-min N): the next placement chosen as the session goes
+  const adaptive = el("input", { type: "checkbox", id: "adaptive" });
+  const budget = el("input", { id: "budget-min", value: "60", size: 6 });
   const declared = await api("/api/overrides");
   const fields = {};
   const rows = (declared.overrides || []).map((o) => {
@@ -165,16 +168,17 @@ async function showNew() {
   const name = el("input", { id: "output", value: `session-${stamp}.h5`, size: 40 });
   const plan = el("pre", { id: "plan" });
   const error = el("p", { class: "error", id: "form-error" });
-  const form = { scene, sim, speed, fields };
+  const form = { scene, sim, speed, fields, adaptive, budget };
   let asked = 0; // only the latest preview is shown (answers may come back out of order)
   const preview = async () => {
     const mine = ++asked;
     const r = await api("/api/plan", body(form));
     if (mine !== asked) return;
-    plan.textContent = r.error ? "" : r.lines.join("\n") + `\nbench address: ${r.address}`;
+    plan.textContent = r.error ? "" : r.lines.join("\n") + `\nbench address: ${r.address}`
+      + (adaptive.checked && !r.error ? `\nadaptive: the weights above are the placements allowed; the blocks and the time follow the suggestions, within ${budget.value || 60} min of bench time` : "");
     error.textContent = r.error || "";
   };
-  for (const i of [scene, sim, speed]) i.addEventListener("change", preview);
+  for (const i of [scene, sim, speed, adaptive, budget]) i.addEventListener("change", preview);
   const start = el("button", { id: "start", class: "go", text: "Start session" });
   start.addEventListener("click", async () => {
     const r = await api("/api/runs", { ...body(form), output: name.value, client: CLIENT });
@@ -191,6 +195,7 @@ async function showNew() {
   main(el("h1", { text: "New session" }),
     el("label", {}, "Scene: ", scene),
     el("label", {}, sim, " simulated bench (no instruments); instrument time × 1/", speed),
+    el("label", {}, adaptive, " adaptive: each next placement suggested as the session goes, until decisive or futile; budget (min) ", budget),
     el("h2", { text: "This run (over the scene)" }), ...rows,
     el("label", {}, "Session file (in the console's folder): ", name),
     el("h2", { text: "Plan" }), plan, error, el("p", { class: "buttons" }, start),
@@ -201,7 +206,9 @@ async function showNew() {
 function body(form) {
   const overrides = {};
   for (const [key, input] of Object.entries(form.fields)) if (input.value) overrides[key] = input.value;
-  return { scene: form.scene.value, sim: form.sim.checked, sim_speed: form.speed.value, overrides };
+  const out = { scene: form.scene.value, sim: form.sim.checked, sim_speed: form.speed.value, overrides };
+  if (form.adaptive && form.adaptive.checked) Object.assign(out, { adaptive: true, budget_min: form.budget.value });
+  return out;
 }
 
 // ---- the running session -----------------------------------------------------------------------------------
@@ -218,13 +225,15 @@ function showRun(id) {
   const block = el("p", { id: "block" });
   const ended = el("div", { id: "ended" });
   const lines = el("pre", { id: "lines" });
+  const evidence = el("div", { id: "evidence", hidden: "hidden" });
+  const drawEvidence = evidenceBox(evidence);
   let overlays = [], last = { blocks: [], readings: [] };
   // the blocks on file before this run (a resumed session: the plot shows every block, not only this run's)
   let onFile = { blocks: [], weights: [] }, asked = false;
   const redraw = () => drawPlot(canvas, { blocks: merged(onFile.blocks, last.blocks), weights: onFile.weights, overlays });
   const toggle = el("span");
   const refused = el("p", { class: "refused", id: "answer-refused", role: "alert", hidden: "hidden" });
-  main(el("h1", { id: "run-title", text: "Session" }), status, refused, weight, ask, stops, info, toggle, canvas, readingsBox, block, ended,
+  main(el("h1", { id: "run-title", text: "Session" }), status, refused, weight, ask, evidence, stops, info, toggle, canvas, readingsBox, block, ended,
     el("h2", { text: "Plan and notes" }), lines);
   let shown = null; // the id of the question shown: each question is rendered (and answered) once
   source = new EventSource(`/api/runs/${encodeURIComponent(id)}/events`);
@@ -232,10 +241,14 @@ function showRun(id) {
   source.onmessage = (m) => {
     const s = JSON.parse(m.data);
     document.getElementById("run-title").textContent = `Session ${s.file}`;
-    status.textContent = `${s.phase} — ${s.blocks_before + s.blocks.length} of ${s.blocks_planned} blocks` + (s.stop_requests ? ` — stop requested (${s.stop_requests})` : "") + (s.console_closing ? " — the console is shutting down: sessions stop after their block" : "");
+    const count = s.budget_min === null ? `${s.blocks_before + s.blocks.length} of ${s.blocks_planned} blocks` : `${s.blocks.length} blocks (adaptive, budget ${s.budget_min} min)`;
+    status.textContent = `${s.phase} — ${count}` + (s.stop_requests ? ` — stop requested (${s.stop_requests})` : "") + (s.console_closing ? " — the console is shutting down: sessions stop after their block" : "");
     const lastBlock = s.blocks[s.blocks.length - 1];
     const invalid = s.blocks.reduce((a, b) => a + b.n_invalid, 0);
-    info.textContent = `ETA ${fmtDuration(s.eta_s)} measuring + ${s.weights_left} weight(s) still to place · invalid readings ${invalid}` + (s.sim ? " · simulated bench" : ` · ${s.address}`);
+    info.textContent = (s.budget_min === null ? `ETA ${fmtDuration(s.eta_s)} measuring + ${s.weights_left} weight(s) still to place · ` : "") + `invalid readings ${invalid}` + (s.sim ? " · simulated bench" : ` · ${s.address}`);
+    // once ended: the design's stop decision, or (stopped by Ctrl-C / Stop after this block) the stop record's
+    const decided = s.adaptive_stop && s.adaptive_stop.decision ? s.adaptive_stop : s.stop ? { decision: { status: s.stop.status }, stop_reason: s.stop.reason } : null;
+    if (s.adaptive) drawEvidence(s.adaptive, s.phase === "ended" ? decided : null);
     const b = lastBlock;
     block.textContent = b ? `last block ${b.number}/${s.blocks_planned}: ${b.weight_kg} kg repeat ${b.repeat}: ` + (b.compliance ? "COMPLIANCE: excluded" : `R = ${b.mean_text || "—"}${b.sem_text ? ` ± ${b.sem_text}` : ""} (SEM, n = ${b.n}, ${b.n_invalid} invalid)`) : "";
     last = { blocks: s.blocks, readings: lastBlock ? lastBlock.readings_ohm : [] };
@@ -288,6 +301,7 @@ function renderAsk(ask, weight, id, s, refused) {
     keys = { m: measure, Enter: keep };
     return;
   }
+  if (p.event === "suggest") { renderSuggestion(ask, weight, p, send); return; }
   weight.textContent = `Place ${p.weight_kg} kg`;
   const confirmBox = el("span");
   const go = () => send({ decision: "go" }), quit = () => send({ decision: "quit" });
@@ -305,6 +319,58 @@ function renderAsk(ask, weight, id, s, refused) {
     el("button", { id: "btn-quit", class: "danger", onclick: quit, text: "Stop" }),
     el("span", { class: "small", text: ` (${p.repeats_left} block(s) to measure at this weight; Enter continue, s skip, q stop)` }), confirmBox);
   keys = mainKeys;
+}
+
+// An adaptive session's next placement (analysis.sequential's suggestion, in its words) as the big prompt: take it
+// (Enter, as at the terminal), place another of the allowed weights (as typing a weight there), or stop (q).
+function renderSuggestion(ask, weight, p, send) {
+  // big: what to do ("place 7.44 kg (2 seatings)"); beneath it, the rest of the analysis's sentence (why, or the
+  // expected gain per minute)
+  const text = p.suggestion.text, why = p.suggestion.why;
+  const cut = why ? text.lastIndexOf(`: ${why}`) : text.lastIndexOf(" (expected gain");
+  weight.replaceChildren(el("span", { id: "suggestion", text: cut > 0 ? text.slice(0, cut) : text }),
+    el("span", { id: "suggestion-detail", class: "small", text: cut > 0 ? text.slice(cut).replace(/^: /, "").trim() : "" }));
+  const take = () => send({ decision: "go" }), quit = () => send({ decision: "quit" });
+  const other = el("span", { id: "other-weight" });
+  const another = () => {
+    const pick = el("select", { id: "other-kg" }, ...p.allowed_kg.map((w) => el("option", { value: w, text: `${w} kg` })));
+    other.replaceChildren(pick, el("button", { id: "btn-place-other", onclick: () => send({ decision: "place", weight_kg: Number(pick.value) }), text: "Place this one" }));
+    pick.focus();
+  };
+  ask.replaceChildren(
+    el("button", { id: "btn-take", class: "go", onclick: take, text: "Take the suggestion" }),
+    el("button", { id: "btn-other", onclick: another, text: "Place another weight" }),
+    el("button", { id: "btn-quit", class: "danger", onclick: quit, text: "Stop" }),
+    el("span", { class: "small", text: " (Enter take it, o another weight, q stop)" }), other);
+  keys = { Enter: take, o: another, q: quit };
+}
+
+// The evidence of an adaptive session (the design's report, as the child or the file gives it): the progress to a
+// decision (the leader's margin against the decisive threshold), the reason when it does not move, and, once it has
+// ended, why it stopped (decisive, futile or the operator; what would have to change).
+function evidenceBox(box) {
+  let before = null; // the progress shown last (the reason is shown while it does not rise)
+  return (a, stopped) => {
+    box.hidden = false;
+    if (a.error) { box.replaceChildren(el("p", { class: "error", id: "evidence-error", text: a.error })); return; }
+    const progress = Math.max(0, Math.min(1, a.progress || 0));
+    const still = before === null ? progress === 0 : progress <= before;
+    before = progress;
+    const p = a.p_decisive === null || a.p_decisive === undefined ? "" : ` · P(decisive within the budget) ${Math.round(100 * a.p_decisive)} %`;
+    const parts = [el("h2", { text: "Progress to a decision" }),
+      el("p", {}, el("progress", { id: "evidence-bar", max: 1, value: progress }), el("span", { id: "evidence-pct", text: ` ${Math.round(100 * progress)} % of Δ = ${a.threshold}` })),
+      el("p", { id: "evidence-line", text: (a.evidence_line || "") + p })];
+    if (still && a.why) parts.push(el("p", { id: "evidence-why", class: "small", text: `not moving: ${a.why}` }));
+    const end = stopped || (a.stop_record ? { decision: a.stop_record.decision, stop_reason: a.stop_record.reason } : null);
+    if (end) {
+      const status = (end.decision && end.decision.status) || (a.stop_record && a.stop_record.status) || "";
+      const reason = end.stop_reason || (end.decision && end.decision.reason) || "";
+      const label = reason.startsWith(`${status}:`) ? "" : `${status}: `; // "decisive: …" says it already
+      parts.push(el("p", { id: "adaptive-stop", class: `stopped ${status}` }, el("strong", { text: label }), reason));
+      if (status !== "decisive" && a.what_would && !reason.includes(a.what_would)) parts.push(el("p", { id: "adaptive-what-would", text: `what would: ${a.what_would}` }));
+    }
+    box.replaceChildren(...parts);
+  };
 }
 
 // Keys answer the question shown, as at the terminal; a held key (repeat), a key with a modifier or typed into a
@@ -484,7 +550,9 @@ function showFollow(path) {
   const holder = el("div", { id: "plot", "data-points": 0 });
   const readingsBox = el("div", { id: "readings" });
   const said = el("pre", { id: "follow-warnings" });
-  main(el("h1", { id: "follow-title", text: `Following ${path}` }), status, who, line, holder, readingsBox, said);
+  const evidence = el("div", { id: "evidence", hidden: "hidden" });
+  const drawEvidence = evidenceBox(evidence);
+  main(el("h1", { id: "follow-title", text: `Following ${path}` }), status, who, line, evidence, holder, readingsBox, said);
   let weights = null; // the plan's weights, read once from the file's start record
   const poll = async () => {
     followTimer = null;
@@ -496,6 +564,7 @@ function showFollow(path) {
       ? el("a", { id: "follow-run", href: `#/run/${encodeURIComponent(s.run)}`, text: "started from this console: its page has the controls" })
       : `written by: ${s.command}${s.host ? ` on ${s.host}` : ""} — control stays with that process (its terminal: Enter / s / q, Ctrl-C)`);
     line.textContent = s.status_line;
+    if (s.adaptive) drawEvidence(s.adaptive, null); // an adaptive session: the evidence and stop reason from the file
     said.textContent = s.warnings.join("\n");
     if (weights === null) weights = (await api(`/api/session?path=${encodeURIComponent(path)}`)).weights || [];
     drawPlot(holder, { blocks: s.blocks, weights });
