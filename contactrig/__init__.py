@@ -17,9 +17,6 @@ from __future__ import annotations
 
 # the builtin behind ``signal`` (typeshed has no stub): importing ``signal``, ``typing`` or ``types`` takes milliseconds
 import _signal  # type: ignore[import-not-found]
-import itertools
-import os
-import sys
 
 
 class _EarlyCtrlC:
@@ -34,6 +31,21 @@ class _EarlyCtrlC:
 #: The early SIGINT handler of the ``contactrig`` command (see the module docstring).
 EARLY_CTRL_C = _EarlyCtrlC()
 
+# Taken first, before anything else of this file runs (the window in which a Ctrl-C can still cut our code is a class
+# statement long), and given back below when this process turns out not to be the command.
+try:
+    _PREVIOUS = _signal.getsignal(_signal.SIGINT)
+    if _PREVIOUS is _signal.default_int_handler:
+        _signal.signal(_signal.SIGINT, EARLY_CTRL_C)
+    else:
+        _PREVIOUS = None  # someone else's handler: left alone
+except ValueError:  # imported outside the main thread: signals are not ours to take
+    _PREVIOUS = None
+
+import itertools  # noqa: E402
+import os  # noqa: E402
+import sys  # noqa: E402
+
 
 def _started_as_command() -> bool:
     """This process is the ``contactrig`` command (its console script, or ``python -m contactrig``), not Python code
@@ -45,5 +57,8 @@ def _started_as_command() -> bool:
     return any(a == "-m" and b == "contactrig" for a, b in itertools.pairwise(orig))
 
 
-if _started_as_command() and _signal.getsignal(_signal.SIGINT) is _signal.default_int_handler:
-    _signal.signal(_signal.SIGINT, EARLY_CTRL_C)
+if _PREVIOUS is not None and not _started_as_command():
+    _signal.signal(_signal.SIGINT, _PREVIOUS)
+    if EARLY_CTRL_C.pressed:  # a Ctrl-C while Python code imported us: it is that code's, as it would have been
+        EARLY_CTRL_C.pressed = False
+        raise KeyboardInterrupt
