@@ -66,17 +66,23 @@ def console(folder: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator[
     c.close()
 
 
-@pytest.fixture(scope="module")
-def browser() -> Iterator[webdriver.Chrome]:
+def chrome(window: str = "1000,1000") -> webdriver.Chrome:
+    """A headless Chromium of its own (its own profile, cookies and tabs) driven through the system's chromedriver."""
     # Both paths are given, so Selenium Manager is not consulted; offline, should a Selenium version ever do it.
     os.environ.setdefault("SE_OFFLINE", "true")
     options = webdriver.ChromeOptions()
     options.binary_location = str(CHROMIUM)
-    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1000,1000",
+    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", f"--window-size={window}",
                 "--disable-gpu"):  # fmt: skip
         options.add_argument(arg)
     driver = webdriver.Chrome(service=Service(executable_path=str(DRIVER)), options=options)
     driver.set_page_load_timeout(30)
+    return driver
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[webdriver.Chrome]:
+    driver = chrome()
     yield driver
     driver.quit()
 

@@ -13,13 +13,12 @@ from pathlib import Path
 import pytest
 
 from tests.console.conftest import ConsoleProcess, scene_text
-from tests.console.test_console_browser import CHROMIUM, DRIVER, continue_all, open_console, shot, text_of, wait
+from tests.console.test_console_browser import CHROMIUM, DRIVER, chrome, continue_all, open_console, shot, text_of, wait
 from tests.daq.run_files import write_run
 
 pytest.importorskip("selenium", reason="Selenium is not installed: pip install '.[console]'")
 
 from selenium import webdriver
-from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.by import By
 
 pytestmark = [
@@ -75,14 +74,7 @@ def console(folder: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator[
 
 @pytest.fixture(scope="module")
 def browser() -> Iterator[webdriver.Chrome]:
-    os.environ.setdefault("SE_OFFLINE", "true")
-    options = webdriver.ChromeOptions()
-    options.binary_location = str(CHROMIUM)
-    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1200,1000",
-                "--disable-gpu"):  # fmt: skip
-        options.add_argument(arg)
-    driver = webdriver.Chrome(service=Service(executable_path=str(DRIVER)), options=options)
-    driver.set_page_load_timeout(30)
+    driver = chrome("1200,1000")
     yield driver
     driver.quit()
 

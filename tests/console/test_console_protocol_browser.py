@@ -7,12 +7,10 @@ Set-up as tests/console/test_console_browser.py: the system's Chromium, headless
 
 from __future__ import annotations
 
-import os
 import signal
 import time
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import pytest
 
@@ -22,13 +20,11 @@ from tests.console.test_console_protocol import _alive, _children, _exit, _loade
 pytest.importorskip("selenium", reason="Selenium is not installed: pip install '.[console]'")
 
 from selenium import webdriver
-from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
 from selenium.webdriver.common.keys import Keys
-from selenium.webdriver.support.ui import WebDriverWait
 
-from tests.console.test_console_browser import CHROMIUM, DRIVER
+from tests.console.test_console_browser import CHROMIUM, DRIVER, chrome, text_of, wait
 
 pytestmark = [
     pytest.mark.slow,
@@ -44,28 +40,6 @@ const delay = arguments[0], plain = window.fetch;
 window.fetch = (url, init) => String(url).includes("/answer")
   ? new Promise((done) => setTimeout(done, delay)).then(() => plain(url, init)) : plain(url, init);
 """
-
-
-def chrome() -> webdriver.Chrome:
-    """A browser of its own (its own profile, cookies and tabs): a second operator's."""
-    os.environ.setdefault("SE_OFFLINE", "true")
-    options = webdriver.ChromeOptions()
-    options.binary_location = str(CHROMIUM)
-    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1000,900",
-                "--disable-gpu"):  # fmt: skip
-        options.add_argument(arg)
-    driver = webdriver.Chrome(service=Service(executable_path=str(DRIVER)), options=options)
-    driver.set_page_load_timeout(30)
-    return driver
-
-
-def wait(driver: webdriver.Chrome, condition: Any, timeout: float = 60) -> Any:
-    return WebDriverWait(driver, timeout, poll_frequency=0.05).until(condition)
-
-
-def text_of(driver: webdriver.Chrome, css: str) -> str:
-    found = driver.find_elements(By.CSS_SELECTOR, css)
-    return str(found[0].text) if found else ""
 
 
 def open_run(driver: webdriver.Chrome, console: ConsoleProcess, run: str) -> None:
@@ -100,7 +74,7 @@ def test_a_late_answer_from_a_second_browser_is_refused_and_shown(console: Conso
     the terminal: s (asks to confirm) and n keep the weight, Enter continues, q stops."""
     from daq.session_file import load_session
 
-    a, b = chrome(), chrome()
+    a, b = chrome("1000,900"), chrome("1000,900")
     try:
         run = console.api("/api/runs", {"scene": "small.toml", "sim": True, "sim_speed": "inf", "output": "two.h5",
                                         "client": "a"})["id"]  # fmt: skip
@@ -142,7 +116,7 @@ def test_signals_to_the_console_with_a_page_open(console: ConsoleProcess, folder
     """A page follows a session (its event stream open); SIGINT to the console: the page shows the console shutting
     down and then the stop record of a stop after the block; the console exits within 5 s and no acquisition child
     is left."""
-    d = chrome()
+    d = chrome("1000,900")
     try:
         run = console.api("/api/runs", {"scene": "slow.toml", "sim": True, "sim_speed": "2", "output": "page.h5",
                                         "client": "a"})["id"]  # fmt: skip
