@@ -126,11 +126,17 @@ def files_of(folder: Path) -> dict[str, bytes]:
 
 
 def check_one_set(
-    found: dict[str, bytes], sets: dict[str, dict[str, bytes]], heads: tuple[str, ...], marker: dict[str, bytes]
+    found: dict[str, bytes],
+    sets: dict[str, dict[str, bytes]],
+    heads: tuple[str, ...],
+    marker: dict[str, bytes],
+    whole: tuple[str, ...] | None = None,
 ) -> str:
     """Check that the files ``found`` are of one of ``sets`` (name → relative path → bytes) and that where one of
     ``heads`` (the files a reader opens) is present, the whole set it belongs to is. A head's origin is told by the
     set's ``marker`` in its text (its bytes change from run to run: a time stamp), any other file's by its bytes.
+    ``whole``: the heads whose presence requires the whole set (default: every head; a self-contained head, such as
+    report.html with its figures inline, may stand without the rest, but never beside files of another set).
     Returns a description of the state (which set, which files)."""
     common = set(sets)
     for rel, data in found.items():
@@ -141,7 +147,7 @@ def check_one_set(
         assert origin, f"{rel} belongs to no set (a partial or foreign file)"
         common &= origin
         assert common, f"files of different sets side by side: {sorted(found)} ({rel} is of {sorted(origin)})"
-    for head in heads:
+    for head in heads if whole is None else whole:
         if head in found:
             missing = {name: sorted(set(sets[name]) - set(found)) for name in common}
             assert any(not m for m in missing.values()), f"{head} is there without the rest of its set: {missing}"
