@@ -19,6 +19,7 @@ Run: PYTHONPATH=. python3 tests/benchmarks/bench_bem_gpu.py [--budget 270] [--js
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import os
 import platform
@@ -157,12 +158,44 @@ class _Run:
         self.out["solver"].append(_row(label, n, case, res, sec, pair, pit, z))
 
 
+def _parts(run: _Run, parts: set[int], cores: int) -> None:
+    """The benchmark's parts 1–4 (module docstring), those in ``parts``; 2 (FFT limits) always: 3, 4 use it."""
+    cases = ("elastic", "capped")
+    heads = {
+        1: "1. CPU and GPU fields (max |Δp| / max p must be ≤ 1e-6)",
+        2: "2. FFT pair (rfft2 + irfft2, float64)",
+        3: "3. GPU solver (targets: ≤ 2× the cuFFT pair per iteration; 4096² ≤ 1 s, 8192² ≤ 5 s; it(4096²) ≤ 93)",
+        4: f"4. CPU solver, 1 thread and {cores} threads",
+    }
+    tasks: dict[int, list[tuple[str, float, Callable[[], None]]]] = {k: [] for k in heads}
+    for n, case in itertools.product((512, 1024), cases):
+        tasks[1].append((f"fields {n}² {case}", 20.0, lambda n=n, case=case: run.fields(n, case)))
+    for n in (1024, 2048, 4096, 8192):
+        tasks[2].append((f"FFT pair {n}²", 15.0, lambda n=n: run.fft(n)))
+        for case in cases:
+            tasks[3].append((f"GPU solve {n}² {case}", 10.0 if n < 8192 else 30.0,
+                             lambda n=n, case=case: run.solver("gpu", cores, n, case)))  # fmt: skip
+    for threads, sizes in ((1, (1024, 2048)), (cores, (1024, 2048, 4096))):
+        for n in sizes:
+            for case in cases:
+                need = {1024: 10.0, 2048: 30.0, 4096: 60.0}[n] * (4.0 if threads == 1 else 1.0)
+                tasks[4].append((f"CPU {threads} threads {n}² {case}", need,
+                                 lambda n=n, case=case, t=threads: run.solver("cpu", t, n, case)))  # fmt: skip
+    for k, head in heads.items():
+        if k in parts or k == 2:
+            print("\n" + head, flush=True)
+            for name, need, body in tasks[k]:
+                run.part(name, need, body)
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--budget", type=float, default=270.0, help="seconds for everything (parts left are skipped)")
     ap.add_argument("--json", default=None, help="also write every figure to this JSON file")
     ap.add_argument("--shrink", type=int, default=1, help="divide every grid by this (a quick check of the script)")
+    ap.add_argument("--parts", default="1,2,3,4", help="which parts to run, comma-separated (default 1,2,3,4)")
     args = ap.parse_args(argv)
+    parts = {int(x) for x in args.parts.split(",")}
     SHRINK[0] = args.shrink
     FFTS.append(_count_ffts())
     import cupy as cp
@@ -177,26 +210,7 @@ def main(argv: list[str] | None = None) -> None:
           f"{' '.join(f'{v:.2f}' for v in os.getloadavg())}; numpy {np.__version__}, scipy {scipy.__version__}, "
           f"cupy {cp.__version__}", flush=True)  # fmt: skip
     run = _Run(args.budget, cores, card)
-    cases = ("elastic", "capped")
-    print("\n1. CPU and GPU fields (max |Δp| / max p must be ≤ 1e-6)", flush=True)
-    for n in (512, 1024):
-        for case in cases:
-            run.part(f"fields {n}² {case}", 20.0, lambda n=n, case=case: run.fields(n, case))
-    print("\n2. FFT pair (rfft2 + irfft2, float64)", flush=True)
-    for n in (1024, 2048, 4096, 8192):
-        run.part(f"FFT pair {n}²", 15.0, lambda n=n: run.fft(n))
-    print("\n3. GPU solver (targets: ≤ 2× the cuFFT pair per iteration; 4096² ≤ 1 s, 8192² ≤ 5 s; it(4096²) ≤ 93)")
-    for n in (1024, 2048, 4096, 8192):
-        for case in cases:
-            need = 10.0 if n < 8192 else 30.0
-            run.part(f"GPU solve {n}² {case}", need, lambda n=n, case=case: run.solver("gpu", cores, n, case))
-    print(f"\n4. CPU solver, 1 thread and {cores} threads", flush=True)
-    for threads, sizes in ((1, (1024, 2048)), (cores, (1024, 2048, 4096))):
-        for n in sizes:
-            for case in cases:
-                need = {1024: 10.0, 2048: 30.0, 4096: 60.0}[n] * (4.0 if threads == 1 else 1.0)
-                run.part(f"CPU {threads} threads {n}² {case}", need,
-                         lambda n=n, case=case, t=threads: run.solver("cpu", t, n, case))  # fmt: skip
+    _parts(run, parts, cores)
     print(f"\ndone in {time.perf_counter() - T0:.0f} s; skipped: {', '.join(run.out['skipped']) or 'nothing'}")
     if args.json:
         Path(args.json).write_text(json.dumps(run.out, indent=1), encoding="utf-8")
