@@ -19,8 +19,9 @@ flags) and a ``long_name``. The global attributes hold the session's metadata as
 (:func:`daq.run_index.record_of`): sample, operator, notes, scene name and text, the scene's SHA-256
 (``scene_sha256``), the overrides, both ``*IDN?`` replies, every instrument setting read back at the start, the
 software versions, start and end time with their UTC offset, status, completeness, seal, schema, blocks done and
-planned, the run records and (schema 4) the adaptive records; nested values are JSON text (netCDF attributes are
-flat). The recorded instrument exchanges (the replay log) are not part of the Dataset.
+planned, the run records, the operator's pauses (schema 5, :mod:`daq.pause`) and (schema 4) the adaptive
+records; nested values are JSON text (netCDF attributes are flat). The recorded instrument exchanges (the replay
+log) are not part of the Dataset.
 
 The file is written with h5netcdf through xarray (the ``netcdf`` extra: ``pip install 'contactrig[netcdf]'``), so
 xarray, netCDF-4 libraries and plain HDF5 readers (dimension scales) all read it. As every output: an existing file
@@ -96,6 +97,7 @@ def _metadata(session: Session) -> dict[str, Any]:
     """Global attributes: the session's metadata as the run index describes it (:func:`daq.run_index.record_of`)."""
     from contactrig.core.provenance import software_versions
     from daq.index import session_and_entry
+    from daq.pause import pauses_of
     from daq.run_index import record_of
 
     session_, entry = session_and_entry(session.path, load=lambda *_a, **_k: session)
@@ -136,6 +138,7 @@ def _metadata(session: Session) -> dict[str, Any]:
         "software": _json(rec["software"]),
         "host": str(start.get("host", "")),
         "runs": _json(session.runs),
+        "pauses": _json(pauses_of(session.runs)),
         "plan": _json(start.get("plan", {})),
     }
     for where, record in (("start", start), ("stop", stop)):

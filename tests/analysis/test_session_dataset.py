@@ -236,3 +236,31 @@ def test_without_xarray_one_line_naming_the_extra_and_analysis_still_imports(fla
     lines = out.stderr.strip().splitlines()
     assert len(lines) == 1 and "xarray" in lines[0] and "contactrig[netcdf]" in lines[0], out.stderr
     assert not (tmp_path / "x.nc").exists()
+
+
+def test_paused_session_keeps_its_pauses(tmp_path):
+    """A session paused by the operator (schema 5, daq.pause): the pause records are an attribute, as the run
+    record in the file holds them (read here with h5py)."""
+    import threading
+    import time
+
+    from daq.pause import PauseControl
+    from tests.daq.test_pause import _run
+
+    plan = SessionPlan.from_scene(small_scene())
+    control = PauseControl()
+    control.request("check the liner", "ann")
+
+    def resume_when_paused():
+        while not control.paused:
+            time.sleep(0.01)
+        control.resume("bob")
+
+    go, _, _ = _run(plan, tmp_path / "p.h5", control)
+    threading.Thread(target=resume_when_paused).start()
+    go()
+    ds = _check_against_reader(_export(tmp_path / "p.h5", tmp_path / "p.nc"), tmp_path / "p.h5")
+    with h5py.File(tmp_path / "p.h5", "r") as h5:
+        recorded = json.loads(h5["entry/runs/run_0/record"][()])["pauses"]
+    assert json.loads(ds.attrs["pauses"]) == [{**p, "run": 0} for p in recorded]
+    assert recorded[0]["reason"] == "check the liner" and recorded[0]["resumed_by"] == "bob"

@@ -78,3 +78,23 @@ def test_bad_pause_requests(client: Client, folder: Path):
     client.drive(run)
     r = client.post(f"/api/runs/{run}/pause", {"reason": "x", "who": "ann"})
     assert r.status_code == 409 and "ended" in r.json()["error"]
+
+
+def test_stop_while_paused_ends_the_session_with_the_source_idle(client: Client, folder: Path):
+    from daq.pause import pauses_of
+
+    run = client.start("stopped.h5")
+    first = _wait_prompt(client, run)
+    client.post(f"/api/runs/{run}/answer", {"prompt": first["prompt"]["id"], "decision": "go"})
+    second = _wait_prompt(client, run, not_id=first["prompt"]["id"])
+    assert client.post(f"/api/runs/{run}/pause", {"reason": "end of shift", "who": "ann"}).status_code == 200
+    client.post(f"/api/runs/{run}/answer", {"prompt": second["prompt"]["id"], "decision": "go"})
+    _wait_state(client, run, lambda s: s["phase"] == "paused")
+    assert client.post(f"/api/runs/{run}/stop", {"client": "tester"}).status_code == 200
+    end = _wait_state(client, run, lambda s: s["phase"] == "ended")
+    assert end["stop"]["status"] == "aborted"
+    s = _loaded(folder / "stopped.h5")
+    assert s is not None and s.sealed and s.status == "aborted" and len(s.summary) == 2
+    assert s.exchanges["message"].iloc[-1] == "SOUR:SWE:ABOR"
+    [p] = pauses_of(s.runs)
+    assert p["reason"] == "end of shift" and "resumed" not in p

@@ -112,7 +112,9 @@ def test_pause_waits_at_the_block_boundary_source_idle_and_resume_goes_on(tmp_pa
     assert p["resumed_by"] == "bob" and OFFSET.match(p["resumed"]) and p["resumed"] >= p["paused"]
     third = s.exchanges[s.exchanges["block"] == 2]["message"].tolist()
     assert third[0].startswith("SOUR:SWE:ABOR") and any(m.startswith("SOUR:DELT:ARM") for m in third)  # re-armed
-    assert replay_session(path).identical  # the pause changes nothing replay serves back
+    report = replay_session(path)
+    assert report.identical  # the pause changes nothing replay serves back; it is said
+    assert any("paused after block 2" in n and "re-honed" in n and "by bob" in n for n in report.notes)
 
 
 def test_a_pause_resumed_before_the_boundary_is_not_recorded(tmp_path: Path):
