@@ -482,6 +482,11 @@ class Guarded:
     def block(self, rec: Any) -> None:
         self._call("block", rec)
 
+    def pause(self, pauses: list[dict[str, Any]]) -> None:
+        """A pause's records (:mod:`daq.pause`), to a writer that keeps them."""
+        if callable(getattr(self.writer, "pause", None)):
+            self._call("pause", pauses)
+
     def stop(self, stop: Any) -> None:
         self._call("stop", stop)
 

@@ -27,6 +27,7 @@ from daq.engine import AcquisitionEngine, Decision, Interrupts, OperatorQuit, Pr
 from daq.errors import MissingFileError, NoStartRecordError, SessionExistsError, SessionStateError
 from daq.link import Bench, InstrumentLink, OpenedBench, VisaBench
 from daq.overrides import OverrideChange, check_bench, plan_values, plan_with_overrides, resume_overrides
+from daq.pause import PauseControl
 from daq.plan import (
     CONVERSION_OVERHEAD_S,
     Measure,
@@ -175,6 +176,7 @@ def drive(
     blocks_before: int = 0,
     readings_before: int = 0,
     skipped_before: Sequence[float] = (),
+    pause: PauseControl | None = None,
 ) -> RunOutcome:
     """The acquisition path shared by acquire and replay: identify, start record, blocks, close, stop record.
 
@@ -202,6 +204,7 @@ def drive(
         blocks_before=blocks_before,
         readings_before=readings_before,
         skipped_before=skipped_before,
+        pause=pause,
     )
     try:
         engine.start(start, scene_text)
@@ -308,6 +311,7 @@ def acquire(
     overrides: Mapping[str, Any] | None = None,
     allow_change: bool = False,
     adaptive: Callable[[SessionPlan], Any] | None = None,
+    pause: PauseControl | None = None,
 ) -> AcquisitionResult:
     """Run a bench session and write it to ``output`` (see the module docstring for the order of work).
 
@@ -335,6 +339,9 @@ def acquire(
     every block as a writer), with its ``plan`` (block numbers), ``settings`` (recorded in the start record's
     ``adaptive``), ``plan_lines()``, ``say``/``paused`` (the live display) and the ``stop_reason`` and ``record()``
     the engine puts in the stop record; the operator is asked by the steps themselves. Not with ``resume``.
+
+    ``pause``: the operator's pause requests (the console's Pause and Resume, :mod:`daq.pause`), taken at block
+    boundaries and recorded in the run record.
     """
     path = Path(output)
     bench = bench if bench is not None else VisaBench()
@@ -383,7 +390,8 @@ def acquire(
             for note in opened.notes:
                 display.message(note)
             kept = [plan.session.weights_kg[wi] for wi in sorted(order.leave_out)]
-            outcome = _run(opened.link, plan, start, sf, display, (steps, kept, prior), ask, interrupts, writers)
+            outcome = _run(opened.link, plan, start, sf, display, (steps, kept, prior), ask, interrupts, writers,
+                           pause)  # fmt: skip
         finally:
             interrupts.phase = "writing"  # deferred, never raised: the run has ended already
             _clean_up(opened.link, display, sf, outcome)
@@ -517,6 +525,7 @@ def _run(
     prompter: Prompter,
     interrupts: Interrupts,
     extra_writers: Sequence[Writer] = (),
+    pause: PauseControl | None = None,
 ) -> RunOutcome:
     """The blocks still to do (``todo``: the steps, the weights kept skipped, what the file holds), to the file and
     the live display, the operator asked with the display paused."""
@@ -540,6 +549,7 @@ def _run(
         blocks_before=len(prior.done),
         readings_before=prior.readings,
         skipped_before=kept,
+        pause=pause,
     )
 
 

@@ -4,6 +4,10 @@ What to do (the plan's steps, :mod:`daq.plan`), who does it (this engine, on an 
 and what is kept (writers: the HDF5 file, the live display, replay's in-memory collector) are separate, after
 Bluesky, kept synchronous. Acquisition and replay run this same engine; only the link and the writers differ.
 
+A pause (:mod:`daq.pause`: the console's Pause, with a reason) is taken at a block boundary: the block under way is
+finished and on disk, the source idle; the pause record goes to the writers that keep it (a ``pause`` method: the
+file's run record, the console) when it begins and again when it ends.
+
 Exit guarantees (every path — success, error, Ctrl-C): the link is closed in ``finally`` (``SOUR:SWE:ABOR``, the
 source idle) and the stop record is written after it. Each block is handed to the writers — flushed and fsynced
 to disk — before the next block starts. Ctrl-C once stops after the current block; twice stops now (the block
@@ -24,6 +28,7 @@ import numpy as np
 
 from contactrig.core.provenance import now_iso
 from daq.link import InstrumentLink
+from daq.pause import PauseControl, pause_record
 from daq.plan import Measure, PlaceWeight
 from daq.records import BlockRecord, StopRecord, StopStatus, block_number
 from instruments.block import Block
@@ -146,6 +151,7 @@ class _RunState:
     interrupted: bool = False
     current: Measure | None = None
     skip_weight: int | None = None
+    pauses: list[dict[str, Any]] = field(default_factory=list)
 
 
 class AcquisitionEngine:
@@ -154,7 +160,8 @@ class AcquisitionEngine:
     ``settings`` are the instrument pair's block settings (e.g. :class:`instruments.delta.DeltaSettings`), the
     same for every block. ``blocks_planned`` and ``blocks_before`` (already on file, for ``--resume``) only feed
     the counts of the stop record; ``skipped_before`` are weights skipped in an earlier run and kept skipped on
-    ``--resume`` (the stop record lists them with this run's skips).
+    ``--resume`` (the stop record lists them with this run's skips). ``pause``: the operator's pause requests,
+    taken at block boundaries (:mod:`daq.pause`).
     """
 
     def __init__(
@@ -170,8 +177,10 @@ class AcquisitionEngine:
         blocks_before: int = 0,
         readings_before: int = 0,
         skipped_before: Sequence[float] = (),
+        pause: PauseControl | None = None,
     ) -> None:
         self.link = link
+        self.pause = pause
         self.settings = settings
         self.writers = list(writers)
         self.run_number = run
@@ -224,6 +233,7 @@ class AcquisitionEngine:
                 state.status, state.reason = "aborted", _after_block_reason(state.done)
                 state.interrupted = True
                 return
+            self._pause_point(state)
             if isinstance(step, PlaceWeight):
                 self._place(step, state)
             elif step.weight_index != state.skip_weight:
@@ -237,6 +247,28 @@ class AcquisitionEngine:
         )
         # steps that decide themselves when to end (an adaptive session, analysis.sequential) say why
         state.reason = str(getattr(steps, "stop_reason", "") or state.reason)
+
+    def _pause_point(self, state: _RunState) -> None:
+        """A block boundary: when the operator asked for a pause, record it and wait for the resume. The source is
+        idle here (the driver ends every block with it idle, and nothing is armed between blocks); a Ctrl-C while
+        waiting stops the run as at any idle moment."""
+        request = self.pause.take() if self.pause is not None else None
+        if request is None or self.pause is None:
+            return
+        last = block_number(state.done[-1].block) if state.done else 0
+        record = pause_record(request["reason"], request["who"], last)
+        state.pauses.append(record)
+        self._tell_pauses(state)
+        who = self.pause.wait()
+        record.update(resumed=now_iso(), resumed_by=who)
+        self._tell_pauses(state)
+
+    def _tell_pauses(self, state: _RunState) -> None:
+        """This run's pause records to every writer that keeps them (a ``pause`` method)."""
+        for w in self.writers:
+            tell = getattr(w, "pause", None)
+            if callable(tell):
+                tell([dict(p) for p in state.pauses])
 
     def _place(self, step: PlaceWeight, state: _RunState) -> None:
         """Ask the operator to place the weight: go on, skip its blocks, or stop."""

@@ -61,6 +61,7 @@ __all__ = [
     "fit_tables",
     "neutral_text",
     "output_paths",
+    "reading_unit",
     "session_tables",
     "write_tables",
 ]
@@ -185,7 +186,9 @@ def readings_table(readings: Any, reading_unit: str) -> Table:
     return Table("readings", cols, [list(r) for r in zip(*data, strict=True)])
 
 
-def _reading_unit(start: Mapping[str, Any]) -> str:
+def reading_unit(start: Mapping[str, Any]) -> str:
+    """The unit of a session's readings as its plan names it (``V``, ``ohm`` for ``OHMS`` or an imported table;
+    empty when none is named)."""
     plan = start.get("plan") if isinstance(start, Mapping) else None
     for table in (plan or {}).values():
         if isinstance(table, Mapping) and isinstance(table.get("unit"), str):
@@ -214,7 +217,7 @@ def session_tables(session: Any) -> tuple[list[Table], list[tuple[str, str]]]:
     """The summary and readings tables of a loaded :class:`~daq.session_file.Session`, and its ``about`` lines."""
     if len(session.summary) == 0:
         raise SettingError("SESSION", str(session.path), "a session with at least one block on disk")
-    tables = [summary_table(session.summary), readings_table(session.readings, _reading_unit(session.start))]
+    tables = [summary_table(session.summary), readings_table(session.readings, reading_unit(session.start))]
     return tables, _about(session)
 
 

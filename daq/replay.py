@@ -24,6 +24,7 @@ import pandas as pd
 from daq.acquire import drive
 from daq.errors import SessionFileError, SessionStateError
 from daq.link import InstrumentLink
+from daq.pause import pauses_of
 from daq.plan import Measure, PlaceWeight, settings_from_record
 from daq.records import BlockRecord, block_number, how_run_ended
 from daq.session_file import Session, exchange_list, load_session
@@ -200,6 +201,7 @@ def replay_session(path: str | Path, *, pace: bool = False) -> ReplayReport:
     run_ids = sorted(set(session.summary["run"].tolist()) | set(session.exchanges["run"].tolist()))
     for run in run_ids:
         _replay_run(session, run, pair, settings, pace, tally)
+    tally.notes += [_pause_note(p) for p in pauses_of(session.runs)]
     return ReplayReport(
         path=p,
         identical=not tally.differences and tally.blocks == len(session.summary),
@@ -212,6 +214,13 @@ def replay_session(path: str | Path, *, pace: bool = False) -> ReplayReport:
         complete=session.complete,
         notes=tuple(tally.notes),
     )
+
+
+def _pause_note(p: dict[str, Any]) -> str:
+    """A pause of the session (:mod:`daq.pause`): said, not replayed (nothing went to the instruments meanwhile)."""
+    until = f"resumed {p.get('resumed')} by {p.get('resumed_by')}" if "resumed" in p else "not resumed"
+    return (f"run {p.get('run')}: paused after block {p.get('after_block')} at {p.get('paused')} by {p.get('who')} "
+            f"({p.get('reason')}), {until}; nothing is sent to the instruments while paused")  # fmt: skip
 
 
 def _recorded_settings(session: Session) -> tuple[InstrumentPair, object]:

@@ -1,6 +1,6 @@
 """The one declaration of the HDF5 session file: layout, columns with their units, records, upgrades and seal.
 
-Layout (schema 4; every numeric field has a ``units`` attribute)::
+Layout (schema 5; every numeric field has a ``units`` attribute)::
 
     /                         attrs contactrig_format, contactrig_schema, creator, HDF5_Version, h5py_version,
                               file_time, default="entry"
@@ -23,7 +23,9 @@ Layout (schema 4; every numeric field has a ``units`` attribute)::
                               exchanges and the stop record itself); absent = incomplete. Schema 4: an
                               adaptive session (``acquire --adaptive``) has ``adaptive`` in its start record (the
                               sequential design's settings) and in its stop record (every suggestion, the evidence
-                              behind it and what the operator did, and the stop decision: :mod:`analysis.sequential`)
+                              behind it and what the operator did, and the stop decision: :mod:`analysis.sequential`).
+                              Schema 5: a run record holds ``pauses``, the operator's pauses at block boundaries
+                              (reason, who, UTC times with offset, the block after which: :mod:`daq.pause`)
 
 The writer (:mod:`daq.session_writer`) creates every table from these declarations and the reader
 (:mod:`daq.session_reader`) checks every member against them; the seal (:func:`seal`) is computed by the one and
@@ -59,7 +61,7 @@ __all__ = [
 ]
 
 FORMAT_NAME = "contactrig-session"
-SCHEMA_VERSION = 4
+SCHEMA_VERSION = 5
 
 
 def _upgrade_1(raw: dict[str, Any]) -> dict[str, Any]:
@@ -82,10 +84,18 @@ def _upgrade_3(raw: dict[str, Any]) -> dict[str, Any]:
     return raw
 
 
+def _upgrade_4(raw: dict[str, Any]) -> dict[str, Any]:
+    """Schema 4 → 5: the ``pauses`` of a run record (:mod:`daq.pause`). Nothing to convert: a schema-4 session was
+    never paused."""
+    return raw
+
+
 # Upgrade functions, keyed by the schema they read: UPGRADES[k](raw) turns a loaded schema-k structure into a
 # schema-(k+1) one, so every older file keeps loading. A file opened to be continued (--resume) is upgraded in place
 # (:func:`_upgrade_in_place`).
-UPGRADES: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {1: _upgrade_1, 2: _upgrade_2, 3: _upgrade_3}
+UPGRADES: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {
+    1: _upgrade_1, 2: _upgrade_2, 3: _upgrade_3, 4: _upgrade_4,
+}  # fmt: skip
 
 STR = h5py.string_dtype()
 SUMMARY_FIELDS: dict[str, tuple[Any, str]] = {

@@ -36,9 +36,16 @@ class FileWriter:
         self.file = session_file
         #: set after a failed write: nothing more goes into the file, so what is already there stays readable
         self.failed = False
+        self._run_record: dict[str, Any] = {}
 
     def start(self, start: dict[str, Any], scene_text: str) -> None:
         self.file.write_start(start, scene_text)
+        self._run_record = dict(start)
+
+    def pause(self, pauses: list[dict[str, Any]]) -> None:
+        """This run's pause records (:mod:`daq.pause`) into its run record, on disk before the session waits."""
+        if not self.failed:
+            self.file.write_run({**self._run_record, "pauses": pauses})
 
     def exchanges(self, exchanges: Sequence[Exchange], block: int) -> None:
         if self.failed:

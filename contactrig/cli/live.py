@@ -54,17 +54,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
     e = subparsers.add_parser(
         "export",
-        help="a session (Tab. 1-style summary and raw readings) or a fit, as CSV or Excel",
+        help="a session (Tab. 1-style summary and raw readings) or a fit, as CSV or Excel; a session as netCDF",
         description=(
             "SESSION.h5: a Tab. 1-style summary (weight × repeat block means, units in the headers: `contactrig "
             "import` reads it back to the same numbers) and every reading. A fit: give a saved `contactrig fit … "
             "--json` output (FIT.json), or SESSION.h5 with --fit (fitted now, like `contactrig fit`, against --sim "
             "or the rig simulated now). CSV writes one file per table (PATH and PATH-<table>.csv beside it); xlsx "
-            "one workbook (openpyxl, in the base install)."
+            "one workbook (openpyxl, in the base install). netcdf: the session as one netCDF-4 file (SESSION.nc; an "
+            "xarray Dataset with dimensions block and reading, CF units, flagged readings with their flags, the "
+            "session's metadata as attributes; needs the netcdf extra)."
         ),
     )
     e.add_argument("source", help="session file (HDF5), or a fit saved from `contactrig fit … --json`")
-    e.add_argument("--to", choices=("csv", "xlsx"), default="csv", help="output format (default csv)")
+    e.add_argument("--to", choices=("csv", "xlsx", "netcdf"), default="csv", help="output format (default csv)")
     e.add_argument("-o", "--output", default=None, metavar="PATH", help="output file (default: beside SOURCE)")
     e.add_argument("--fit", action="store_true", help="export the fit of SESSION against the models")
     e.add_argument("--sim", default=None, metavar="SIM.h5", help="--fit: simulation sweep file (default: simulate now)")
@@ -138,6 +140,13 @@ def export_command(args: argparse.Namespace) -> int:
         raise ValueError("--fit fits a session file; a saved fit (.json) is exported without --fit")
     if (args.sim is not None or args.models is not None) and not args.fit:
         raise ValueError("--sim and --models only apply to --fit")
+    if args.to == "netcdf":
+        if args.fit or is_json:
+            raise ValueError("--to netcdf exports a session file; a fit is exported as csv or xlsx")
+        from analysis.session_dataset import write_netcdf
+
+        print(f"wrote {safe(write_netcdf(args.source, args.output, force=args.force))}", file=sys.stderr)
+        return 0
     if args.fit or is_json:
         out = args.output or default_output(args.source, args.to, "" if is_json else "-fit")
         if args.fit:  # check the outputs before the (slow) fit

@@ -661,6 +661,32 @@ async def stop(request: Request) -> Response:
     return JSONResponse({"stop_requests": count})
 
 
+async def pause(request: Request) -> Response:
+    """The operator's Pause, ``{"reason": text, "who": name}``: the session finishes its block, leaves the source
+    idle, records the pause (reason, who, UTC time) in its file and waits for Resume (:mod:`daq.pause`). 400 for a
+    missing reason or name, 409 when there is nothing to pause."""
+    return await _pause_or_resume(request, "pause")
+
+
+async def resume(request: Request) -> Response:
+    """The operator's Resume, ``{"who": name}``: the paused session goes on with its next block."""
+    return await _pause_or_resume(request, "resume")
+
+
+async def _pause_or_resume(request: Request, action: str) -> Response:
+    run = _run(request)
+    body = await _json_body(request)
+    if run is None:
+        return JSONResponse({"error": "no such run"}, status_code=404)
+    for key in ("reason", "who") if action == "pause" else ("who",):
+        if not isinstance(body.get(key), str) or not body[key].strip():
+            return JSONResponse({"error": f"{key}: expected a non-empty text"}, status_code=400)
+    refused = run.pause(body["reason"], body["who"]) if action == "pause" else run.resume(body["who"])
+    if refused is not None:
+        return JSONResponse({"error": refused}, status_code=409)
+    return JSONResponse({"ok": True})
+
+
 async def events(request: Request) -> Response:
     """Server-sent events: the run's state each time it changes (polled from memory; never touches the child), with
     ``console_closing`` while the console stops its sessions; the stream ends with the run, or when the console goes
@@ -873,6 +899,8 @@ def build_app(console: Console) -> ASGIApp:
         Route("/api/runs/{run}", run_state),
         Route("/api/runs/{run}/answer", answer, methods=["POST"]),
         Route("/api/runs/{run}/stop", stop, methods=["POST"]),
+        Route("/api/runs/{run}/pause", pause, methods=["POST"]),
+        Route("/api/runs/{run}/resume", resume, methods=["POST"]),
         Route("/api/runs/{run}/events", events),
         Route("/api/session", session_details),
         Route("/api/overlay", overlay),

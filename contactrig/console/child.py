@@ -35,6 +35,7 @@ from typing import Any, TextIO
 
 from contactrig.console.view import block_row, strict_json
 from daq.engine import Decision, OperatorQuit
+from daq.pause import PauseControl
 from daq.plan import PlaceWeight
 from daq.records import BlockRecord, StopRecord
 
@@ -58,6 +59,9 @@ class _Channel:
         self.gone = False
         self._answers: queue.Queue[dict[str, Any] | None] = queue.Queue()
         self._asking = False
+        #: the operator's Pause and Resume (``{"control": "pause", "reason", "who"}``, ``{"control": "resume",
+        #: "who"}``), taken by the engine at the next block boundary
+        self.pause = PauseControl()
 
     def watch(self) -> None:
         """Read answers from here on in a thread; the end of stdin (the console gone) stops the run."""
@@ -69,12 +73,26 @@ class _Channel:
                 answer = json.loads(line)
             except (json.JSONDecodeError, UnicodeDecodeError):
                 continue
-            if isinstance(answer, dict):
+            if isinstance(answer, dict) and "control" in answer:
+                self._control(answer)
+            elif isinstance(answer, dict):
                 self._answers.put(answer)
         self.gone = True
         self._answers.put(None)  # a question waiting ends the run (OperatorQuit)
         if not self._asking:  # measuring: as the terminal's first Ctrl-C (after the block, source idle)
             os.kill(os.getpid(), signal.SIGINT)
+
+    def _control(self, message: dict[str, Any]) -> None:
+        """A Pause or Resume (checked by the console already; one it would have refused is dropped here)."""
+        from contactrig.core.validation import SettingError
+
+        try:
+            if message["control"] == "pause":
+                self.pause.request(message.get("reason"), message.get("who"))  # type: ignore[arg-type]
+            elif message["control"] == "resume":
+                self.pause.resume(message.get("who"))  # type: ignore[arg-type]
+        except SettingError:
+            pass
 
     def send(self, event: dict[str, Any]) -> None:
         """Send one event; never raises for a console that went away (the acquisition must go on)."""
@@ -125,6 +143,10 @@ class ConsoleWriter:
         row = block_row(rec.block, rec.run, rec.weight_kg, rec.repeat, st.mean, st.sem, st.n, st.n_invalid,
                         rec.compliance)  # fmt: skip
         self.channel.send({"event": "block", **row, "readings_ohm": readings, "started": rec.started})
+
+    def pause(self, pauses: list[dict[str, Any]]) -> None:
+        """This run's pause records (:mod:`daq.pause`), when a pause begins and when it ends."""
+        self.channel.send({"event": "pause", "pauses": pauses})
 
     def stop(self, stop: StopRecord) -> None:
         self.channel.send({
@@ -289,6 +311,7 @@ def run(request: dict[str, Any], channel: _Channel) -> int:
             resume_chooser=pipe_resume_chooser(channel), stream=_Lines(channel),  # type: ignore[arg-type]
             extra_writers=[Guarded(ConsoleWriter(channel), "console")],
             overrides=request.get("overrides") or None, allow_change=bool(request.get("allow_change")),
+            pause=channel.pause,
         )  # fmt: skip
     except KeyboardInterrupt:
         channel.send({"event": "end", "code": 1, "error": "interrupted before the session began"})

@@ -65,6 +65,10 @@ class RunState:
     budget_min: float | None = None
     adaptive: dict[str, Any] | None = None
     adaptive_stop: dict[str, Any] | None = None
+    #: this run's pause records (:mod:`daq.pause`, as the file holds them) and the operator's Pause not yet taken
+    #: (the block under way ends first)
+    pauses: list[dict[str, Any]] = field(default_factory=list)
+    pause_request: dict[str, Any] | None = None
 
     def public(self) -> dict[str, Any]:
         """The JSON the pages get (strings from files inside are data: pages show them with textContent)."""
@@ -77,7 +81,7 @@ class RunState:
             "blocks_before": self.blocks_before, "stop": self.stop, "end": self.end,
             "stop_requests": self.stop_requests, "eta_s": eta, "weights_left": self.weights_left,
             "sample": self.sample, "budget_min": self.budget_min, "adaptive": self.adaptive,
-            "adaptive_stop": self.adaptive_stop,
+            "adaptive_stop": self.adaptive_stop, "pauses": self.pauses, "pause_request": self.pause_request,
             "version": self.version,
         }  # fmt: skip
 
@@ -147,6 +151,8 @@ class SessionRun:
                 s.phase, s.prompt = str(kind), event
                 if kind == "prompt":
                     s.weights_left = max(s.weights_left - 1, 0)
+            elif kind == "pause":
+                _pause_event(s, event)
             elif kind in ("suggest", "evidence", "adaptive"):
                 _adaptive_event(s, str(kind), event)
             elif kind == "stop":
@@ -195,6 +201,56 @@ class SessionRun:
             self._bump()
         return None
 
+    def pause(self, reason: Any, who: Any) -> str | None:
+        """The operator's Pause (``reason``, ``who``: one-line texts): the session pauses after the block under way
+        (:mod:`daq.pause`). None when passed on, else why not (one line)."""
+        from contactrig.core.validation import SettingError
+        from daq.pause import checked_text
+
+        try:
+            message = {"control": "pause", "reason": checked_text("reason", reason), "who": checked_text("who", who)}
+        except SettingError as exc:
+            return str(exc)
+        with self._lock:
+            if self.state.phase in ("ended", "stopping") or self.state.stop_requests:
+                return "the session is stopping or has ended: nothing to pause"
+            if self.state.phase == "paused":
+                return "the session is paused already"
+            refused = self._send(message)
+            if refused is None:
+                self.state.pause_request = {"reason": message["reason"], "who": message["who"]}
+                self._bump()
+            return refused
+
+    def resume(self, who: Any) -> str | None:
+        """The operator's Resume: the session goes on with its next block (or a Pause not yet taken is dropped)."""
+        from contactrig.core.validation import SettingError
+        from daq.pause import checked_text
+
+        try:
+            message = {"control": "resume", "who": checked_text("who", who)}
+        except SettingError as exc:
+            return str(exc)
+        with self._lock:
+            if self.state.phase != "paused" and self.state.pause_request is None:
+                return "the session is not paused"
+            refused = self._send(message)
+            if refused is None:
+                self.state.pause_request = None
+                self._bump()
+            return refused
+
+    def _send(self, message: dict[str, Any]) -> str | None:
+        """One line to the child (the lock held); None when written."""
+        if self.proc.stdin is None or self.proc.poll() is not None:
+            return "the acquisition process has ended"
+        try:
+            self.proc.stdin.write(json.dumps(message) + "\n")
+            self.proc.stdin.flush()
+        except (OSError, ValueError):
+            return "the acquisition process has ended"
+        return None
+
     def request_stop(self) -> int:
         """One SIGINT to the child: the first stops after the block under way, the second stops now."""
         with self._lock:
@@ -239,6 +295,15 @@ class SessionRun:
                     pipe.close()
                 except OSError:
                     pass
+
+
+def _pause_event(s: RunState, event: dict[str, Any]) -> None:
+    """The run's pause records, when a pause begins (phase ``paused``) and when it ends."""
+    s.pauses = [p for p in event.get("pauses") or [] if isinstance(p, dict)]
+    if s.pauses and "resumed" not in s.pauses[-1]:
+        s.pause_request, s.phase = None, "paused"
+    elif s.phase == "paused":
+        s.phase = "stopping" if s.stop_requests else "measuring"
 
 
 def _adaptive_event(s: RunState, kind: str, event: dict[str, Any]) -> None:

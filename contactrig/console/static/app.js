@@ -219,6 +219,7 @@ function showRun(id) {
   const stops = el("div", { class: "buttons" },
     el("button", { id: "btn-stop-after", onclick: () => stop(id, false), text: "Stop after this block" }),
     el("button", { id: "btn-stop-now", class: "danger", onclick: () => stop(id, true), text: "Stop now" }));
+  const pauseBox = pauseControls(id);
   const canvas = el("div", { id: "plot", "data-points": 0 });
   const readingsBox = el("div", { id: "readings" });
   const info = el("p", { id: "info" });
@@ -233,7 +234,7 @@ function showRun(id) {
   const redraw = () => drawPlot(canvas, { blocks: merged(onFile.blocks, last.blocks), weights: onFile.weights, overlays });
   const toggle = el("span");
   const refused = el("p", { class: "refused", id: "answer-refused", role: "alert", hidden: "hidden" });
-  main(el("h1", { id: "run-title", text: "Session" }), status, refused, weight, ask, evidence, stops, info, toggle, canvas, readingsBox, block, ended,
+  main(el("h1", { id: "run-title", text: "Session" }), status, refused, weight, ask, evidence, stops, pauseBox.box, info, toggle, canvas, readingsBox, block, ended,
     el("h2", { text: "Plan and notes" }), lines);
   let shown = null; // the id of the question shown: each question is rendered (and answered) once
   source = new EventSource(`/api/runs/${encodeURIComponent(id)}/events`);
@@ -262,6 +263,7 @@ function showRun(id) {
     if (s.prompt && s.prompt.id !== shown) { shown = s.prompt.id; renderAsk(ask, weight, id, s, refused); }
     if (!s.prompt) { shown = null; keys = null; ask.replaceChildren(); weight.textContent = s.phase === "ended" ? "" : weight.textContent; }
     lines.textContent = s.lines.join("\n");
+    pauseBox.update(s);
     if (s.phase === "ended") {
       source.close();
       weight.textContent = "";
@@ -384,6 +386,34 @@ document.addEventListener("keydown", (e) => {
   e.preventDefault();
   act();
 });
+
+// Pause at the next block boundary with a reason (recorded in the session file with who and when), Resume from the
+// same page; the records of this run's pauses as the file holds them.
+function pauseControls(id) {
+  const reason = el("input", { id: "pause-reason", placeholder: "reason for the pause", size: 40 });
+  const who = el("input", { id: "pause-who", placeholder: "your name", size: 14 });
+  const said = el("p", { class: "refused", id: "pause-refused", role: "alert", hidden: "hidden" });
+  const state = el("p", { id: "pause-state" });
+  const call = async (action, body) => {
+    const r = await api(`/api/runs/${encodeURIComponent(id)}/${action}`, body);
+    said.textContent = r.error ? `${action} refused: ${r.error}` : "";
+    said.hidden = !r.error;
+  };
+  const pauseBtn = el("button", { id: "btn-pause", onclick: () => call("pause", { reason: reason.value, who: who.value }), text: "Pause after this block" });
+  const resumeBtn = el("button", { id: "btn-resume", class: "go", onclick: () => call("resume", { who: who.value }), text: "Resume" });
+  const box = el("div", { id: "pause-box" }, el("div", { class: "buttons" }, reason, who, pauseBtn, resumeBtn), said, state);
+  const update = (s) => {
+    if (s.phase === "ended") { box.replaceChildren(state); }
+    const open = (s.pauses || []).filter((p) => !p.resumed);
+    pauseBtn.disabled = s.phase === "paused" || !!s.pause_request;
+    resumeBtn.disabled = !(s.phase === "paused" || s.pause_request);
+    const now = s.phase === "paused" && open.length ? `PAUSED after block ${open[0].after_block} since ${open[0].paused} by ${open[0].who}: ${open[0].reason}`
+      : s.pause_request ? `pause requested (${s.pause_request.reason}): after the block under way` : "";
+    const past = (s.pauses || []).filter((p) => p.resumed).map((p) => `paused after block ${p.after_block}, ${p.paused} – ${p.resumed} (${p.who}: ${p.reason}; resumed by ${p.resumed_by})`);
+    state.textContent = [now, ...past].filter(Boolean).join("\n");
+  };
+  return { box, update };
+}
 
 async function stop(id, now, confirm) {
   const r = await api(`/api/runs/${encodeURIComponent(id)}/stop`, { now, client: CLIENT, confirm: !!confirm });

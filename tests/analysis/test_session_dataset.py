@@ -1,0 +1,268 @@
+"""``contactrig export SESSION --to netcdf`` and :func:`analysis.session_dataset.session_dataset` (issue 29).
+
+The file is checked from the outside: opened with xarray (h5netcdf engine) and with h5py as a plain HDF5 file whose
+netCDF-4 dimensions are HDF5 dimension scales, and through h5netcdf's netCDF4-python-compatible API; every value is
+compared with the session as our checking reader (:func:`daq.session_file.load_session`) returns it, never with an
+earlier output of ours. Sessions: one with flagged readings (2182A overflows and a block in compliance), one acquired
+with overrides, an adaptive one (schema 4) and an old one (schema 1)."""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import os
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from contactrig.cli.main import main
+from daq.plan import SessionPlan
+from tests.daq.conftest import make_link, small_scene
+from tests.daq.sessions import load_quietly, unseal, write_session
+
+xr = pytest.importorskip("xarray", reason="the netcdf extra (xarray, h5netcdf) is not installed")
+pytest.importorskip("h5netcdf", reason="the netcdf extra (xarray, h5netcdf) is not installed")
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def flagged(tmp_path_factory) -> Path:
+    """A session with overflow readings (+9.9E37 at positions 2 and 5 of every block) and, at the second weight, the
+    source in compliance (20 Ω × 10 mA > 0.1 V): both kinds of flagged readings."""
+    from instruments.simulated import Faults
+
+    plan = SessionPlan.from_scene(small_scene())
+    settings = dataclasses.replace(plan.block_settings)
+    object.__setattr__(settings, "compliance_abort", False)
+    object.__setattr__(settings, "compliance_v", 0.1)
+    plan = dataclasses.replace(plan, block_settings=settings)
+    link = make_link(plan, faults=Faults(overflow_readings={2, 5}))
+    bench = link.bench
+    link._place_weight = lambda w: setattr(bench, "resistance_ohm", 20.0 if w == plan.session.weights_kg[1] else 1e-3)
+    path = tmp_path_factory.mktemp("flagged") / "flagged.h5"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # compliance and invalid readings on purpose
+        outcome, _ = write_session(plan, path, link=link)
+    assert outcome.stop.status == "success"
+    return path
+
+
+def _export(session: Path, out: Path, *extra: str) -> Path:
+    assert main(["export", str(session), "--to", "netcdf", "-o", str(out), *extra]) == 0
+    return out
+
+
+def _same(a, b) -> bool:
+    """Equal arrays, NaN where the other has NaN."""
+    a, b = np.asarray(a), np.asarray(b)
+    return a.shape == b.shape and bool(np.array_equal(a, b, equal_nan=a.dtype.kind == "f"))
+
+
+def _check_against_reader(nc: Path, session_path: Path) -> xr.Dataset:
+    """Every variable of the file, opened with xarray, equals what the checking reader returns; the flags are
+    derived here from the reader's columns."""
+    s = load_quietly(session_path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no decoding surprise (e.g. a unit taken for a time delta)
+        ds = xr.open_dataset(nc, engine="h5netcdf").load()
+    assert dict(ds.sizes) == {"block": len(s.summary), "reading": len(s.readings)}
+    assert _same(ds["block"], s.summary["block"].to_numpy() + 1)  # 1-based, as every output
+    for var, col in (("weight", "weight_kg"), ("repeat", "repeat"), ("run", "run"), ("mean_resistance", "mean_ohm"),
+                     ("sd_resistance", "sd_ohm"), ("sem_resistance", "sem_ohm"), ("n_valid", "n"),
+                     ("n_invalid", "n_invalid")):  # fmt: skip
+        assert _same(ds[var], s.summary[col].to_numpy()), var
+    assert _same(ds["compliance"], s.summary["compliance"].to_numpy().astype(np.uint8))
+    assert list(ds["block_started"].values) == [str(t) for t in s.summary["started"]]
+    r = s.readings
+    assert _same(ds["reading_block"], r["block"].to_numpy() + 1)
+    for var, col in (("reading_index", "index"), ("time", "time_s"), ("raw_reading", "reading"),
+                     ("resistance", "resistance_ohm")):  # fmt: skip
+        assert _same(ds[var], r[col].to_numpy()), var
+    assert _same(ds["valid"], r["valid"].to_numpy().astype(np.uint8))
+    expected = (
+        np.where(r["valid"].to_numpy(), 0, 1)
+        + np.where(np.isnan(r["reading"].to_numpy()), 2, 0)
+        + np.where(r["block"].isin(s.compliant_blocks).to_numpy(), 4, 0)
+    )
+    assert _same(ds["reading_flag"], expected)
+    flags = ds["reading_flag"].attrs
+    assert list(flags["flag_masks"]) == [1, 2, 4] and flags["flag_meanings"].split() == ["invalid", "no_value",
+                                                                                          "compliance"]  # fmt: skip
+    units = {k: v.attrs.get("units") for k, v in ds.variables.items()}
+    assert units["weight"] == "kg" and units["time"] == "s" and units["raw_reading"] == "V"
+    assert {units[k] for k in ("mean_resistance", "sd_resistance", "sem_resistance", "resistance")} == {"ohm"}
+    assert all(units[k] == "1" for k in ("block", "n_valid", "n_invalid", "reading_flag", "compliance", "valid"))
+    assert all(isinstance(v.attrs.get("long_name"), str) for v in ds.variables.values())
+    start, stop = s.start, s.stop or {}
+    assert ds.attrs["status"] == s.status and ds.attrs["schema_version"] == s.schema_version
+    assert ds.attrs["start_time"] == start["started"] and ds.attrs["end_time"] == stop.get("stopped", "")
+    assert ds.attrs["scene_sha256"] == hashlib.sha256(s.scene_text.encode()).hexdigest()
+    assert ds.attrs["scene_text"] == s.scene_text and ds.attrs["sealed"] == int(s.sealed)
+    assert ds.attrs["instrument_source_idn"] == start["instrument"]["source"]
+    assert ds.attrs["instrument_voltmeter_idn"] == start["instrument"]["voltmeter"]
+    assert json.loads(ds.attrs["instrument_settings"])["delta"] == start["plan"]["delta"]
+    assert json.loads(ds.attrs["overrides"]) == start.get("overrides", {})
+    assert json.loads(ds.attrs["runs"]) == json.loads(json.dumps(s.runs))
+    assert ds.attrs["Conventions"].startswith("CF-")
+    return ds
+
+
+def test_flagged_readings_are_kept_with_their_flags(flagged, tmp_path):
+    """Overflows and the compliance block's readings are all in the file, flagged; nothing is dropped."""
+    ds = _check_against_reader(_export(flagged, tmp_path / "f.nc"), flagged)
+    flag = ds["reading_flag"].values
+    assert np.count_nonzero(flag & 2) == 2 * 6  # two overflows (+9.9E37) in each of the six blocks
+    assert int(ds["compliance"].sum()) == 2 and np.count_nonzero(flag & 4) == 2 * 8  # both repeats, second weight
+    assert np.count_nonzero(flag) == 4 * 2 + 2 * 8 and ds.sizes["reading"] == 6 * 8  # every reading kept
+    assert np.isnan(ds["mean_resistance"].values[ds["compliance"].values == 1]).all()
+    assert ds.attrs["sample"] == "test sample" and ds.attrs["operator"] == "tester"
+    assert ds.attrs["scene_name"] == "daq-test"
+
+
+def test_plain_hdf5_and_netcdf4_readers_see_the_dimensions(flagged, tmp_path):
+    """Without xarray: h5py finds every variable's dimensions as HDF5 dimension scales named block and reading (how
+    netCDF-4 stores them), the units attributes, and the values; h5netcdf's netCDF4-python API lists the same."""
+    import h5netcdf.legacyapi as nc4
+
+    nc = _export(flagged, tmp_path / "f.nc")
+    s = load_quietly(flagged)
+    with h5py.File(nc, "r") as h5:
+        assert "_NCProperties" in h5.attrs  # written by a netCDF-4 writer
+        for name, dim in (("resistance", "reading"), ("mean_resistance", "block"), ("reading_flag", "reading")):
+            scales = h5[name].dims[0]
+            assert len(scales) == 1 and scales[0].name == f"/{dim}", name
+            assert h5[dim].attrs["CLASS"] == b"DIMENSION_SCALE"
+        assert h5["resistance"].attrs["units"] in (b"ohm", "ohm")
+        assert _same(h5["resistance"][()], s.readings["resistance_ohm"].to_numpy())
+        assert _same(h5["block"][()], s.summary["block"].to_numpy() + 1)
+    with nc4.Dataset(nc, "r") as d:
+        assert {k: len(v) for k, v in d.dimensions.items()} == {"block": len(s.summary), "reading": len(s.readings)}
+        assert d.variables["weight"].dimensions == ("block",) and d.variables["weight"].units == "kg"
+        assert d.getncattr("sample") == "test sample"
+
+
+def test_acquired_session_with_overrides(tmp_path):
+    """A session acquired through the real path (software versions recorded) with overrides."""
+    from daq.acquire import acquire
+    from daq.link import VisaBench
+    from instruments.simulated import SimulatedBench, simulated_resource_manager
+
+    path = tmp_path / "s.h5"
+    given = {"session.sample": "steel B", "session.operator": "ann", "session.notes": "new liner"}
+    bench = VisaBench(simulated_resource_manager(bench=SimulatedBench(resistance_ohm=5e-3, seed=1, time_scale=0.0)))
+    acquire(small_scene(), path, yes=True, bench=bench, quiet=True, overrides=given)
+    ds = _check_against_reader(_export(path, tmp_path / "s.nc"), path)
+    s = load_quietly(path)
+    assert json.loads(ds.attrs["overrides"]) == given
+    assert (ds.attrs["sample"], ds.attrs["operator"], ds.attrs["notes"]) == ("steel B", "ann", "new liner")
+    assert ds.attrs["software_version"] == s.start["software"]["contactrig"] != ""
+    assert ds.attrs["start_time"][-6] in "+-" and ds.attrs["end_time"][-6] in "+-"  # with their UTC offset
+
+
+def test_adaptive_session_schema_4(tmp_path):
+    """An adaptive session: its records (settings, every suggestion and the stop decision) are attributes."""
+    from analysis.adaptive_session import adaptive_source
+    from analysis.simulated_session import SimulatedRigBench
+    from daq.acquire import acquire
+    from tests.analysis.test_adaptive_session import _scene
+
+    path = tmp_path / "press.h5"
+    acquire(_scene(), path, bench=SimulatedRigBench(math.inf), yes=True, quiet=True,
+            adaptive=adaptive_source(30.0, simulated=True))  # fmt: skip
+    ds = _check_against_reader(_export(path, tmp_path / "press.nc"), path)
+    s = load_quietly(path)
+    assert s.schema_version >= 4 and ds.attrs["schema_version"] == s.schema_version
+    assert json.loads(ds.attrs["adaptive_start"]) == json.loads(json.dumps(s.start["adaptive"]))
+    assert json.loads(ds.attrs["adaptive_stop"]) == json.loads(json.dumps(s.stop["adaptive"]))
+
+
+def test_old_schema_session(tmp_path):
+    """A schema-1 file (no compliance column, no seal) exports through the reader's upgrade chain."""
+    plan = SessionPlan.from_scene(small_scene())
+    path = tmp_path / "old.h5"
+    write_session(plan, path)
+    unseal(path)
+    with h5py.File(path, "a") as h5:
+        del h5["entry/summary/compliance"]
+        h5.attrs["contactrig_schema"] = 1
+    ds = _check_against_reader(_export(path, tmp_path / "old.nc"), path)
+    assert ds.attrs["schema_version"] == 1 and ds.attrs["sealed"] == 0 and int(ds["compliance"].sum()) == 0
+    assert "adaptive_stop" not in ds.attrs
+
+
+def test_existing_output_and_links_are_not_replaced(flagged, tmp_path, capsys):
+    out = tmp_path / "f.nc"
+    out.write_text("mine")
+    assert main(["export", str(flagged), "--to", "netcdf", "-o", str(out)]) == 2
+    assert "exists; use --force" in capsys.readouterr().err and out.read_text() == "mine"
+    target = tmp_path / "target.txt"
+    target.write_text("keep")
+    link = tmp_path / "link.nc"
+    link.symlink_to(target)
+    assert main(["export", str(flagged), "--to", "netcdf", "-o", str(link)]) == 2
+    _export(flagged, link, "--force")  # the link is replaced by the file, its target untouched
+    assert not link.is_symlink() and target.read_text() == "keep"
+    assert main(["export", str(flagged), "--to", "netcdf", "-o", str(flagged), "--force"]) == 2  # not the session
+    assert "a file other than the session" in capsys.readouterr().err and load_quietly(flagged).complete
+    assert main(["export", str(flagged), "--to", "netcdf", "--fit"]) == 2
+    assert "--to netcdf exports a session file" in capsys.readouterr().err
+
+
+def test_default_output_is_beside_the_session(flagged, tmp_path):
+    session = tmp_path / "run.h5"
+    session.write_bytes(flagged.read_bytes())
+    assert main(["export", str(session), "--to", "netcdf"]) == 0
+    assert xr.open_dataset(tmp_path / "run.nc", engine="h5netcdf").sizes["block"] == 6
+
+
+def test_without_xarray_one_line_naming_the_extra_and_analysis_still_imports(flagged, tmp_path):
+    code = (
+        "import sys\n"
+        "sys.modules['xarray'] = None\n"  # as if not installed: `import xarray` raises ImportError
+        "import analysis, analysis.session_dataset, analysis.pipeline, sims\n"
+        "from contactrig.cli.main import main\n"
+        "sys.exit(main(['export', sys.argv[1], '--to', 'netcdf', '-o', sys.argv[2]]))\n"
+    )
+    env = {**os.environ, "PYTHONPATH": f"{ROOT}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"}
+    out = subprocess.run([sys.executable, "-c", code, str(flagged), str(tmp_path / "x.nc")], capture_output=True,
+                         text=True, env=env)  # fmt: skip
+    assert out.returncode == 2, out.stderr
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and "xarray" in lines[0] and "contactrig[netcdf]" in lines[0], out.stderr
+    assert not (tmp_path / "x.nc").exists()
+
+
+def test_paused_session_keeps_its_pauses(tmp_path):
+    """A session paused by the operator (schema 5, daq.pause): the pause records are an attribute, as the run
+    record in the file holds them (read here with h5py)."""
+    import threading
+    import time
+
+    from daq.pause import PauseControl
+    from tests.daq.test_pause import _run
+
+    plan = SessionPlan.from_scene(small_scene())
+    control = PauseControl()
+    control.request("check the liner", "ann")
+
+    def resume_when_paused():
+        while not control.paused:
+            time.sleep(0.01)
+        control.resume("bob")
+
+    go, _, _ = _run(plan, tmp_path / "p.h5", control)
+    threading.Thread(target=resume_when_paused).start()
+    go()
+    ds = _check_against_reader(_export(tmp_path / "p.h5", tmp_path / "p.nc"), tmp_path / "p.h5")
+    with h5py.File(tmp_path / "p.h5", "r") as h5:
+        recorded = json.loads(h5["entry/runs/run_0/record"][()])["pauses"]
+    assert json.loads(ds.attrs["pauses"]) == [{**p, "run": 0} for p in recorded]
+    assert recorded[0]["reason"] == "check the liner" and recorded[0]["resumed_by"] == "bob"
