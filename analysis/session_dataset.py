@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import importlib
 import json
-import os
 import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -225,13 +224,10 @@ def write_netcdf(source: str | Path, output: str | Path | None = None, *, force:
     h5netcdf through xarray; the output is checked before the session is read, never replaced without ``force``,
     and renamed into place when complete. Returns its path."""
     from contactrig.core.files import refuse_existing, replace_together
-    from contactrig.core.validation import SettingError
 
     _require("xarray", "h5netcdf")  # the one-line error before anything else
     out = Path(output) if output is not None else default_netcdf_output(source)
-    if out.exists() and Path(source).exists() and os.path.samefile(out, source):  # --force must not eat the session
-        raise SettingError("-o", str(out), "a file other than the session it exports")
-    (path,) = refuse_existing([out], force=force)
+    (path,) = refuse_existing([out], force=force, inputs=[source])  # --force must not eat the session
     ds = session_dataset(source)
     with replace_together(path.parent, [path], force=force) as stage:
         ds.to_netcdf(stage / path.name, engine="h5netcdf")

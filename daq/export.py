@@ -437,7 +437,7 @@ def export_session(
     if to == "xlsx":
         _openpyxl()
     out = Path(output) if output is not None else default_output(path, to)
-    refuse_existing(output_paths(out, to, ["summary", "readings"]), force=force)  # before reading anything
+    refuse_existing(output_paths(out, to, ["summary", "readings"]), force=force, inputs=[path])  # before reading
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # an incomplete or running session is exported as it stands (about: status)
         session = load_session(path)

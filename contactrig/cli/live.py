@@ -153,7 +153,7 @@ def export_command(args: argparse.Namespace) -> int:
             from contactrig.core.files import refuse_existing
             from daq.export import output_paths
 
-            refuse_existing(output_paths(out, args.to, ["fits", "points"]), force=args.force)
+            refuse_existing(output_paths(out, args.to, ["fits", "points"]), force=args.force, inputs=[args.source])
         paths = export_fit(_fit_json(args), args.to, out, source=str(args.source), force=args.force)
     else:
         paths = export_session(args.source, args.to, args.output, force=args.force)

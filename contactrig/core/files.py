@@ -120,10 +120,23 @@ def _name_max(folder: Path) -> int:
     return 255
 
 
-def refuse_existing(paths: Iterable[str | os.PathLike[str]], *, force: bool = False) -> list[Path]:
+def refuse_existing(
+    paths: Iterable[str | os.PathLike[str]],
+    *,
+    force: bool = False,
+    inputs: Iterable[str | os.PathLike[str]] = (),
+) -> list[Path]:
     """Check every file a command is about to write (:func:`check_new_file`) before it does any work; the first
-    existing one is refused unless ``force``. Returns the paths."""
-    return [check_new_file(p, force=force) for p in paths]
+    existing one is refused unless ``force``, and one that is (or links to) one of the command's ``inputs`` always,
+    ``force`` or not: an output must never replace the file it is made from. Returns the paths."""
+    from contactrig.core.validation import SettingError
+
+    out = [Path(p) for p in paths]
+    sources = [Path(i) for i in inputs if Path(i).exists()]
+    for path in out:
+        if path.exists() and any(os.path.samefile(path, src) for src in sources):
+            raise SettingError("-o", str(path), "a file other than the input it is made from")
+    return [check_new_file(p, force=force) for p in out]
 
 
 @contextmanager

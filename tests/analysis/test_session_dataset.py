@@ -211,7 +211,7 @@ def test_existing_output_and_links_are_not_replaced(flagged, tmp_path, capsys):
     _export(flagged, link, "--force")  # the link is replaced by the file, its target untouched
     assert not link.is_symlink() and target.read_text() == "keep"
     assert main(["export", str(flagged), "--to", "netcdf", "-o", str(flagged), "--force"]) == 2  # not the session
-    assert "a file other than the session" in capsys.readouterr().err and load_quietly(flagged).complete
+    assert "a file other than the input" in capsys.readouterr().err and load_quietly(flagged).complete
     assert main(["export", str(flagged), "--to", "netcdf", "--fit"]) == 2
     assert "--to netcdf exports a session file" in capsys.readouterr().err
 

@@ -303,3 +303,21 @@ def test_export_fit_writes_the_physical_conversions_shares(tmp_path, capsys):
 
         export_fit(fit, "xlsx", tmp_path / "h.xlsx")
         assert "shares" in openpyxl.load_workbook(tmp_path / "h.xlsx").sheetnames
+
+
+@pytest.mark.parametrize("to", ["csv", "xlsx"])
+def test_an_export_never_replaces_its_own_session_even_with_force(session_path, tmp_path, capsys, to):
+    """``export S.h5 -o S.h5 --force`` (or through a link to it) is refused, the session untouched: on 66d3b8c the
+    CSV or workbook replaced the session."""
+    session = tmp_path / "run.h5"
+    session.write_bytes(session_path.read_bytes())
+    before = session.read_bytes()
+    link = tmp_path / "link.csv"
+    link.symlink_to(session)
+    for out in (session, link):
+        assert main(["export", str(session), "--to", to, "-o", str(out), "--force"]) == 2
+        err = capsys.readouterr().err
+        assert "a file other than the input it is made from" in err and "Traceback" not in err
+    assert session.read_bytes() == before
+    assert main(["export", str(session), "--fit", "--to", to, "-o", str(session), "--force"]) == 2
+    assert session.read_bytes() == before
