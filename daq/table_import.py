@@ -609,6 +609,9 @@ def import_table(
         "run": 0,
     }
     out = Path(output)
+    from contactrig.core.files import refuse_existing
+
+    refuse_existing([out], force=force, inputs=[path])  # the session never replaces the table it is made from
     with SessionFile.create(out, reading_unit="ohm", force=force) as sf:
         sf.publish_on_start = False  # the session takes its name complete, or not at all
         sf.write_start(start, "")

@@ -434,3 +434,14 @@ def test_any_file_gives_a_valid_table_or_a_setting_error(tmp_path_factory, text,
     except SettingError:
         return
     assert isinstance(t, ResistanceTable) and not math.isnan(float(np.nanmax(t.resistance_ohm)))
+
+
+def test_import_never_replaces_the_table_it_reads(tmp_path, capsys):
+    """``import t.csv -o t.csv --force`` is refused and the table kept (on 66d3b8c the session replaced it)."""
+    table = tmp_path / "t.csv"
+    text = "weight_kg,R1_mohm,R2_mohm\n1,5.0,5.2\n2,4.1,4.0\n"
+    table.write_text(text)
+    assert main(["import", str(table), "-o", str(table), "--force"]) == 2
+    err = capsys.readouterr().err
+    assert "a file other than the input it is made from" in err and "Traceback" not in err
+    assert table.read_text() == text
