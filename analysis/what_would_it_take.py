@@ -72,7 +72,7 @@ COMPONENTS: dict[str, str] = {
 
 def _words(comp: str) -> str:
     base = comp.removesuffix(ALONE)
-    return COMPONENTS[base] + (" (the others removed)" if comp.endswith(ALONE) else "")
+    return COMPONENTS[base] + (", the others removed" if comp.endswith(ALONE) else "")
 
 
 def _components(noise: NoiseModel) -> list[str]:
@@ -296,16 +296,22 @@ def _option(result: WhatWouldItTake, need: PairNeed, comp: str, j: int) -> str:
 
 def options(result: WhatWouldItTake, need: PairNeed) -> list[str]:
     """The changes that make ``need``'s pair discriminable, the one that matters most first: at the smallest load
-    range where any single component (the others as now) — or, failing that, all together — reaches it, each such
-    component by the least reduction (largest factor) first; empty when nothing on the grid does."""
+    range where any single component (the others as now) reaches it, each such component by the least reduction
+    (largest factor) first; then all components together, at the smallest load range where that reaches it, when
+    that range is smaller (or no single component does); empty when nothing on the grid does."""
     singles = [c for c in result.components if c != ALL and not c.endswith(ALONE)]
-    for group in (singles, [ALL]):
-        for j in range(len(result.ranges)):
-            found = [(need.largest[c][j], c) for c in group if need.largest[c][j] is not None]
-            if found:
-                found.sort(key=lambda fc: -float(fc[0] or 0.0))
-                return [_option(result, need, c, j) for _, c in found]
-    return []
+    found: list[str] = []
+    first = len(result.ranges)
+    for j in range(len(result.ranges)):
+        best = sorted(((need.largest[c][j], c) for c in singles if need.largest[c][j] is not None),
+                      key=lambda fc: -float(fc[0] or 0.0))  # fmt: skip
+        if best:
+            found, first = [_option(result, need, c, j) for _, c in best], j
+            break
+    together = next((j for j in range(len(result.ranges)) if need.largest[ALL][j] is not None), None)
+    if together is not None and together < first:
+        found.append(_option(result, need, ALL, together))
+    return found
 
 
 def limiting(result: WhatWouldItTake, need: PairNeed, j: int = 0) -> str | None:
@@ -420,7 +426,8 @@ def as_dict(result: WhatWouldItTake) -> dict[str, Any]:
 # ---- the figure --------------------------------------------------------------------------------------------------
 def draw(result: WhatWouldItTake, path: str | Path, *, force: bool = False) -> Path:
     """Per pair a panel: upper load [kg] (x) × noise factor (y, × the present SD): for each component the largest
-    factor reaching the target (a step line), the region below it — reachable — shaded; written to ``path``
+    factor reaching the target (a step line; dotted: with the other components removed), the region below it —
+    reachable with the others as now, or all scaled together — shaded; written to ``path``
     atomically (refused if it exists, unless ``force``). matplotlib is imported here."""
     from analysis.figure_style import DIMENSIONLESS
     from analysis.figures import _figure, save_figure_file
@@ -432,28 +439,34 @@ def draw(result: WhatWouldItTake, path: str | Path, *, force: bool = False) -> P
     fig, axes = _figure(ncols=cols, nrows=rows, size=(3.0 * cols + 1.0, 2.6 * rows + 0.9), sharex=True, sharey=True)
     x = np.array([r.w_max for r in result.ranges])
     colours = {"series_sd": "tab:blue", "reseat_sd": "tab:orange", "lack_sd": "tab:green", ALL: "0.3"}
-    comps = [c for c in comps if not c.endswith(ALONE)]  # the figure: each with the others as now, and all
+    found = [f for p in result.pairs for c in comps for f in p.largest[c] if f is not None]
+    top = min(1.0, max([0.1, *found]) * 1.25)  # the reachable factors are mostly small: the y range fits them
     for i, need in enumerate(result.pairs):
         ax = axes[i // cols, i % cols]
         for comp in comps:
             y = np.array([np.nan if f is None else f for f in need.largest[comp]])
-            ax.fill_between(x, 0.0, np.nan_to_num(y, nan=0.0), step="mid", color=colours[comp], alpha=0.15,
-                            lw=0)  # fmt: skip
-            ax.step(x, y, where="mid", color=colours[comp], lw=1.6, ls="--" if comp == ALL else "-", marker="o",
-                    ms=3, label=_words(comp) if i == 0 else None)  # fmt: skip
+            alone = comp.endswith(ALONE)
+            if not alone:  # reachable as the bench is, but for this component (or all of them scaled)
+                ax.fill_between(x, 0.0, np.nan_to_num(y, nan=0.0), step="mid", color=colours[comp], alpha=0.15,
+                                lw=0)  # fmt: skip
+            ax.step(x, y, where="mid", color=colours[comp.removesuffix(ALONE)], lw=1.2 if alone else 1.6,
+                    ls=":" if alone else "--" if comp == ALL else "-", marker="o", ms=2 if alone else 3,
+                    label=_words(comp) if i == 0 else None)  # fmt: skip
         ax.set_title(f"{_label(need.models[0])} vs {_label(need.models[1])}", fontsize=8)
-        ax.set_ylim(-0.03, 1.05)
+        ax.set_ylim(-0.02 * top, 1.05 * top)
         ax.set_xscale("log")
-    for ax in axes.flat[n:]:
-        ax.set_visible(False)
-    for ax in axes[-1, :]:
+    for k in range(n, rows * cols):  # empty cells: the panel above shows the load axis
+        axes.flat[k].set_visible(False)
+        axes.flat[k - cols].xaxis.set_tick_params(labelbottom=True)
+        axes.flat[k - cols].set_xlabel("upper load [kg]")
+    for ax in axes[-1, : n - (rows - 1) * cols]:
         ax.set_xlabel("upper load [kg]")
     for ax in axes[:, 0]:
-        ax.set_ylabel(f"noise factor {DIMENSIONLESS}")
+        ax.set_ylabel(f"× the present SD {DIMENSIONLESS}")
     fig.suptitle(
         f"{result.geometry}: reachable (shaded) — told apart in ≥ {100 * result.target:.0f} % of sessions", fontsize=9
     )
-    fig.legend(loc="outside lower center", ncols=len(comps), fontsize=7.5)
+    fig.legend(loc="outside lower center", ncols=min(len(comps), 4), fontsize=7.5)
     return save_figure_file(fig, path, force=force)
 
 
