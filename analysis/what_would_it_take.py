@@ -439,8 +439,6 @@ def draw(result: WhatWouldItTake, path: str | Path, *, force: bool = False) -> P
     fig, axes = _figure(ncols=cols, nrows=rows, size=(3.0 * cols + 1.0, 2.6 * rows + 0.9), sharex=True, sharey=True)
     x = np.array([r.w_max for r in result.ranges])
     colours = {"series_sd": "tab:blue", "reseat_sd": "tab:orange", "lack_sd": "tab:green", ALL: "0.3"}
-    found = [f for p in result.pairs for c in comps for f in p.largest[c] if f is not None]
-    top = min(1.0, max([0.1, *found]) * 1.25)  # the reachable factors are mostly small: the y range fits them
     for i, need in enumerate(result.pairs):
         ax = axes[i // cols, i % cols]
         for comp in comps:
@@ -453,7 +451,8 @@ def draw(result: WhatWouldItTake, path: str | Path, *, force: bool = False) -> P
                     ls=":" if alone else "--" if comp == ALL else "-", marker="o", ms=2 if alone else 3,
                     label=_words(comp) if i == 0 else None)  # fmt: skip
         ax.set_title(f"{_label(need.models[0])} vs {_label(need.models[1])}", fontsize=8)
-        ax.set_ylim(-0.02 * top, 1.05 * top)
+        ax.set_yscale("symlog", linthresh=0.01, linscale=0.3)  # factors span 0.005…1, and 0 (removed)
+        ax.set_ylim(0.0, 1.1)
         ax.set_xscale("log")
     for k in range(n, rows * cols):  # empty cells: the panel above shows the load axis
         axes.flat[k].set_visible(False)
