@@ -207,6 +207,12 @@ def what_would_it_take(
     """The study over ``ranges`` (the scene's first) for ``pairs`` (default: every pair of the first range's
     models), every point judged by :func:`analysis.design.design` (module docstring); ``progress(done, most)``
     after each point evaluated (most: the whole grid)."""
+    from contactrig.core.validation import SettingError, check_int, check_range
+
+    check_int("n_sessions", n_sessions, 2)
+    check_range("target", target, 0.0, 1.0, lo_open=True, hi_open=True)
+    if not ranges:
+        raise SettingError("ranges", "[]", "expected at least one load range")
     models = list(ranges[0].curves.area_m2)
     wanted = list(pairs) if pairs is not None else [(a, b) for i, a in enumerate(models) for b in models[i + 1 :]]
     comps = _components(noise)
@@ -251,8 +257,11 @@ def for_scene(
     """The study on a scene's bench: its load range as ``contactrig design`` takes it (the press's range, the rig's
     2–26 kg) and wider upper loads (``range_factors`` × its largest), each with design's 10-point model grid and its
     richest plans (:func:`richest_plans`, ``block_s`` the block time [s]); ``kw`` to :func:`what_would_it_take`."""
+    from contactrig.core.validation import check_range
     from sims.config import SimConfig
 
+    for k in range_factors:
+        check_range("range_factors", k, 1.0, 100.0)  # the scene's range and wider ones
     config = SimConfig.from_scene(scene)
     w_min, w_max = (min(config.weights_kg), max(config.weights_kg)) if config.press is not None else (2.0, 26.0)
     ranges = []

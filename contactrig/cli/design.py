@@ -82,6 +82,7 @@ def _design(args: argparse.Namespace) -> int:
 
     sessions = check_int("--sessions", args.sessions, 20, 100_000)
     repeat_sd = check_range("--repeat-sd", args.repeat_sd, 0.0, 1.0)
+    check_int("--seed", args.seed, 0, 2**63 - 1)  # numpy's generator takes no negative seed
     wwit_sessions = _wwit_sessions(args)
     out = output_folder(args.output)
     wanted = [out / "design.md", out / "discrimination.png", out / "plan.toml"]

@@ -207,3 +207,24 @@ def test_a_futile_adaptive_session_says_what_would_from_the_simulated_study() ->
     assert time.perf_counter() - start < 30.0  # fast enough for the live line (cached after the first)
     assert stop[1].endswith("simulated: " + line)
     assert "to tell" in line and "lack of fit" in line
+
+
+def test_a_negative_seed_is_refused_in_one_line_naming_the_option(tmp_path, capsys) -> None:
+    """Before the slow work, as --sessions: numpy's generator takes no negative seed (it used to fail after the
+    model curves were built, with a message naming neither the option nor the value)."""
+    assert main(["design", "--what-would-it-take", "--seed", "-1", "-o", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "--seed" in err and "-1" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "o" / "design.md").exists()
+
+
+def test_the_study_refuses_bad_arguments_naming_them() -> None:
+    from contactrig.core.validation import SettingError
+
+    rng = _range(_curves(a=1.0, b=0.3))
+    with pytest.raises(SettingError, match="n_sessions"):
+        what_would_it_take([rng], TAB1_LIKE, n_sessions=1)
+    with pytest.raises(SettingError, match="target"):
+        what_would_it_take([rng], TAB1_LIKE, target=1.0)
+    with pytest.raises(SettingError, match="ranges"):
+        what_would_it_take([], TAB1_LIKE)
