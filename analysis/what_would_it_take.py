@@ -341,7 +341,7 @@ def limiting(result: WhatWouldItTake, need: PairNeed, j: int = 0) -> str | None:
             return f"{_pct(sd)} → not even removed"
         if f >= 1:
             return f"{_pct(sd)} as now"
-        return f"{_pct(sd)} → {'0' if f == 0 else f'≤ {_pct(f * sd)}'}" + ("" if f == 0 else f" (÷ {1 / f:.2g})")
+        return f"{_pct(sd)} → 0 (removed)" if f == 0 else f"{_pct(sd)} → ≤ {_pct(f * sd)} (÷ {1 / f:.2g})"
 
     words = {c: COMPONENTS[c.removesuffix(ALONE)] for c in alone}
     rest = ", ".join(f"{words[c]} {told(c)}" for c in alone if c != worst)
