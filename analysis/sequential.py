@@ -639,7 +639,7 @@ class SequentialDesign:
             return (
                 "futile",
                 f"stop — the budget ({self.budget_s / 60:.0f} min) is spent without a decision: " + self.why()
-                + "; what would: " + self.what_would(),
+                + "; what would: " + self.what_would_futile(),
             )  # fmt: skip
         if ev is None:
             return None
@@ -650,7 +650,7 @@ class SequentialDesign:
                 f"{100 * p:.0f} % < {100 * FUTILE_P:.0f} %: with this scatter no placement tells these models apart; "
                 + self.why()
                 + "; what would: "
-                + self.what_would()
+                + self.what_would_futile()
             )
         return None
 
@@ -705,6 +705,16 @@ class SequentialDesign:
             return f"{pair} are separable {within} with this noise, in expectation"
         alone = "; or ".join(parts) if parts else "no single component reduced alone is enough"
         return f"to tell {pair} apart {within}: {alone}; or every component × {scale:.3g}"
+
+    # ---- hook (branch wwit, issue 27 "what it would take"): the futility message's simulated one-line summary ----
+    def what_would_futile(self) -> str:
+        """:meth:`what_would`, then the simulated study's one line for the leading pair
+        (:func:`analysis.what_would_it_take.futility_summary`: design's own simulation on this bench)."""
+        from analysis.what_would_it_take import futility_summary
+
+        return self.what_would() + "; simulated: " + futility_summary(self)
+
+    # ---- end of hook ------------------------------------------------------------------------------------------
 
     def why(self) -> str:
         """The reason the evidence does (not) move: the dominant noise component against the model difference."""

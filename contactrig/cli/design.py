@@ -40,6 +40,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="noise model of the simulated sessions: estimated from Tab. 1's independent series (default), from a "
         "session of your own, or iid re-seating of --repeat-sd (the simulated bench; χ²/ν ≈ 1)",
     )  # fmt: skip
+    p.add_argument(
+        "--what-would-it-take", action="store_true",
+        help="also find, per model pair, the smallest reduction of each noise component and the load range that "
+        "would tell it apart (a section of design.md, what-would-it-take.png)",
+    )  # fmt: skip
+    p.add_argument(
+        "--wwit-sessions", type=int, default=None, metavar="N",
+        help="with --what-would-it-take: simulated sessions per point of its search (100; seed: --seed)",
+    )  # fmt: skip
     add_json_option(p, "the statement, the chosen plan and its probabilities")
     add_quiet_option(p)
     add_max_memory_option(p)
@@ -73,8 +82,11 @@ def _design(args: argparse.Namespace) -> int:
 
     sessions = check_int("--sessions", args.sessions, 20, 100_000)
     repeat_sd = check_range("--repeat-sd", args.repeat_sd, 0.0, 1.0)
+    check_int("--seed", args.seed, 0, 2**63 - 1)  # numpy's generator takes no negative seed
+    wwit_sessions = _wwit_sessions(args)
     out = output_folder(args.output)
-    paths = refuse_existing([out / "design.md", out / "discrimination.png", out / "plan.toml"], force=args.force)
+    wanted = [out / "design.md", out / "discrimination.png", out / "plan.toml"]
+    paths = refuse_existing(wanted + ([out / WWIT_FIGURE] if args.what_would_it_take else []), force=args.force)
     from analysis.noise_model import NOISE_MODELS
 
     if args.noise_from not in NOISE_MODELS and not Path(args.noise_from).is_file():  # before the slow build
@@ -91,6 +103,13 @@ def _design(args: argparse.Namespace) -> int:
         result = design(curves, candidate_plans(w_min, w_max, block_s), n_sessions=sessions, seed=args.seed,
                         repeat_sd=repeat_sd, noise=noise, progress=progress)  # fmt: skip
     plan = chosen_plan(result)
+    wwit = None
+    if wwit_sessions is not None:
+        from analysis.what_would_it_take import draw, for_scene
+
+        with progress_bar("design: what would it take (points)", quiet=args.quiet) as progress:
+            wwit = for_scene(scene, noise, block_s, n_sessions=wwit_sessions, seed=args.seed, progress=progress)
+        draw(wwit, paths[3], force=args.force)
     scene_text = plan_scene_text(scene.text, plan, discriminating=result.discriminating)
     write_text_atomic(paths[2], scene_text, force=args.force)
     draw_map(result, str(paths[1]), force=args.force)
@@ -110,17 +129,53 @@ def _design(args: argparse.Namespace) -> int:
         "With this plan, the probability that a session's fit puts the true model ahead of the other by Δ(Q)AIC ≥ 10 "
         f"({sessions} simulated sessions each; Monte-Carlo SE ≤ {50 / np.sqrt(sessions):.1f} %):\n\n"
         "| true model | other | P(Δ(Q)AIC ≥ 10) |\n|---|---|---|\n" + "\n".join(rows) + "\n\n"
-        "![discrimination map](discrimination.png)\n",
+        "![discrimination map](discrimination.png)\n" + _wwit_section(wwit),
         force=args.force,
     )
     if args.json:
         import json
 
-        print(json.dumps(_json(result, plan, index, sessions, scene.name, paths), indent=1))
+        data = _json(result, plan, index, sessions, scene.name, paths)
+        if wwit is not None:
+            from analysis.what_would_it_take import as_dict
+
+            data["what_would_it_take"] = as_dict(wwit)
+            data["files"]["what_would_it_take_figure"] = str(paths[3])
+        print(json.dumps(data, indent=1))
         return 0
     print(text)
-    print(f"plan: {paths[2]}; report: {paths[0]}")
+    if wwit is not None:
+        from analysis.what_would_it_take import statement
+
+        for line in statement(wwit).splitlines():
+            print(escape_terminal(line))
+    print(f"plan: {paths[2]}; report: {paths[0]}" + ("" if wwit is None else f"; figure: {paths[3]}"))
     return 0
+
+
+#: The figure of ``--what-would-it-take`` in the output folder.
+WWIT_FIGURE = "what-would-it-take.png"
+
+
+def _wwit_sessions(args: argparse.Namespace) -> int | None:
+    """``--wwit-sessions`` checked (20…100000; only with ``--what-would-it-take``); None without the study."""
+    from contactrig.core.validation import SettingError, check_int
+
+    if not args.what_would_it_take:
+        if args.wwit_sessions is not None:
+            raise SettingError("--wwit-sessions", args.wwit_sessions, "allowed only with --what-would-it-take")
+        return None
+    return check_int("--wwit-sessions", 100 if args.wwit_sessions is None else args.wwit_sessions, 20, 100_000)
+
+
+def _wwit_section(wwit: Any) -> str:
+    """design.md's section of ``--what-would-it-take`` ("" without it)."""
+    if wwit is None:
+        return ""
+    from analysis.what_would_it_take import statement, table
+
+    return (f"\n## What would it take\n\n{statement(wwit)}\n\n{table(wwit)}\n\n"
+            f"![what would it take]({WWIT_FIGURE})\n")  # fmt: skip
 
 
 def _json(result: Any, plan: Any, index: int, sessions: int, scene_name: str, paths: list[Path]) -> dict[str, Any]:
