@@ -33,7 +33,11 @@ point changes its set needs one inverse FFT for the displacement, and one that c
 the pressures (exact, no drift): about 2.4 real FFT pairs per iteration with the preconditioner, 1.3–1.5 without.
 
 Hardware: the solver is written once over an array namespace (:mod:`sims.bem_backend`: NumPy with ``scipy.fft``
-and ``workers`` threads on the CPU, CuPy on an NVIDIA GPU, ``device``), float64 on both.
+and ``workers`` threads on the CPU, CuPy on an NVIDIA GPU, ``device``), float64 on both. On the CPU the element-wise
+passes over the whole grid (the products with the symbols, the curvature, the displacement update, the overlap
+search) run in cache-sized blocks of rows on the same ``workers`` threads, in place, several operations per block
+(:meth:`sims.bem_backend.Backend.rows`); the work on the contact points alone (≈ 6 % of the grid) stays serial.
+The fields do not depend on the thread count (the blocks depend on n only).
 
 Convergence: the residual is the largest violation of the contact conditions in units of rms(z): |g| on points with
 0 < p < H, −g on points with p = 0, +g on points with p = H (the load, in pressure control, is met exactly).
@@ -266,23 +270,26 @@ def _kernel(n: int) -> _Kernel:
 
 
 @lru_cache(maxsize=4)
-def _device_kernel(n: int, xp: ModuleType) -> tuple[Any, Any, Any]:
-    """(compliance, stiffness, Parseval weights) of :func:`_kernel` as arrays of ``xp`` (made once per grid).
+def _device_kernel(n: int, xp: ModuleType) -> tuple[Any, Any, Any, Any]:
+    """(compliance, stiffness, stiffness in float32, Parseval weights) of :func:`_kernel` as arrays of ``xp`` (made
+    once per grid).
 
-    All three are interleaved, n × (n + 2): each value twice, for the real and the imaginary part of a half spectrum
-    viewed as float64, so that a product with a symbol is a real, contiguous multiply (no complex cast: 2–3× faster
-    than complex × real in NumPy). The weights are such that their sum against the squared parts is Σₓ t·(C t)
-    (Parseval's theorem): C(q)/n², twice for the columns that stand for two modes.
+    All are interleaved, n × (n + 2): each value twice, for the real and the imaginary part of a half spectrum viewed
+    as real numbers, so that a product with a symbol is a real, contiguous multiply (no complex cast: 2–3× faster than
+    complex × real in NumPy). The float32 stiffness filters the preconditioner's float32 spectra. The weights are such
+    that their sum against the squared parts is Σₓ t·(C t) (Parseval's theorem): C(q)/n², twice for the columns that
+    stand for two modes.
     """
     k = _kernel(n)
     weight = np.full(n // 2 + 1, 2.0)
     weight[0] = weight[-1] = 1.0
+    symbols = (k.compliance, k.stiffness, k.stiffness.astype(np.float32), k.compliance * weight[None, :] / (n * n))
     arrays = []
-    for symbol in (k.compliance, k.stiffness, k.compliance * weight[None, :] / (n * n)):
+    for symbol in symbols:
         twice = np.repeat(symbol, 2, axis=1)
         twice.setflags(write=False)
         arrays.append(twice if xp is np else xp.asarray(twice))
-    return arrays[0], arrays[1], arrays[2]
+    return arrays[0], arrays[1], arrays[2], arrays[3]
 
 
 def _dot(xp: ModuleType, a: Any, b: Any) -> float:
@@ -302,16 +309,17 @@ class _Operator:
         self.be = backend
         self.xp = backend.xp
         self.kernel = _kernel(n)
-        self.compliance, self.stiffness, self.parseval = _device_kernel(n, backend.xp)
+        self.compliance, self.stiffness, self.stiffness32, self.parseval = _device_kernel(n, backend.xp)
 
     def rows(self, fn: Any) -> list[Any]:
         """``fn(rows)`` over the blocks of rows (:meth:`Backend.rows`)."""
         return self.be.rows(fn, self.n)
 
     def apply(self, x: Any, symbol: Any) -> Any:
-        """irfft2(symbol · rfft2(x)) for a flat n² array; a new flat array."""
+        """irfft2(symbol · rfft2(x)) for a flat n² array (float64, or float32 with a float32 symbol); a new flat
+        array of the same precision."""
         spectrum = self.be.rfft2(x.reshape(self.n, self.n))
-        parts = spectrum.view(self.xp.float64)
+        parts = spectrum.view(symbol.dtype)
         self.rows(lambda r: self.xp.multiply(parts[r], symbol[r], out=parts[r]))
         return self.be.irfft2(spectrum, self.n).reshape(-1)
 
@@ -421,15 +429,14 @@ def _capped_scale(values: Any, target: float, cap: float) -> Any | None:
     return out if float(out.sum()) >= target * (1.0 - 1e-12) else None
 
 
-def _place(a: Any, old: Any | None, idx: Any, values: Any) -> None:
-    """a ← ``values`` at ``idx`` and 0 at the other points of ``old`` (a's nonzero points; None: ``idx`` itself).
+def _place(a: Any, old: Any, idx: Any, values: Any) -> None:
+    """a ← ``values`` at ``idx`` and 0 at the other points of ``old`` (a's nonzero points).
 
     A large ``old`` (over 1/8 of the grid, the first iterations) is cleared by one fill: cheaper than a scatter."""
-    if old is not None:
-        if old.size > a.size // 8:
-            a.fill(0.0)
-        else:
-            a[old] = 0.0
+    if old.size > a.size // 8:
+        a.fill(0.0)
+    else:
+        a[old] = 0.0
     a[idx] = values
 
 
@@ -488,6 +495,8 @@ class _Solver:
         self.p = xp.zeros(size)
         self.w = xp.empty(size)
         self.t = xp.zeros(size)  # the search direction on the free points, zero elsewhere
+        self.g32 = xp.zeros(size, dtype=xp.float32)  # the gap on the free points, zero elsewhere: the filter's input
+        self.g32_supp: Any = xp.empty(0, dtype=xp.int64)
         self.mask = xp.empty(size, dtype=bool)
         self.supp: Any = xp.empty(0, dtype=xp.int64)
         self.t_supp: Any = xp.empty(0, dtype=xp.int64)
@@ -608,9 +617,9 @@ class _Solver:
         xp = self.xp
         t_old = self.t[m.free] if self.conjugate else None
         if self.precondition and m.free.size:
-            _place(self.t, self.t_supp, m.free, m.g_free)
-            self.t_supp = m.free
-            s = self.op.apply(self.t, self.op.stiffness)[m.free]
+            _place(self.g32, self.g32_supp, m.free, m.g_free)
+            self.g32_supp = m.free
+            s = self.op.apply(self.g32, self.op.stiffness32)[m.free].astype(xp.float64)
         else:
             s = m.g_free.copy()
         if self.load is not None and s.size:
@@ -629,7 +638,7 @@ class _Solver:
             t_free = s if g_new > 0.0 else m.g_free - (m.g_free.mean() if self.load is not None else 0.0)
             g_new = _dot(xp, t_free, m.g_free)
         self.g_old = g_new
-        _place(self.t, None if self.t_supp is m.free else self.t_supp, m.free, t_free)
+        _place(self.t, self.t_supp, m.free, t_free)
         self.t_supp = m.free
         return t_free
 
