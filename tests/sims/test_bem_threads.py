@@ -65,7 +65,7 @@ def test_the_element_wise_work_of_a_solve_runs_on_every_worker(monkeypatch):
         return original(self, traced, n)
 
     monkeypatch.setattr(bem_backend.Backend, "rows", rows)
-    n = 512
+    n = 256  # three blocks of rows
     z = rough_surface(n, seed=3)
     res = bem.solve_contact(z, 1.0 / n, 1.0, 0.0025, tol=1e-8, workers=2)
     assert res.success
