@@ -18,7 +18,7 @@ uses, ``xp.fft`` and plain array expressions, so the code the GPU runs is exerci
 The device is ``"cpu"`` (default) or ``"gpu"``; :func:`use_device` sets the default for the solves inside a block
 (the commands' ``--device`` and the scene key ``[scene] device``). The GPU needs CuPy (the optional extra ``gpu``,
 ``cupy-cuda12x``) and a CUDA device: without them :func:`get_backend` raises a :class:`SettingError` naming
-``--device`` (one line, exit 2). Float64 throughout.
+``--device`` (one line, exit 2). Float64 throughout, but for the solver's float32 preconditioner filter.
 """
 
 from __future__ import annotations
