@@ -6,7 +6,11 @@ One solver (:mod:`sims.bem`) runs over an *array namespace* ``xp`` (NumPy or CuP
 
 * the real FFT pair ``rfft2`` / ``irfft2`` — on the CPU ``scipy.fft`` with ``workers`` threads (the inverse axis by
   axis, faster with several workers); on the GPU cuFFT through ``xp.fft``;
-* the copies between host and device (``asarray``, ``to_host``).
+* the copies between host and device (``asarray``, ``to_host``);
+* the element-wise passes over the n×n fields and their half spectra (:meth:`Backend.rows`): on the CPU in
+  cache-sized blocks of rows, spread over the ``workers`` threads (NumPy's ufuncs release the GIL), so that several
+  operations on one block read memory once and every core takes part; on the GPU one call over the whole array
+  (CuPy's element-wise operations are device kernels already).
 
 A backend built from any other module passed as ``xp`` (NumPy itself, in the tests) uses the generic path the GPU
 uses, ``xp.fft`` and plain array expressions, so the code the GPU runs is exercised on the CPU.
@@ -14,17 +18,19 @@ uses, ``xp.fft`` and plain array expressions, so the code the GPU runs is exerci
 The device is ``"cpu"`` (default) or ``"gpu"``; :func:`use_device` sets the default for the solves inside a block
 (the commands' ``--device`` and the scene key ``[scene] device``). The GPU needs CuPy (the optional extra ``gpu``,
 ``cupy-cuda12x``) and a CUDA device: without them :func:`get_backend` raises a :class:`SettingError` naming
-``--device`` (one line, exit 2). Float64 throughout.
+``--device`` (one line, exit 2). Float64 throughout, but for the solver's float32 preconditioner filter.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Iterator
+import threading
+from collections.abc import Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from contextvars import ContextVar
 from types import ModuleType
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import scipy.fft as sfft
@@ -44,6 +50,9 @@ __all__ = [
 
 DEVICES = ("cpu", "gpu")
 _DEVICE: ContextVar[str] = ContextVar("contactrig_bem_device", default="cpu")
+_BLOCK_BYTES = 1 << 18  # one block of rows of a complex half spectrum: 256 KiB, inside a core's L2 cache
+_POOLS: dict[tuple[int, int], ThreadPoolExecutor] = {}
+_T = TypeVar("_T")
 _GPU_HINT = "needs CuPy and an NVIDIA GPU: pip install 'contactrig[gpu]' (cupy-cuda12x)"
 
 
@@ -138,6 +147,32 @@ class Backend:
             return sfft.irfft(spectrum, n=n, axis=1, workers=self.workers)
         return self.xp.fft.irfft2(spectrum, s=(n, n))
 
+    def rows(self, fn: Callable[[slice], _T], n: int) -> list[_T]:
+        """``fn(rows)`` over blocks of the ``n`` rows of the solver's n×n arrays and half spectra; results in row order.
+
+        On the CPU the blocks are cache-sized (256 KiB of a half spectrum), so the operations ``fn`` does on one block
+        (in place, ``out=``) read and write memory once, as one fused pass would; consecutive blocks are split into
+        ``workers`` equal groups, the first run by the calling thread, the others by a pool of ``workers − 1`` threads
+        (an exception in ``fn`` is raised here). The blocks depend on ``n`` only, so results summed over them
+        do not depend on the thread count. Generic namespace path: one call, ``fn(slice(None))``.
+        """
+        if not self.fast:
+            return [fn(slice(None))]
+        step = max(1, _BLOCK_BYTES // (8 * (n + 2)))
+        blocks = [slice(i, min(i + step, n)) for i in range(0, n, step)]
+        k = min(self.workers, len(blocks))
+        if k == 1:
+            return [fn(b) for b in blocks]
+        groups = [blocks[j * len(blocks) // k : (j + 1) * len(blocks) // k] for j in range(k)]
+
+        def run(group: list[slice]) -> list[_T]:
+            return [fn(b) for b in group]
+
+        pool = _pool(k - 1)
+        others = [pool.submit(run, group) for group in groups[1:]]
+        first = run(groups[0])
+        return first + [r for task in others for r in task.result()]
+
     def asarray(self, x: Any) -> Any:
         """``x`` as a float64 array of this backend (a copy on the GPU)."""
         return self.xp.asarray(x, dtype=self.xp.float64)
@@ -147,6 +182,22 @@ class Backend:
         if self.xp is np:
             return np.asarray(x)
         return self.xp.asnumpy(x)  # type: ignore[no-any-return, unused-ignore]
+
+
+def _pool(workers: int) -> ThreadPoolExecutor:
+    """A pool of ``workers`` started threads for :meth:`Backend.rows`, one per process (a forked child makes its own).
+
+    The threads are started at once (each held at a barrier until all exist): a pool that starts its threads lazily
+    may run quick tasks one after another on the one thread it has."""
+    key = (os.getpid(), workers)
+    pool = _POOLS.get(key)
+    if pool is None:
+        pool = ThreadPoolExecutor(workers, thread_name_prefix="contactrig-bem")
+        barrier = threading.Barrier(workers)
+        for task in [pool.submit(barrier.wait) for _ in range(workers)]:
+            task.result()
+        _POOLS[key] = pool
+    return pool
 
 
 def get_backend(device: str | None = None, workers: int | None = None, xp: ModuleType | None = None) -> Backend:
