@@ -168,8 +168,8 @@ def _cufft_module() -> ModuleType | None:
     return cufft  # type: ignore[no-any-return, unused-ignore]
 
 
-_PLANS: dict[tuple[str, tuple[int, ...], tuple[int, ...]], Any] = {}
-_PLAN_LIMIT = 4  # plans kept (each holds its cuFFT work area on the card): two grids' forward and inverse
+_PLANS: dict[tuple[str, str, tuple[int, ...], tuple[int, ...]], Any] = {}
+_PLAN_LIMIT = 8  # plans kept (each holds its cuFFT work area on the card): two grids' forward and inverse, 2 dtypes
 
 
 def _cufft_plan(cufft: ModuleType, a: Any, kind: str, out_shape: tuple[int, ...]) -> Any:
@@ -178,7 +178,7 @@ def _cufft_plan(cufft: ModuleType, a: Any, kind: str, out_shape: tuple[int, ...]
     Handing the plan to the transform skips CuPy's per-call plan lookup, which measured 1.6 ms per transform on an
     H200 at 4096² (``tests/benchmarks/profile_bem_gpu.py``; the transform itself is 0.3 ms). None if CuPy cannot
     make one (then the caller uses ``cupy.fft``, which plans on its own)."""
-    key = (kind, tuple(a.shape), tuple(out_shape))
+    key = (kind, str(a.dtype), tuple(a.shape), tuple(out_shape))
     plan = _PLANS.get(key)
     if plan is None:
         try:
