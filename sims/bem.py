@@ -243,61 +243,64 @@ class ConvergenceCheck:
 
 
 class _Kernel:
-    """Compliance 2/(|q|Δ) and stiffness |q|Δ/2 in ``rfft2`` layout (0 at q = 0) for an n×n periodic grid."""
+    """The symbols of the periodic half-space for an n×n grid, as arrays of the namespace ``xp`` (made where they are
+    used: on the GPU, on the card, nothing copied), made once per grid and namespace (:func:`_kernel`).
 
-    def __init__(self, n: int) -> None:
-        qx = 2.0 * np.pi * np.fft.fftfreq(n)
-        qy = 2.0 * np.pi * np.fft.rfftfreq(n)
-        q = np.hypot(qx[:, None], qy[None, :])
+    Compliance 2/(|q|Δ) and stiffness |q|Δ/2 in ``rfft2`` layout (0 at q = 0), a float32 stiffness (the
+    preconditioner filters float32 spectra) and the Parseval weights, all *interleaved*, n × (n + 2): each value
+    twice, for the real and the imaginary part of a half spectrum viewed as real numbers, so that a product with a
+    symbol is a real, contiguous multiply (no complex cast: 2–3× faster than complex × real in NumPy). The weights are
+    such that their sum against the squared parts is Σₓ t·(C t) (Parseval's theorem): C(q)/n², twice for the columns
+    that stand for two modes. ``self_compliance``: the compliance of one point, the mean of the kernel over the full
+    (not half) spectrum.
+    """
+
+    def __init__(self, n: int, xp: ModuleType = np) -> None:
+        qx = 2.0 * np.pi * xp.fft.fftfreq(n)
+        qy = 2.0 * np.pi * xp.fft.rfftfreq(n)
+        q = xp.hypot(qx[:, None], qy[None, :])
         q[0, 0] = 1.0
         compliance = 2.0 / q
         compliance[0, 0] = 0.0
         q *= 0.5
         q[0, 0] = 0.0
-        compliance.setflags(write=False)
-        q.setflags(write=False)
-        self.n = n
-        self.compliance: _Array = compliance
-        self.stiffness: _Array = q
-        # self-compliance of one point: the mean of the kernel over the full (not half) spectrum
-        weight = np.full(qy.size, 2.0)
+        weight = xp.full(qy.size, 2.0)  # columns of the half spectrum that stand for two modes
         weight[0] = 1.0
         if n % 2 == 0:
             weight[-1] = 1.0
-        self.self_compliance = float((compliance * weight[None, :]).sum()) / (n * n)
-
-
-@lru_cache(maxsize=2)
-def _kernel(n: int) -> _Kernel:
-    return _Kernel(n)
+        weighted = compliance * weight[None, :]
+        self.self_compliance = float(weighted.sum()) / (n * n)
+        weighted /= n * n
+        symbols = [xp.repeat(a, 2, axis=1) for a in (compliance, q, q.astype(xp.float32), weighted)]
+        if xp is np:
+            for arr in symbols:
+                arr.setflags(write=False)
+        self.n = n
+        self.compliance: Any = symbols[0]
+        self.stiffness: Any = symbols[1]
+        self.stiffness32: Any = symbols[2]
+        self.parseval: Any = symbols[3]
 
 
 @lru_cache(maxsize=4)
-def _device_kernel(n: int, xp: ModuleType) -> tuple[Any, Any, Any, Any]:
-    """(compliance, stiffness, stiffness in float32, Parseval weights) of :func:`_kernel` as arrays of ``xp`` (made
-    once per grid).
-
-    All are interleaved, n × (n + 2): each value twice, for the real and the imaginary part of a half spectrum viewed
-    as real numbers, so that a product with a symbol is a real, contiguous multiply (no complex cast: 2–3× faster than
-    complex × real in NumPy). The float32 stiffness filters the preconditioner's float32 spectra. The weights are such
-    that their sum against the squared parts is Σₓ t·(C t) (Parseval's theorem): C(q)/n², twice for the columns that
-    stand for two modes.
-    """
-    k = _kernel(n)
-    weight = np.full(n // 2 + 1, 2.0)
-    weight[0] = weight[-1] = 1.0
-    symbols = (k.compliance, k.stiffness, k.stiffness.astype(np.float32), k.compliance * weight[None, :] / (n * n))
-    arrays = []
-    for symbol in symbols:
-        twice = np.repeat(symbol, 2, axis=1)
-        twice.setflags(write=False)
-        arrays.append(twice if xp is np else xp.asarray(twice))
-    return arrays[0], arrays[1], arrays[2], arrays[3]
+def _kernel(n: int, xp: ModuleType = np) -> _Kernel:
+    return _Kernel(n, xp)
 
 
 def _dot(xp: ModuleType, a: Any, b: Any) -> float:
-    """a·b of two flat arrays (``einsum``: no BLAS threads, which spin against the FFT's on a busy machine)."""
-    return float(xp.einsum("i,i->", a, b))
+    """a·b of two flat arrays: on the CPU ``einsum`` (no BLAS threads, which spin against the FFT's on a busy
+    machine); on another namespace ``vdot`` (cuBLAS on the GPU: CuPy's ``einsum`` costs 0.5 ms a call there)."""
+    if xp is np:
+        return float(np.einsum("i,i->", a, b))
+    return float(xp.vdot(a, b))
+
+
+def _weighted_square_sum(xp: ModuleType, weight: Any, parts: Any) -> float:
+    """Σ weight·parts² over two equal-shaped arrays (one pass with ``einsum`` on the CPU; elsewhere a product and
+    ``vdot``, which CuPy runs as one kernel and one cuBLAS call)."""
+    if xp is np:
+        return float(np.einsum("ij,ij,ij->", weight, parts, parts))
+    return float(xp.vdot((weight * parts).ravel(), parts.ravel()))
 
 
 class _Operator:
@@ -311,8 +314,14 @@ class _Operator:
         self.n = n
         self.be = backend
         self.xp = backend.xp
-        self.kernel = _kernel(n)
-        self.compliance, self.stiffness, self.stiffness32, self.parseval = _device_kernel(n, backend.xp)
+        self.kernel = _kernel(n, backend.xp)
+        k = self.kernel
+        self.compliance, self.stiffness, self.stiffness32, self.parseval = (
+            k.compliance,
+            k.stiffness,
+            k.stiffness32,
+            k.parseval,
+        )
 
     def rows(self, fn: Any) -> list[Any]:
         """``fn(rows)`` over the blocks of rows (:meth:`Backend.rows`)."""
@@ -342,7 +351,7 @@ class _Operator:
         parts = spectrum.view(xp.float64)
 
         def block(r: slice) -> float:
-            share = float(xp.einsum("ij,ij,ij->", self.parseval[r], parts[r], parts[r]))
+            share = _weighted_square_sum(xp, self.parseval[r], parts[r])
             xp.multiply(parts[r], self.compliance[r], out=parts[r])
             return share
 
@@ -804,7 +813,15 @@ def contact_spots(mask: ArrayLike, pixel_m: float = 1.0) -> tuple[int, _Array]:
     if arr.ndim != 2:
         raise SettingError("mask", f"array of shape {arr.shape}", "expected a 2-D boolean array")
     pixel_m = check_range("pixel_m", pixel_m, 0.0, None, lo_open=True, unit="m")
-    labels, count = ndimage.label(arr)
+    count, cells = _spot_cells(arr, np, ndimage.label)
+    return count, cells * pixel_m**2
+
+
+def _spot_cells(mask: Any, xp: ModuleType, label: Any) -> tuple[int, _Array]:
+    """(count, points per spot, largest first) of a periodic 2-D boolean mask of namespace ``xp`` labelled by
+    ``label`` (``scipy.ndimage.label`` or CuPy's): the components, merged across the box edges on the host."""
+    labels, count = label(mask)
+    count = int(count)
     if count == 0:
         return 0, np.empty(0)
     parent = np.arange(count + 1)
@@ -815,9 +832,10 @@ def contact_spots(mask: ArrayLike, pixel_m: float = 1.0) -> tuple[int, _Array]:
             i = int(parent[i])
         return i
 
-    edges = np.concatenate(
-        [np.stack([labels[:, 0], labels[:, -1]], axis=1), np.stack([labels[0, :], labels[-1, :]], axis=1)]
+    edges = xp.concatenate(
+        [xp.stack([labels[:, 0], labels[:, -1]], axis=1), xp.stack([labels[0, :], labels[-1, :]], axis=1)]
     )
+    edges = np.asarray(edges if xp is np else xp.asnumpy(edges))  # 4n labels: the box edges only
     edges = edges[(edges[:, 0] > 0) & (edges[:, 1] > 0)]
     for a, b in np.unique(edges, axis=0):
         ra, rb = root(int(a)), root(int(b))
@@ -825,15 +843,27 @@ def contact_spots(mask: ArrayLike, pixel_m: float = 1.0) -> tuple[int, _Array]:
             parent[max(ra, rb)] = min(ra, rb)
     for i in np.unique(edges):  # only labels on the boundary can have been merged
         parent[i] = root(int(i))
-    sizes = np.bincount(parent[labels.ravel()], minlength=count + 1)[1:]
+    roots = parent if xp is np else xp.asarray(parent)
+    sizes = xp.bincount(roots[labels.ravel()], minlength=count + 1)[1:]
+    sizes = np.asarray(sizes if xp is np else xp.asnumpy(sizes))
     sizes = sizes[sizes > 0]
-    areas = np.sort(sizes.astype(np.float64))[::-1] * pixel_m**2
-    return int(areas.size), areas
+    return int(sizes.size), np.sort(sizes.astype(np.float64))[::-1]
 
 
-def _perimeter_edges(mask: NDArray[np.bool_]) -> int:
+def _label_function(xp: ModuleType) -> Any:
+    """Connected-component labelling for arrays of ``xp``: ``scipy.ndimage.label``, or CuPy's on the GPU."""
+    if xp is np:
+        return ndimage.label
+    try:
+        from cupyx.scipy import ndimage as device_ndimage  # type: ignore[import-not-found, import-untyped, unused-ignore]
+    except Exception:  # a namespace without its own (NumPy stand-ins in the tests): label on the host
+        return lambda mask: ndimage.label(np.asarray(mask))
+    return device_ndimage.label
+
+
+def _perimeter_edges(mask: Any, xp: ModuleType = np) -> int:
     """Contact/non-contact 4-neighbour pairs, periodic (the M of Yastrebov et al. 2017)."""
-    return int(np.count_nonzero(mask != np.roll(mask, 1, axis=0)) + np.count_nonzero(mask != np.roll(mask, 1, axis=1)))
+    return int(xp.count_nonzero(mask != xp.roll(mask, 1, axis=0)) + xp.count_nonzero(mask != xp.roll(mask, 1, axis=1)))
 
 
 @dataclass(frozen=True)
@@ -850,30 +880,35 @@ class _Scales:
 def _build_result(
     solver: _Solver, sc: _Scales, *, status: int, message: str, mode: str, hardness: float | None, p_full: float
 ) -> ContactResult:
+    """The result in SI units; the fields and counts are made where the solver's arrays are (on the GPU, on the
+    card) and only the finished fields (and 4n boundary labels) are copied to the host."""
     n = sc.n
+    xp = solver.xp
     to_host = solver.op.be.to_host
-    p = to_host(solver.p)
-    w = to_host(solver.w)
-    contact = (p > 0.0).reshape(n, n)
-    n_spots, spot_cells = contact_spots(contact)
-    edges = _perimeter_edges(contact)
-    n_contact = int(np.count_nonzero(contact))
+    p, w = solver.p, solver.w
+    touching = p > 0.0
+    contact = touching.reshape(n, n)
+    n_spots, spot_cells = _spot_cells(contact, xp, _label_function(xp))
+    edges = _perimeter_edges(contact, xp)
+    n_contact = int(xp.count_nonzero(touching))
     gap = w + solver.h0
     saturated = p >= solver.cap
+    n_saturated = int(xp.count_nonzero(saturated))
     plastic = None
     if hardness is not None:
-        plastic = np.where(saturated, np.maximum(-gap, 0.0), 0.0).reshape(n, n) * sc.length
+        plastic = to_host(xp.where(saturated, xp.maximum(-gap, 0.0), 0.0).reshape(n, n) * sc.length)
         plastic.setflags(write=False)
-    gap[p > 0.0] = 0.0
-    np.maximum(gap, 0.0, out=gap)
-    pressure = (p * sc.pressure).reshape(n, n)
-    displacement = ((w + to_host(solver.z)) * sc.length).reshape(n, n)
-    gap_m = (gap * sc.length).reshape(n, n)
+    gap[touching] = 0.0
+    xp.maximum(gap, 0.0, out=gap)
+    mean_pressure = float(p.sum()) / (n * n) * sc.pressure
+    pressure = to_host((p * sc.pressure).reshape(n, n))
+    displacement = to_host(((w + solver.z) * sc.length).reshape(n, n))
+    gap_m = to_host((gap * sc.length).reshape(n, n))
     for arr in (pressure, displacement, gap_m):
         arr.setflags(write=False)
     size = n * n
     return ContactResult(
-        mean_pressure=float(p.sum()) / size * sc.pressure,
+        mean_pressure=mean_pressure,
         mean_gap=float(gap_m.mean()),
         approach=(sc.peak - solver.h0) * sc.length,
         area_fraction=n_contact / size,
@@ -881,7 +916,7 @@ def _build_result(
         perimeter_m=edges * sc.pixel_m,
         n_spots=n_spots,
         spot_areas=spot_cells * sc.pixel_m**2,
-        plastic_fraction=int(np.count_nonzero(saturated)) / size if hardness is not None else 0.0,
+        plastic_fraction=n_saturated / size if hardness is not None else 0.0,
         full_contact_pressure=p_full * sc.pressure,
         nit=solver.nit,
         residual=solver.residual if math.isfinite(solver.residual) else 0.0,
@@ -913,12 +948,16 @@ _MESSAGES = {
 # Public solvers.
 
 
-def _scales(arr: NDArray[np.float64], pixel_m: float, E_star: float) -> tuple[_Array, _Scales]:
+def _scales(arr: NDArray[np.float64], pixel_m: float, E_star: float, be: Backend | None = None) -> tuple[Any, _Scales]:
+    """The dimensionless heights (flat, mean-free, in units of ℓ = rms) as an array of ``be`` (default NumPy), and
+    the scales; on the GPU the heights are copied to the card first and scaled there."""
     n = arr.shape[0]
-    mean = float(arr.mean())
-    z = arr.reshape(-1) - mean
-    length = float(np.sqrt(np.mean(z * z)))
-    if length <= 64.0 * np.finfo(np.float64).eps * float(np.abs(arr).max()):
+    xp = np if be is None else be.xp
+    a = arr if be is None else be.asarray(arr)
+    mean = float(a.mean())
+    z = a.reshape(-1) - mean
+    length = float(xp.sqrt(xp.mean(z * z)))
+    if length <= 64.0 * np.finfo(np.float64).eps * float(xp.abs(a).max()):
         z.fill(0.0)  # flat to rounding: no roughness to resolve, any length unit will do
         length = pixel_m
     z /= length
@@ -1049,17 +1088,16 @@ def solve_contact(
     tol = check_range("tol", tol, 1e-14, 0.1)
     max_iter = check_int("max_iter", max_iter, 1, 10**7)
     be = get_backend(device, _check_workers(workers), xp)
-    zn, sc = _scales(arr, pixel_m, E_star)
-    mode, load, offset = _target(sc, hardness, mean_pressure, mean_gap, approach)
-    initial = _check_initial(initial_pressure, sc)
     if be.name == "gpu":
         from sims.budget import check_bem_gpu
 
-        check_bem_gpu(sc.n)
+        check_bem_gpu(arr.shape[0])
+    zd, sc = _scales(arr, pixel_m, E_star, be)
+    mode, load, offset = _target(sc, hardness, mean_pressure, mean_gap, approach)
+    initial = _check_initial(initial_pressure, sc)
     cap = math.inf if hardness is None else hardness / sc.pressure
     op = _Operator(sc.n, be)
     size = sc.n * sc.n
-    zd = be.asarray(zn)
     solver = _Solver(
         zd,
         op,

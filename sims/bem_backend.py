@@ -5,7 +5,8 @@ One solver (:mod:`sims.bem`) runs over an *array namespace* ``xp`` (NumPy or CuP
 :class:`Backend`:
 
 * the real FFT pair ``rfft2`` / ``irfft2`` — on the CPU ``scipy.fft`` with ``workers`` threads (the inverse axis by
-  axis, faster with several workers); on the GPU cuFFT through ``xp.fft``;
+  axis, faster with several workers); on the GPU cuFFT through ``cupyx.scipy.fft`` with plans made once per grid
+  (the inverse overwriting its input spectrum, as on the CPU);
 * the copies between host and device (``asarray``, ``to_host``);
 * the element-wise passes over the n×n fields and their half spectra (:meth:`Backend.rows`): on the CPU in
   cache-sized blocks of rows, spread over the ``workers`` threads (NumPy's ufuncs release the GIL), so that several
@@ -129,11 +130,16 @@ class Backend:
         self.name = name
         self.workers = workers
         self.fast = fast
+        self.cufft = _cufft_module() if name == "gpu" and xp is not np else None
 
     def rfft2(self, x: Any) -> Any:
         """The half spectrum of a real n×n array (a new complex array)."""
         if self.fast:
             return sfft.rfft2(x, workers=self.workers)
+        if self.cufft is not None:
+            plan = _cufft_plan(self.cufft, x, "R2C", x.shape)
+            if plan is not None:
+                return self.cufft.rfft2(x, plan=plan)
         return self.xp.fft.rfft2(x)
 
     def irfft2(self, spectrum: Any, n: int) -> Any:
@@ -145,6 +151,10 @@ class Backend:
         if self.fast:
             spectrum = sfft.ifft(spectrum, axis=0, workers=self.workers, overwrite_x=True)
             return sfft.irfft(spectrum, n=n, axis=1, workers=self.workers)
+        if self.cufft is not None:
+            plan = _cufft_plan(self.cufft, spectrum, "C2R", (n, n))
+            if plan is not None:
+                return self.cufft.irfft2(spectrum, s=(n, n), plan=plan, overwrite_x=True)
         return self.xp.fft.irfft2(spectrum, s=(n, n))
 
     def rows(self, fn: Callable[[slice], _T], n: int) -> list[_T]:
@@ -198,6 +208,38 @@ def _pool(workers: int) -> ThreadPoolExecutor:
             task.result()
         _POOLS[key] = pool
     return pool
+
+
+def _cufft_module() -> ModuleType | None:
+    """``cupyx.scipy.fft`` (cuFFT with explicit plans), or None where it cannot be imported."""
+    try:
+        import cupyx.scipy.fft as cufft  # type: ignore[import-not-found, import-untyped, unused-ignore]
+    except Exception:  # an older or partial CuPy: the plain cupy.fft path (plans from CuPy's own cache)
+        return None
+    return cufft  # type: ignore[no-any-return, unused-ignore]
+
+
+_PLANS: dict[tuple[str, str, tuple[int, ...], tuple[int, ...]], Any] = {}
+_PLAN_LIMIT = 8  # plans kept (each holds its cuFFT work area on the card): two grids' forward and inverse, 2 dtypes
+
+
+def _cufft_plan(cufft: ModuleType, a: Any, kind: str, out_shape: tuple[int, ...]) -> Any:
+    """The cuFFT plan of one real 2-D transform (``"R2C"`` or ``"C2R"``) of arrays shaped like ``a``, made once.
+
+    Handing the plan to the transform skips CuPy's per-call plan lookup, which measured 1.6 ms per transform on an
+    H200 at 4096² (``tests/benchmarks/profile_bem_gpu.py``; the transform itself is 0.3 ms). None if CuPy cannot
+    make one (then the caller uses ``cupy.fft``, which plans on its own)."""
+    key = (kind, str(a.dtype), tuple(a.shape), tuple(out_shape))
+    plan = _PLANS.get(key)
+    if plan is None:
+        try:
+            plan = cufft.get_fft_plan(a, shape=out_shape, axes=(0, 1), value_type=kind)
+        except Exception:  # CuPy's plan API differs between versions: the plain path is always right
+            return None
+        while len(_PLANS) >= _PLAN_LIMIT:
+            _PLANS.pop(next(iter(_PLANS)))
+        _PLANS[key] = plan
+    return plan
 
 
 def get_backend(device: str | None = None, workers: int | None = None, xp: ModuleType | None = None) -> Backend:

@@ -8,6 +8,7 @@
 #                                times 1024²–8192²; the CPU table with 1 and every core)
 #   bench_bem_gpu.results.json  every figure
 # Usage: tests/benchmarks/bench_bem_gpu.sh [--budget SECONDS]   (default 270: parts left over are skipped, named)
+#        [--parts 1,2,3,4]  (1 fields CPU = GPU, 2 FFT limits, 3 GPU solver, 4 CPU table)
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$(cd "$here/../.." && pwd)"
@@ -15,11 +16,14 @@ dest="${OUT:-$here}"
 mkdir -p "$dest"
 cd "$root"
 export PYTHONPATH="$root${PYTHONPATH:+:$PYTHONPATH}"
-export OMP_NUM_THREADS="${OMP_NUM_THREADS:-1}" OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}"
+# BLAS single-threaded (the solver's dot products use einsum, not BLAS). OMP_NUM_THREADS is left alone: SciPy's FFT
+# takes it as the most workers it may use (measured: OMP_NUM_THREADS=1 makes workers=16 as slow as workers=1).
+unset OMP_NUM_THREADS
+export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}"
 python3 -c "import cupy, numpy, scipy; cupy.cuda.runtime.getDeviceCount()" || {
     echo "bench_bem_gpu.sh: needs python3 with numpy, scipy and cupy, and a CUDA device" >&2
     exit 2
 }
 nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader 2>/dev/null || true
-timeout 300 python3 "$here/bench_bem_gpu.py" --json "$dest/bench_bem_gpu.results.json" "$@" \
+timeout 480 python3 "$here/bench_bem_gpu.py" --json "$dest/bench_bem_gpu.results.json" "$@" \
     2>&1 | tee "$dest/bench_bem_gpu.results.txt"
