@@ -855,25 +855,32 @@ def query(
         return _select(con, root, conditions, sort, include_other, limit, descending, detail), result
 
 
-def indexed_rows(folder: str | Path) -> list[tuple[str, str, str, bool, tuple[str, ...]]]:
-    """(path, content id, status, has a reason, tags) of every row of ``folder``'s index as it is, unrefreshed (for
-    checks that the index equals a fresh scan)."""
+#: A row as :func:`indexed_rows` and :func:`fresh_scan` give it: path, content id, status, has a reason, tags, the
+#: last fit (verdict, best model, when; "" none).
+_Row = tuple[str, str, str, bool, tuple[str, ...], str]
+
+
+def indexed_rows(folder: str | Path) -> list[_Row]:
+    """(path, content id, status, has a reason, tags, last fit) of every row of ``folder``'s index as it is,
+    unrefreshed (for checks that the index equals a fresh scan)."""
     index = Path(folder) / INDEX_NAME
     with contextlib.closing(sqlite3.connect(f"file:{index}?mode=ro", uri=True)) as con:
         return _rows_of(con)
 
 
-def _rows_of(con: sqlite3.Connection) -> list[tuple[str, str, str, bool, tuple[str, ...]]]:
+def _rows_of(con: sqlite3.Connection) -> list[_Row]:
     tags: dict[str, list[str]] = {}
     for cid, text in con.execute("SELECT content_id, text FROM marks WHERE kind = 'tag'"):
         tags.setdefault(cid, []).append(text)
+    fits = {cid: f"{f['verdict']} {f['best']} {f['at']}" for cid, f in _last_fits(con).items()}
     out = []
     for path, cid, status, record in con.execute("SELECT path, content_id, status, record FROM sessions"):
-        out.append((path, cid, status, bool(json.loads(record)["note"]), tuple(sorted(tags.get(cid, [])))))
+        row = (path, cid, status, bool(json.loads(record)["note"]), tuple(sorted(tags.get(cid, []))), fits.get(cid, ""))
+        out.append(row)
     return sorted(out)
 
 
-def fresh_scan(folder: str | Path) -> list[tuple[str, str, str, bool, tuple[str, ...]]]:
+def fresh_scan(folder: str | Path) -> list[_Row]:
     """What :func:`indexed_rows` would hold for an index built now from nothing (in memory; nothing is written)."""
     root = _root(folder)
     with contextlib.closing(_open(":memory:")) as con:

@@ -103,7 +103,7 @@ def _search(args: argparse.Namespace) -> int:
     where = [parse_where(w) for w in args.where or []]
     if args.sample is not None:
         where.append(parse_where(f"sample~{args.sample}"))
-    rows, refreshed = query(args.folder, where, sort=args.sort, include_other=args.all)
+    rows, refreshed = query(args.folder, where, sort=args.sort, include_other=args.all, detail=args.json)
     for note in refreshed.notes:
         print(f"note: {safe(note)}", file=sys.stderr)
     if args.json:
