@@ -68,6 +68,7 @@ __all__ = [
     "add_mark",
     "content_id",
     "entry_of",
+    "last_fit",
     "parse_where",
     "query",
     "read_fits",
@@ -664,6 +665,13 @@ def record_fit(
            "at": now_iso(), "file": p.name}  # fmt: skip
     _append_line(p.parent / FITS_NAME, fit)
     return fit
+
+
+def last_fit(file: str | Path, cid: str) -> dict[str, str] | None:
+    """The last fit of the session of content id ``cid`` recorded in the fits file of ``file``'s folder (None:
+    never fitted there)."""
+    fits = [f for f in read_fits(Path(file).parent / FITS_NAME) if f["content_id"] == cid]
+    return max(enumerate(fits), key=lambda f: (f[1]["at"], f[0]))[1] if fits else None  # a tie: the later line
 
 
 def _last_fits(con: sqlite3.Connection) -> dict[str, dict[str, Any]]:

@@ -110,3 +110,11 @@ def test_the_fits_file_is_append_only_safe_for_concurrent_writers_and_never_foll
 
     _record_verdict(str(linked / "s.h5"), SimpleNamespace(statement="Verdict: x", discriminates=True, ranking=["h"]))
     assert "not recorded" in capsys.readouterr().err and not target.exists()
+    # the diff of two copies of one session: only their last fits differ
+    from daq.session_diff import session_diff
+
+    diff = session_diff(copy, linked / "s.h5")
+    assert {d["field"]: (d["a"], d["b"]) for d in diff["differences"]} == {
+        "fit.analysis_version": (provenance.software_version(), None), "fit.best": ("lagemann", None),
+        "fit.verdict": ("discriminates", None),
+    }  # fmt: skip
