@@ -84,6 +84,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="fit R = R_s + s·h/A(W) per model, rank the models, say whether the data discriminate",
     )
     f.add_argument("--json", action="store_true", help="print the fits as JSON")
+    f.add_argument(
+        "--no-record", dest="record", action="store_false",
+        help="do not record the verdict beside the session (.contactrig-fits.jsonl, read by `contactrig sessions`)",
+    )  # fmt: skip
     f.set_defaults(handler=_fit)
 
     g = subparsers.add_parser(
@@ -242,7 +246,7 @@ def _fit(args: argparse.Namespace) -> int:
     cmp = a.comparison
     if cmp is None:
         raise ValueError("; ".join(n for n in a.left_out if n.startswith("no fit")))
-    if args.session != _TAB1:
+    if args.session != _TAB1 and args.record:
         _record_verdict(args.session, cmp)
     if args.json:
         from contactrig.cli.options import json_units
