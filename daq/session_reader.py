@@ -629,20 +629,19 @@ _NOT_READ = pd.DataFrame()  # the tables load_records does not read (one empty f
 
 def load_records(p: Path) -> Session | None:
     """A sealed, finished session's records and block counts, without its readings and exchanges: the run index's
-    read (a few HDF5 members instead of all, ~1 ms). Run it where :func:`load_session` runs its work: inside a
-    bounded child (:mod:`daq.bounded`).
+    read (a third of the HDF5 members; about a third of a whole read's time). Run it where :func:`load_session`
+    runs its work: inside a bounded child (:mod:`daq.bounded`).
 
     Checked: the start record, scene text, run records and stop record against the stop record's seal, the
     summary's block digests against the stop record (their count and their SHA-256 chain), and that every column
     of the three tables is there; the values in the tables are checked against their SHA-256 whenever the session
-    is loaded (:func:`load_session`). ``summary`` has the
-    columns ``block``, ``compliance`` and ``n_invalid``; ``readings`` and ``exchanges`` are empty; ``sealed`` is
-    False (the tables were not checked). None when this read does not apply or finds anything wrong (no stop record
-    or seal, an older schema, a file a writer holds, any damage): the caller reads the whole file with
-    :func:`load_session`, whose verdict and reason count."""
+    is loaded (:func:`load_session`). ``summary`` has the columns ``block``, ``compliance`` and ``n_invalid``;
+    ``readings`` and ``exchanges`` are empty; ``sealed`` and ``tables_read`` are False. None when this read does
+    not apply or finds anything wrong (no stop record or seal, an older schema, a file a writer holds, any damage):
+    the caller reads the whole file with :func:`load_session`, whose verdict and reason count."""
     try:
         h5, running = open_for_reading(p)
-    except SessionFileError:
+    except Exception:  # the whole read says why
         return None
     try:
         if running:
