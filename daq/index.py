@@ -277,18 +277,29 @@ def _row(e: SessionEntry, base: Path | None) -> list[str]:
     return [e.start_shown, status, blocks, e.kind, e.sample, e.operator, name]
 
 
-def format_table(entries: Iterable[SessionEntry], *, base: str | Path | None = None, notes: bool = True) -> str:
+def format_table(
+    entries: Iterable[SessionEntry],
+    *,
+    base: str | Path | None = None,
+    notes: bool = True,
+    fits: Sequence[str] | None = None,
+) -> str:
     """The index as an aligned text table for the terminal (every string escaped: no control character from a
-    file reaches the terminal); unreadable files get their reason on the next line when ``notes``."""
+    file reaches the terminal); unreadable files get their reason on the next line when ``notes``; ``fits``: a
+    ``fit`` column (one text per entry: the last fit's verdict, :mod:`daq.run_index`) before the file's."""
     items = list(entries)
     rows = [[escape_terminal(c) for c in _row(e, Path(base) if base is not None else None)] for e in items]
-    widths = [max([len(h), *(len(r[i]) for r in rows)]) for i, h in enumerate(_COLUMNS)]
+    columns: tuple[str, ...] = _COLUMNS
+    if fits is not None:
+        columns = (*_COLUMNS[:-1], "fit", _COLUMNS[-1])
+        rows = [[*r[:-1], escape_terminal(f), r[-1]] for r, f in zip(rows, fits, strict=True)]
+    widths = [max([len(h), *(len(r[i]) for r in rows)]) for i, h in enumerate(columns)]
     widths = [min(w, 48) for w in widths[:-1]] + [widths[-1]]
 
     def line(cells: Sequence[str]) -> str:
         return "  ".join(_fit(c, w) for c, w in zip(cells, widths, strict=True)).rstrip()
 
-    out = [line(_COLUMNS)]
+    out = [line(columns)]
     for e, r in zip(items, rows, strict=True):
         out.append(line(r))
         if notes and e.note and e.status not in ("success", "running"):

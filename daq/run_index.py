@@ -7,12 +7,17 @@ append-only sidecar per folder, ``.contactrig-notes.jsonl`` (one JSON object a l
 never in the sealed session; the index reads the sidecars, so tags and remarks survive a rebuild.
 
 Refresh: every session file under DIR is ``stat``-ed; a file whose size, time of modification, time of change and
-inode are those the index holds is not read again. Every other file is read with the one bounded reader
-(:func:`daq.index.session_and_entry`: a child process per file, checksums and seal verified, a deadline), two at a
-time by default. A file renamed or moved inside the tree (same inode, size and time of modification) keeps its row
-without a read; a copy elsewhere is recognised by its content id (the SHA-256 of its first start record), and tags
-and remarks follow the content id. A damaged file is a row with status ``corrupt`` and the reader's reason, never
-dropped, never fatal. A running session is read again at every refresh.
+inode are those the index holds is not read again. Every other file is read in bounded child processes (many
+files to a child, a deadline for them all; a child that crashes or hangs costs its batch, read again one file to a
+child), two at a time by default. A sealed, finished session is read by its records
+(:func:`daq.session_reader.load_records`: start record, scene, runs and stop record against the seal, the block
+digests against the stop record, the tables' columns present: ~1/3 of a whole read; ``checked: records``); every
+other file is read whole and verified (:func:`daq.session_reader.load_session`'s work; ``checked: whole``), and its
+verdict and reason count. The values in the tables are verified whenever a session is loaded (fit, report, export,
+replay, ``contactrig sessions FILE``). A file renamed or moved inside the tree (same inode, size and time of
+modification) keeps its row without a read; a copy elsewhere is recognised by its content id (the SHA-256 of its
+first start record), and tags and remarks follow the content id. A damaged file is a row with status ``corrupt``
+and the reader's reason, never dropped, never fatal. A running session is read again at every refresh.
 
 Concurrency: reads happen outside any transaction; the changes are written in one ``BEGIN IMMEDIATE`` transaction
 (SQLite serialises writers; ``busy_timeout`` 30 s), and a row is written only when the file still has the stamp it
@@ -20,8 +25,11 @@ was read with. SQLite's WAL needs shared memory: on a network share the index ma
 the sessions themselves are never written by the index. A read-only folder, an index path that is a symbolic link,
 or an index from a newer contactrig: the folder is scanned into memory instead, and the result says so.
 
-Fit verdicts are not recorded with the sessions (a fit is a separate result: ``contactrig fit … --json``), so the
-index holds none: the ``fit`` column is always null until a fit is recorded beside the sessions.
+Fit verdicts: ``contactrig fit`` appends the verdict of each fit of a session (whether the data discriminate
+between the models, the best model, the verdict sentence, who, when, and the analysis version: contactrig's) to
+``.contactrig-fits.jsonl`` in the session's folder (:func:`record_fit`; append-only like the notes, never in the
+sealed session). The index reads those files too; each row's ``fit`` is the last fit of its content id, marked
+``stale`` when it was made with another analysis version than the one running.
 """
 
 from __future__ import annotations
@@ -49,6 +57,9 @@ if TYPE_CHECKING:
     from daq.session_file import Session
 
 __all__ = [
+    "DETAIL_KEYS",
+    "FITS_NAME",
+    "FIT_VERDICTS",
     "INDEX_NAME",
     "SCHEMA_VERSION",
     "SIDECAR_NAME",
@@ -57,8 +68,11 @@ __all__ = [
     "add_mark",
     "content_id",
     "entry_of",
+    "last_fit",
     "parse_where",
     "query",
+    "read_fits",
+    "record_fit",
     "record_of",
     "refresh",
     "session_record",
@@ -68,8 +82,12 @@ __all__ = [
 INDEX_NAME = ".contactrig-index.sqlite"
 #: The append-only file of tags and remarks inside each folder (hidden).
 SIDECAR_NAME = ".contactrig-notes.jsonl"
+#: The append-only file of fit verdicts inside each folder (hidden), written by ``contactrig fit``.
+FITS_NAME = ".contactrig-fits.jsonl"
+#: A fit's verdict: the data discriminate between the models, or they do not (``contactrig fit``'s statement).
+FIT_VERDICTS = ("discriminates", "undecided")
 #: ``PRAGMA user_version`` of the index this contactrig writes; :data:`_UPGRADES` takes an older one there.
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 #: Statuses of files that are not readable sessions (listed last).
 UNREADABLE = ("corrupt", "newer", "other")
 #: ``--where`` keys: key → (operators allowed, what it matches).
@@ -80,9 +98,11 @@ WHERE_KEYS: dict[str, tuple[str, str]] = {
     "status": ("=", "success, aborted, failed, running, incomplete, corrupt, newer"),
     "serial": ("=", "the serial number of either instrument (from *IDN?)"),
     "tag": ("=", "a tag added with `contactrig sessions FILE --tag`"),
+    "verdict": ("=", "the last fit's: discriminates, undecided, stale (made with another analysis version), none"),
     "text": ("~", "words in the notes or remarks (full text, all words)"),
     "start": ("<>", "start date or instant, UTC (start>=2026-01-01, start<=2026-01-31)"),
 }
+_VERDICT_VALUES = (*FIT_VERDICTS, "stale", "none")
 _STATUSES = ("success", "aborted", "failed", "running", "incomplete", "corrupt", "newer", "other")
 _WHERE = re.compile(r"^\s*([a-z]+)\s*(>=|<=|=|~)\s*(.*?)\s*$", re.S)
 
@@ -100,8 +120,23 @@ CREATE INDEX marks_content ON marks(content_id);
 CREATE VIRTUAL TABLE notes_text USING fts5(path UNINDEXED, body);
 CREATE VIRTUAL TABLE remarks_text USING fts5(content_id UNINDEXED, body);
 """
-#: Numbered upgrades: ``_UPGRADES[k]`` takes an index of version k to k + 1.
-_UPGRADES: dict[int, str] = {0: _SCHEMA_V1}
+_SCHEMA_V2 = """
+CREATE TABLE fits (sidecar TEXT NOT NULL, line INTEGER NOT NULL, content_id TEXT NOT NULL, verdict TEXT NOT NULL,
+    best TEXT NOT NULL, statement TEXT NOT NULL, analysis_version TEXT NOT NULL, who TEXT NOT NULL, at TEXT NOT NULL,
+    file TEXT NOT NULL, PRIMARY KEY (sidecar, line));
+CREATE INDEX fits_content ON fits(content_id, at);
+CREATE INDEX sessions_sample ON sessions(sample COLLATE NOCASE);
+CREATE INDEX sessions_operator ON sessions(operator COLLATE NOCASE);
+CREATE INDEX sessions_scene ON sessions(scene COLLATE NOCASE);
+CREATE INDEX sessions_status ON sessions(status);
+CREATE INDEX marks_kind_text ON marks(kind, text);
+ALTER TABLE sessions ADD COLUMN detail TEXT NOT NULL DEFAULT '{}';
+DELETE FROM sessions;
+DELETE FROM notes_text;
+"""
+#: Numbered upgrades: ``_UPGRADES[k]`` takes an index of version k to k + 1 (2: fits, indexes on the columns searched,
+#: a row's detail apart from its listing; its rows are read again from the files).
+_UPGRADES: dict[int, str] = {0: _SCHEMA_V1, 1: _SCHEMA_V2}
 
 
 @dataclass
@@ -171,7 +206,9 @@ def session_record(path: str | Path, *, timeout: float | None = None) -> dict[st
     holds. Keys: those of :class:`daq.index.SessionEntry` plus ``content_id``, ``start_utc``, ``end_time``,
     ``scene_sha256``, ``overrides``, ``instruments`` (``*IDN?`` of source and voltmeter), ``serials``,
     ``settings`` (the pinned state read back at the start, the delta and instrument settings of the plan),
-    ``invalid_readings``, ``software`` (versions), ``software_version`` and ``fit`` (None: not recorded)."""
+    ``invalid_readings``, ``software`` (versions), ``software_version``, ``fit`` (None here; the index gives
+    the last fit recorded with :func:`record_fit`) and ``checked`` (``whole``: every block's SHA-256 and the whole
+    seal; ``records``: :func:`daq.session_reader.load_records`; "": unreadable)."""
     p = Path(path)
     session, entry = session_and_entry(p, timeout=timeout)
     return record_of(p, session, entry)
@@ -184,7 +221,7 @@ def record_of(p: Path, session: Session | None, entry: SessionEntry) -> dict[str
     record: dict[str, Any] = {
         **entry.as_dict(), "content_id": "", "start_utc": _utc(entry.start_time), "end_time": "",
         "scene_sha256": "", "overrides": {}, "instruments": {}, "serials": [], "settings": {},
-        "invalid_readings": 0, "software": {}, "software_version": "", "fit": None,
+        "invalid_readings": 0, "software": {}, "software_version": "", "fit": None, "checked": "",
     }  # fmt: skip
     if session is None:
         record["content_id"] = _bytes_id(p)
@@ -210,6 +247,7 @@ def record_of(p: Path, session: Session | None, entry: SessionEntry) -> dict[str
         invalid_readings=int(invalid),
         software={str(k): str(v) for k, v in software.items()},
         software_version=str(software.get("contactrig", "")),
+        checked="whole" if session.tables_read else "records",
     )
     return json.loads(json.dumps(record, default=str))  # plain JSON values (numpy scalars, non-finite floats)
 
@@ -218,18 +256,23 @@ def _mapping(value: Any) -> dict[str, Any]:
     return value if isinstance(value, dict) else {}
 
 
+#: A record's detail, kept apart from its listing in the index (``query(detail=False)`` leaves it out).
+DETAIL_KEYS = ("overrides", "instruments", "settings", "software")
+
 #: Files read by one bounded child in a row (the fork is paid once per batch, not once per file).
 BATCH = 48
 
 
 def _load_here(path: Path, *, timeout: float | None = None) -> Session:
-    """The bounded reader's own work (:func:`daq.session_reader.load_session` in its child: regular file, read,
-    checksums and seal), run inside a child that :func:`_read_batch` already bounds."""
+    """The bounded reader's own work, run inside a child that :func:`_read_batch` already bounds: a sealed,
+    finished session's records (:func:`daq.session_reader.load_records`: records and block digests against the
+    seal, a few HDF5 members), any other file read whole and verified (as :func:`daq.session_reader.load_session`
+    does in its child), whose verdict and reason count."""
     from daq.bounded import check_regular_file
-    from daq.session_reader import _load
+    from daq.session_reader import _load, load_records
 
     check_regular_file(path, "session file")
-    return _load(path, True)
+    return load_records(path) or _load(path, True)
 
 
 def _records_here(paths: list[Path]) -> list[dict[str, Any]]:
@@ -361,7 +404,7 @@ def _walk(root: Path) -> tuple[list[Path], list[Path]]:
         for f in sorted(files):
             if f.lower().endswith(SESSION_SUFFIXES):
                 sessions.append(Path(top) / f)
-            elif f == SIDECAR_NAME:
+            elif f in (SIDECAR_NAME, FITS_NAME):
                 sidecars.append(Path(top) / f)
     return sessions, sidecars
 
@@ -385,12 +428,14 @@ def _row(path: str, stamp: _Stamp | None, rec: dict[str, Any], settled_ns: int) 
     size, mtime, ctime, ino = stamp if stamp is not None and trusted else (None,) * 4
     return (
         path, size, mtime, ctime, ino, rec["content_id"], rec["status"], rec["start_utc"], rec["sample"],
-        rec["operator"], rec["scene"], " ".join(rec["serials"]), json.dumps(rec),
+        rec["operator"], rec["scene"], " ".join(rec["serials"]),
+        json.dumps({k: v for k, v in rec.items() if k not in DETAIL_KEYS}),
+        json.dumps({k: rec[k] for k in DETAIL_KEYS if k in rec}),
     )  # fmt: skip
 
 
 def _write_session(con: sqlite3.Connection, row: tuple[Any, ...], notes_text: str) -> None:
-    con.execute("INSERT OR REPLACE INTO sessions VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?)", row)
+    con.execute("INSERT OR REPLACE INTO sessions VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?)", row)
     con.execute("DELETE FROM notes_text WHERE path = ?", (row[0],))
     if notes_text:
         con.execute("INSERT INTO notes_text (path, body) VALUES (?, ?)", (row[0], notes_text))
@@ -448,12 +493,12 @@ def _refresh(con: sqlite3.Connection, root: Path, result: Refresh, jobs: int, ti
                 _delete_session(con, p)
                 result.removed += 1
         for old, new in moves:
-            kept = con.execute("SELECT record, status FROM sessions WHERE path = ?", (old,)).fetchone()
+            kept = con.execute("SELECT record, status, detail FROM sessions WHERE path = ?", (old,)).fetchone()
             if kept is None or kept[1] in UNREADABLE or os.path.lexists(root / old):  # (its reason names the path)
                 rec = session_record(root / real[new], timeout=timeout)
                 result.read += 1
             else:
-                rec = json.loads(kept[0])
+                rec = {**json.loads(kept[0]), **json.loads(kept[2])}
                 result.moved += 1
             if kept is not None and not os.path.lexists(root / old):
                 _delete_session(con, old)
@@ -484,6 +529,13 @@ def _refresh_sidecars(con: sqlite3.Connection, root: Path, sidecars: Sequence[Pa
         changed.add(p)
         con.execute("INSERT OR REPLACE INTO sidecars VALUES (?,?,?)", (p, s[0], s[1]))
     for p in changed:
+        if os.path.basename(p) == FITS_NAME:
+            con.execute("DELETE FROM fits WHERE sidecar = ?", (p,))
+            con.executemany(
+                "INSERT INTO fits VALUES (?,?,?,?,?,?,?,?,?,?)",
+                [(p, i, *(f[k] for k in _FIT_KEYS)) for i, f in enumerate(read_fits(root / p))],
+            )
+            continue
         con.execute("DELETE FROM marks WHERE sidecar = ?", (p,))
         rows = [(p, i, m["content_id"], m["kind"], m["text"], m["who"], m["at"], m["file"])
                 for i, m in enumerate(read_marks(root / p))]  # fmt: skip
@@ -519,25 +571,45 @@ def refresh(folder: str | Path, *, jobs: int = 2, timeout: float | None = None) 
 _MARK_KINDS = {"tag": 64, "remark": 4000}  # kind → longest text allowed (characters)
 
 
-def read_marks(sidecar: Path) -> list[dict[str, str]]:
-    """The tags and remarks of one sidecar, in order; a line that is not one complete mark (a write cut short, an
-    edit by hand) is skipped."""
+def _read_lines(sidecar: Path, keys: Sequence[str]) -> list[dict[str, str]]:
+    """The JSON objects of one append-only sidecar that have every one of ``keys`` as text, in order (symbolic
+    links not followed); a line that is not one (a write cut short, an edit by hand) is skipped."""
     try:
-        fd = os.open(sidecar, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+        fd = os.open(sidecar, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0))
         with os.fdopen(fd, "rb") as f:
+            if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
+                return []
             raw = f.read(64 << 20)
     except OSError:
         return []
     out = []
     for line in raw.split(b"\n"):
         try:
-            mark = json.loads(line)
-        except (ValueError, UnicodeDecodeError):
+            obj = json.loads(line)
+        except (ValueError, UnicodeDecodeError, RecursionError):
             continue
-        keys = ("content_id", "kind", "text", "who", "at", "file")
-        if isinstance(mark, dict) and all(isinstance(mark.get(k), str) for k in keys) and mark["kind"] in _MARK_KINDS:
-            out.append({k: mark[k] for k in keys})
+        if isinstance(obj, dict) and all(isinstance(obj.get(k), str) for k in keys):
+            out.append({k: obj[k] for k in keys})
     return out
+
+
+def _append_line(sidecar: Path, obj: dict[str, str]) -> None:
+    """One line appended to a sidecar (created if absent; a symbolic link is refused, never followed): one write
+    of one line with O_APPEND, so the lines of concurrent writers never interleave; synced to disk."""
+    line = (json.dumps(obj, ensure_ascii=True) + "\n").encode()
+    fd = os.open(sidecar, os.O_WRONLY | os.O_APPEND | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o644)
+    try:
+        os.write(fd, line)
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def read_marks(sidecar: Path) -> list[dict[str, str]]:
+    """The tags and remarks of one sidecar, in order; a line that is not one complete mark (a write cut short, an
+    edit by hand) is skipped."""
+    keys = ("content_id", "kind", "text", "who", "at", "file")
+    return [m for m in _read_lines(sidecar, keys) if m["kind"] in _MARK_KINDS]
 
 
 def add_mark(file: str | Path, kind: str, text: str, *, who: str | None = None) -> dict[str, str]:
@@ -560,15 +632,60 @@ def add_mark(file: str | Path, kind: str, text: str, *, who: str | None = None) 
         raise SettingError("FILE", str(p), "a contactrig session file (this HDF5 file is not one)")
     mark = {"content_id": rec["content_id"], "kind": kind, "text": clean, "who": who or login_name(),
             "at": now_iso(), "file": p.name}  # fmt: skip
-    line = (json.dumps(mark, ensure_ascii=True) + "\n").encode()
-    sidecar = p.parent / SIDECAR_NAME
-    fd = os.open(sidecar, os.O_WRONLY | os.O_APPEND | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o644)
-    try:
-        os.write(fd, line)  # one write of one line, O_APPEND: lines of concurrent writers never interleave
-        os.fsync(fd)
-    finally:
-        os.close(fd)
+    _append_line(p.parent / SIDECAR_NAME, mark)
     return mark
+
+
+# --- fit verdicts --------------------------------------------------------------------------------------------------
+
+_FIT_KEYS = ("content_id", "verdict", "best", "statement", "analysis_version", "who", "at", "file")
+
+
+def read_fits(sidecar: Path) -> list[dict[str, str]]:
+    """The fit verdicts of one fits sidecar (:data:`FITS_NAME`), in order; an incomplete line is skipped."""
+    return [f for f in _read_lines(sidecar, _FIT_KEYS) if f["verdict"] in FIT_VERDICTS]
+
+
+def record_fit(
+    file: str | Path, *, discriminates: bool, best: str, statement: str, who: str | None = None
+) -> dict[str, str]:
+    """Append the verdict of a fit of the session ``file`` (``discriminates``: the data discriminate between the
+    models; ``best``: the best model; ``statement``: the verdict in words) to :data:`FITS_NAME` in its folder,
+    with who, when and the analysis version (contactrig's), and return it. The session is not touched; it is
+    recognised by its content id (the verdict follows a copy or a move)."""
+    from contactrig.core.provenance import login_name, now_iso, software_version
+    from contactrig.core.validation import SettingError
+
+    p = Path(file)
+    rec = session_record(p)
+    if rec["status"] in UNREADABLE:
+        raise SettingError("FILE", str(p), "a readable contactrig session file")
+    fit = {"content_id": rec["content_id"], "verdict": FIT_VERDICTS[0] if discriminates else FIT_VERDICTS[1],
+           "best": best, "statement": statement, "analysis_version": software_version(), "who": who or login_name(),
+           "at": now_iso(), "file": p.name}  # fmt: skip
+    _append_line(p.parent / FITS_NAME, fit)
+    return fit
+
+
+def last_fit(file: str | Path, cid: str) -> dict[str, str] | None:
+    """The last fit of the session of content id ``cid`` recorded in the fits file of ``file``'s folder (None:
+    never fitted there)."""
+    fits = [f for f in read_fits(Path(file).parent / FITS_NAME) if f["content_id"] == cid]
+    return max(enumerate(fits), key=lambda f: (f[1]["at"], f[0]))[1] if fits else None  # a tie: the later line
+
+
+def _last_fits(con: sqlite3.Connection) -> dict[str, dict[str, Any]]:
+    """The last fit of each content id (by time, then by file and line), ``stale`` when made with another analysis
+    version than this contactrig's."""
+    from contactrig.core.provenance import software_version
+
+    now = software_version()
+    out: dict[str, dict[str, Any]] = {}
+    for row in con.execute(f"SELECT {', '.join(_FIT_KEYS)} FROM fits ORDER BY at, sidecar, line"):
+        fit = dict(zip(_FIT_KEYS, row, strict=True))
+        fit["stale"] = fit["analysis_version"] != now
+        out[fit.pop("content_id")] = fit
+    return out
 
 
 # --- search --------------------------------------------------------------------------------------------------------
@@ -599,6 +716,8 @@ def parse_where(text: str) -> Condition:
         _instant(value, op, text)
     if key == "status" and value not in _STATUSES:
         raise SettingError("--where", text, "status=" + "|".join(_STATUSES))
+    if key == "verdict" and value not in _VERDICT_VALUES:
+        raise SettingError("--where", text, "verdict=" + "|".join(_VERDICT_VALUES))
     if key == "text" and not _words(value):
         raise SettingError("--where", text, "text~WORDS with at least one word")
     return Condition(key, op, value)
@@ -632,6 +751,16 @@ def _sql(c: Condition) -> tuple[str, list[Any]]:
         return "s.status = ?", [c.value]
     if c.key == "serial":
         return "(' ' || s.serials || ' ') LIKE ?", [f"% {c.value} %"]
+    if c.key == "verdict":
+        last = ("(SELECT f.{} FROM fits f WHERE f.content_id = s.content_id ORDER BY f.at DESC, f.sidecar DESC, "
+                "f.line DESC LIMIT 1)")  # fmt: skip
+        if c.value == "none":
+            return "NOT EXISTS (SELECT 1 FROM fits f WHERE f.content_id = s.content_id)", []
+        if c.value == "stale":
+            from contactrig.core.provenance import software_version
+
+            return f"{last.format('analysis_version')} != ?", [software_version()]
+        return f"{last.format('verdict')} = ?", [c.value]
     if c.key == "tag":
         return "s.content_id IN (SELECT content_id FROM marks WHERE kind = 'tag' AND text = ?)", [c.value]
     if c.key == "text":
@@ -664,6 +793,7 @@ def _select(
     include_other: bool,
     limit: int | None = None,
     descending: bool = False,
+    detail: bool = True,
 ) -> list[dict[str, Any]]:
     clauses, params = ["1"], []
     for c in conditions:
@@ -676,20 +806,26 @@ def _select(
     order = _ORDER[sort]
     if descending:  # newest (last) first; a start without its offset and unreadable files still last
         order = ", ".join(t if t.endswith("= ''") else f"{t} DESC" for t in order.split(", "))
+    more = "s.detail" if detail else "''"
     rows = con.execute(
-        f"SELECT s.record, s.path FROM sessions s WHERE {' AND '.join(clauses)} ORDER BY {unreadable}, {order} "
+        f"SELECT s.record, s.path, {more} FROM sessions s WHERE {' AND '.join(clauses)} ORDER BY {unreadable}, {order} "
         "LIMIT ?",
         [*params, -1 if limit is None else max(0, limit)],
     ).fetchall()
     marks: dict[str, dict[str, list[dict[str, str]]]] = {}
     for cid, kind, text, who, at in con.execute("SELECT content_id, kind, text, who, at FROM marks ORDER BY at"):
         marks.setdefault(cid, {"tag": [], "remark": []})[kind].append({"text": text, "who": who, "at": at})
+    fits = _last_fits(con)
     out = []
-    for record, path in rows:
+    base = "" if str(root) == "." else str(root) + os.sep  # as str(root / path), without a Path per row
+    for record, path, more in rows:
         rec = json.loads(record)
-        rec["path"] = str(root / path)
+        if detail:
+            rec.update(json.loads(more))
+        rec["path"] = base + path
         m = marks.get(rec["content_id"], {})
         rec["tags"], rec["remarks"] = m.get("tag", []), m.get("remark", [])
+        rec["fit"] = fits.get(rec["content_id"])
         out.append(rec)
     return out
 
@@ -705,14 +841,15 @@ def query(
     refresh: bool = True,
     limit: int | None = None,
     descending: bool = False,
+    detail: bool = True,
 ) -> tuple[list[dict[str, Any]], Refresh]:
     """The sessions under ``folder`` that meet every condition of ``where`` (``--where`` texts or
     :class:`Condition`), each a :func:`session_record` plus ``tags`` and ``remarks`` (each with ``who`` and
     ``at``), sorted by ``sort`` (:data:`daq.index.SORT_KEYS`; start: by the UTC instant; unreadable files last),
     after a refresh of the index (``refresh=False``: the index as it is, e.g. for a page that refreshes in the
     background; ``limit``: at most that many rows, e.g. one page; ``descending``: the sort reversed, e.g. the newest
-    first, unreadable files still last); the :class:`Refresh` says what was read and any note.
-    The console can call this as it is."""
+    first, unreadable files still last; ``detail=False``: without :data:`DETAIL_KEYS`, the listing only, faster);
+    the :class:`Refresh` says what was read and any note. The console can call this as it is."""
     from contactrig.core.validation import check_choice
 
     check_choice("--sort", sort, SORT_KEYS)
@@ -723,28 +860,35 @@ def query(
         result = Refresh(where_, notes=notes)
         if refresh or where_ is None:
             _refresh(con, root, result, jobs, timeout)
-        return _select(con, root, conditions, sort, include_other, limit, descending), result
+        return _select(con, root, conditions, sort, include_other, limit, descending, detail), result
 
 
-def indexed_rows(folder: str | Path) -> list[tuple[str, str, str, bool, tuple[str, ...]]]:
-    """(path, content id, status, has a reason, tags) of every row of ``folder``'s index as it is, unrefreshed (for
-    checks that the index equals a fresh scan)."""
+#: A row as :func:`indexed_rows` and :func:`fresh_scan` give it: path, content id, status, has a reason, tags, the
+#: last fit (verdict, best model, when; "" none).
+_Row = tuple[str, str, str, bool, tuple[str, ...], str]
+
+
+def indexed_rows(folder: str | Path) -> list[_Row]:
+    """(path, content id, status, has a reason, tags, last fit) of every row of ``folder``'s index as it is,
+    unrefreshed (for checks that the index equals a fresh scan)."""
     index = Path(folder) / INDEX_NAME
     with contextlib.closing(sqlite3.connect(f"file:{index}?mode=ro", uri=True)) as con:
         return _rows_of(con)
 
 
-def _rows_of(con: sqlite3.Connection) -> list[tuple[str, str, str, bool, tuple[str, ...]]]:
+def _rows_of(con: sqlite3.Connection) -> list[_Row]:
     tags: dict[str, list[str]] = {}
     for cid, text in con.execute("SELECT content_id, text FROM marks WHERE kind = 'tag'"):
         tags.setdefault(cid, []).append(text)
+    fits = {cid: f"{f['verdict']} {f['best']} {f['at']}" for cid, f in _last_fits(con).items()}
     out = []
     for path, cid, status, record in con.execute("SELECT path, content_id, status, record FROM sessions"):
-        out.append((path, cid, status, bool(json.loads(record)["note"]), tuple(sorted(tags.get(cid, [])))))
+        row = (path, cid, status, bool(json.loads(record)["note"]), tuple(sorted(tags.get(cid, []))), fits.get(cid, ""))
+        out.append(row)
     return sorted(out)
 
 
-def fresh_scan(folder: str | Path) -> list[tuple[str, str, str, bool, tuple[str, ...]]]:
+def fresh_scan(folder: str | Path) -> list[_Row]:
     """What :func:`indexed_rows` would hold for an index built now from nothing (in memory; nothing is written)."""
     root = _root(folder)
     with contextlib.closing(_open(":memory:")) as con:

@@ -3,8 +3,8 @@
 ``contactrig sessions A.h5 --diff B.h5`` and the console call :func:`session_diff`. Both files are read with the one
 bounded reader (:func:`daq.index.session_and_entry`) and described as the run index describes them
 (:func:`daq.run_index.record_of`); nested settings are compared key by key (``settings.pinned_state.2182A.:SYST:AZER
-ON``), so a difference is named by the setting, not by its table. Fit verdicts and analysis versions are not
-recorded with sessions, so there is nothing of theirs to compare (said in the result).
+ON``), so a difference is named by the setting, not by its table. The last fit of each (``contactrig fit``'s verdict,
+best model and analysis version, beside the session: :func:`daq.run_index.last_fit`) is compared too.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ __all__ = ["COMPARED", "format_diff", "session_diff"]
 
 #: What is compared, in this order (top-level keys of :func:`daq.run_index.session_record`).
 COMPARED = ("status", "sample", "operator", "scene", "scene_sha256", "overrides", "instruments", "settings",
-            "software")  # fmt: skip
+            "software", "fit")  # fmt: skip
 _SCENE_LINES = 40
 
 
@@ -38,7 +38,7 @@ def session_diff(a: str | Path, b: str | Path, *, timeout: float | None = None) 
     the number of fields that agree, and the lines of the scene text that differ (``- `` in A, ``+ `` in B). A file
     that cannot be read is refused (:class:`~daq.errors.SessionFileError` naming it), as for every command."""
     from daq.index import session_and_entry
-    from daq.run_index import record_of
+    from daq.run_index import last_fit, record_of
 
     sides = []
     for path in (Path(a), Path(b)):
@@ -47,7 +47,10 @@ def session_diff(a: str | Path, b: str | Path, *, timeout: float | None = None) 
             from daq.errors import SessionFileError
 
             raise SessionFileError(entry.note or f"{path}: not a readable session ({entry.status})")
-        sides.append((record_of(path, session, entry), session.scene_text))
+        record = record_of(path, session, entry)
+        fit = last_fit(path, record["content_id"])
+        record["fit"] = {k: fit[k] for k in ("verdict", "best", "analysis_version")} if fit else None
+        sides.append((record, session.scene_text))
     (ra, sa), (rb, sb) = sides
     fa = {k: v for key in COMPARED for k, v in _flat(ra.get(key), key).items()}
     fb = {k: v for key in COMPARED for k, v in _flat(rb.get(key), key).items()}
@@ -57,8 +60,7 @@ def session_diff(a: str | Path, b: str | Path, *, timeout: float | None = None) 
     ]
     return {
         "a": str(a), "b": str(b), "differences": differences, "same": len(set(fa) | set(fb)) - len(differences),
-        "scene_lines": lines,
-        "notes": ["fit verdicts and analysis versions are not recorded with sessions: not compared"],
+        "scene_lines": lines, "notes": [],
     }  # fmt: skip
 
 

@@ -55,6 +55,7 @@ __all__ = [
     "SUMMARY_FIELDS",
     "UPGRADES",
     "chain_digest",
+    "record_seal",
     "seal",
     "software_versions",
     "text_of",
@@ -223,6 +224,12 @@ def seal(raw: Mapping[str, Any], stop: Mapping[str, Any]) -> dict[str, str]:
         "exchanges": table_digest(raw["exchanges"], EXCHANGE_FIELDS),
         "stop": sha(canonical({k: v for k, v in stop.items() if k != "seal"})),
     }
+
+
+def record_seal(raw: Mapping[str, Any], stop: Mapping[str, Any]) -> dict[str, str]:
+    """The parts of :func:`seal` that are records (start, scene text, runs, stop), computed without the tables."""
+    return {k: v for k, v in seal({**raw, "summary": {}, "readings": {}, "exchanges": {}}, stop).items()
+            if k in ("start", "scene_text", "runs", "stop")}  # fmt: skip
 
 
 def chain_digest(hashes: Iterable[str]) -> str:

@@ -84,6 +84,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="fit R = R_s + s·h/A(W) per model, rank the models, say whether the data discriminate",
     )
     f.add_argument("--json", action="store_true", help="print the fits as JSON")
+    f.add_argument(
+        "--no-record", dest="record", action="store_false",
+        help="do not record the verdict beside the session (.contactrig-fits.jsonl, read by `contactrig sessions`)",
+    )  # fmt: skip
     f.set_defaults(handler=_fit)
 
     g = subparsers.add_parser(
@@ -242,6 +246,8 @@ def _fit(args: argparse.Namespace) -> int:
     cmp = a.comparison
     if cmp is None:
         raise ValueError("; ".join(n for n in a.left_out if n.startswith("no fit")))
+    if args.session != _TAB1 and args.record:
+        _record_verdict(args.session, cmp)
     if args.json:
         from contactrig.cli.options import json_units
 
@@ -264,6 +270,19 @@ def _fit(args: argparse.Namespace) -> int:
     print(escape_terminal(cmp.statement))
     _print_caveats(a)
     return 0
+
+
+def _record_verdict(session: str, cmp: Any) -> None:
+    """The fit's verdict beside the session, for the run index (:func:`daq.run_index.record_fit`: the folder's
+    .contactrig-fits.jsonl); a folder that cannot take it is said on stderr, the fit stands."""
+    from daq.run_index import record_fit
+
+    statement = str(cmp.statement)
+    verdict = statement[statement.rfind("Verdict:") :] if "Verdict:" in statement else statement
+    try:
+        record_fit(session, discriminates=bool(cmp.discriminates), best=str(cmp.ranking[0]), statement=verdict)
+    except (OSError, ValueError) as exc:
+        print(escape_terminal(f"note: the verdict was not recorded beside the session ({exc})"), file=sys.stderr)
 
 
 def _print_fit_table(a: Any) -> None:

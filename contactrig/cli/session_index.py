@@ -26,6 +26,10 @@ def add_index_options(parser: argparse.ArgumentParser) -> None:
     )  # fmt: skip
     parser.add_argument("--remark", default=None, metavar="TEXT", help="add a remark (one line) like --tag")
     parser.add_argument(
+        "files", nargs="*", default=[], metavar="A.h5 B.h5",
+        help="with DIR given as `diff`: `contactrig sessions diff A.h5 B.h5` compares two session files (as --diff)",
+    )  # fmt: skip
+    parser.add_argument(
         "--diff", default=None, metavar="B.h5",
         help="compare the session file given as DIR with B.h5: scene, overrides, instrument identities and settings, "
         "software versions",
@@ -41,10 +45,22 @@ def _file(args: argparse.Namespace, option: str) -> Path:
     return path
 
 
+def _diff_form(args: argparse.Namespace) -> None:
+    """``contactrig sessions diff A.h5 B.h5``: taken as ``contactrig sessions A.h5 --diff B.h5``."""
+    from contactrig.core.validation import SettingError
+
+    if args.files:
+        if args.folder != "diff" or len(args.files) != 2 or args.diff is not None:
+            shown = " ".join([args.folder, *args.files])
+            raise SettingError("sessions", shown, "DIR alone, or `diff A.h5 B.h5` (two session files)")
+        args.folder, args.diff = args.files
+
+
 def index_command(args: argparse.Namespace) -> int | None:
     """Run ``--diff``/``--tag``/``--remark`` or the ``--where`` search; None when the plain listing applies."""
     from contactrig.core.text import escape_terminal as safe
 
+    _diff_form(args)
     if args.diff is not None:
         from daq.session_diff import format_diff, session_diff
 
@@ -87,13 +103,14 @@ def _search(args: argparse.Namespace) -> int:
     where = [parse_where(w) for w in args.where or []]
     if args.sample is not None:
         where.append(parse_where(f"sample~{args.sample}"))
-    rows, refreshed = query(args.folder, where, sort=args.sort, include_other=args.all)
+    rows, refreshed = query(args.folder, where, sort=args.sort, include_other=args.all, detail=args.json)
     for note in refreshed.notes:
         print(f"note: {safe(note)}", file=sys.stderr)
     if args.json:
         print(json.dumps(rows, indent=2))  # JSON escapes control characters itself
         return 0
-    print(format_table([entry_of(r) for r in rows], base=args.folder))
+    fits = [_fit_cell(r["fit"]) for r in rows] if any(r["fit"] for r in rows) else None  # a column once fitted
+    print(format_table([entry_of(r) for r in rows], base=args.folder, fits=fits))
     marked = [r for r in rows if r["tags"] or r["remarks"]]
     for r in marked:
         print(f"{safe(Path(r['path']).name)}:")
@@ -103,3 +120,10 @@ def _search(args: argparse.Namespace) -> int:
     if not rows:
         print("(no session files)" if not where else "(no session meets the conditions)", file=sys.stderr)
     return 0
+
+
+def _fit_cell(fit: dict | None) -> str:
+    """The last fit's verdict and best model for the table ("" never fitted; "(stale)": another analysis version)."""
+    if not fit:
+        return ""
+    return f"{fit['verdict']} {fit['best']}" + (f" (stale: {fit['analysis_version']})" if fit["stale"] else "")

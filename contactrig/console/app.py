@@ -823,7 +823,7 @@ def _fit_curves(rel: str, cwd: Path, closed: threading.Event | None = None) -> l
     """The models' fitted curves for the plot, from ``contactrig fit --json`` (point estimates: no bootstrap)."""
     from contactrig.console.view import fit_curves
 
-    out = _contactrig(["fit", rel, "--bootstrap", "0", "--json"], cwd, closed)
+    out = _contactrig(["fit", rel, "--bootstrap", "0", "--json", "--no-record"], cwd, closed)  # the fit shown: recorded
     try:
         return fit_curves(json.loads(out["stdout"])) if out["code"] == 0 else []
     except json.JSONDecodeError:

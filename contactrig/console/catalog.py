@@ -74,12 +74,17 @@ class Catalog:
 
     def rows(self, where: Sequence[str], sort: str, *, descending: bool = True) -> tuple[list[dict[str, Any]], bool]:
         """The index's rows meeting every ``--where`` text (``SettingError`` for a bad one), at most
-        :data:`PAGE_ROWS`, paths relative to the folder; and whether more matched."""
+        :data:`PAGE_ROWS`, paths relative to the folder, each with the last fit's verdict (``fit``) and without the
+        detail (:data:`daq.run_index.DETAIL_KEYS`: the session page and the diff read it); and whether more
+        matched."""
         from daq.run_index import query
 
-        rows, result = query(self.root, where, sort=sort, refresh=False, limit=PAGE_ROWS + 1, descending=descending)
-        for r in rows:
-            r["path"] = self.relative(r["path"])
+        rows, result = query(
+            self.root, where, sort=sort, refresh=False, limit=PAGE_ROWS + 1, descending=descending, detail=False
+        )
+        base = str(self.root) + "/"
+        for r in rows:  # inside the folder, as the index keeps them: the prefix off (not a Path per row)
+            r["path"] = r["path"][len(base) :] if r["path"].startswith(base) else self.relative(r["path"])
         if result.index is None:  # scanned into memory (read-only folder…): the query did the refresh itself
             self.notes = result.notes
         return rows[:PAGE_ROWS], len(rows) > PAGE_ROWS

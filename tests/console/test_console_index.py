@@ -53,7 +53,7 @@ def test_index_page_is_the_run_index_query(client: Client, lab: Path):
                   ["text~re-honed"], ["status=success"], ["scene~a"]):  # fmt: skip
         params = {"where": where} if where else {}
         got = indexed(client, **params)["sessions"]
-        expected, _ = query(lab, where, refresh=False, descending=True)
+        expected, _ = query(lab, where, refresh=False, descending=True, detail=False)
         assert [r["path"] for r in got] == [Path(e["path"]).relative_to(lab).as_posix() for e in expected], where
         assert got == [{**e, "path": Path(e["path"]).relative_to(lab).as_posix()} for e in expected]
     newest_first = [r["path"] for r in indexed(client)["sessions"]]
@@ -150,3 +150,22 @@ def test_diff_names_the_setting_that_differs(client: Client, lab: Path):
     for a, b in (("a.h5", "../x.h5"), ("a.h5", ""), ("a.h5", "small.toml")):
         r = client.get("/api/diff", params={"a": a, "b": b})
         assert r.status_code == 400 and "\n" not in r.json()["error"], (a, b, r.text)
+
+
+def test_the_last_fit_is_shown_stale_and_searched(client: Client, lab: Path, monkeypatch: pytest.MonkeyPatch):
+    """The last fit's verdict (daq.run_index.record_fit, as `contactrig fit` writes it) on the index page, found by
+    the page's "last fit" filter (--where verdict=), stale once the analysis version changes."""
+    from contactrig.core import provenance
+    from daq.run_index import record_fit
+
+    record_fit(lab / "b.h5", discriminates=False, best="hertz", statement="Verdict: x", who="ann")
+    record_fit(lab / "b.h5", discriminates=True, best="lagemann", statement="Verdict: y", who="bob")  # the last
+    [row] = indexed(client, where=["verdict=discriminates"])["sessions"]
+    assert row["path"] == "b.h5" and (row["fit"]["best"], row["fit"]["who"], row["fit"]["stale"]) == (
+        "lagemann", "bob", False
+    )  # fmt: skip
+    assert indexed(client, where=["verdict=undecided"])["sessions"] == []
+    assert {r["path"] for r in indexed(client, where=["verdict=none"])["sessions"]} == {"a.h5", "c.h5", "sub/d.h5"}
+    monkeypatch.setattr(provenance, "software_version", lambda: "99.0")
+    [row] = indexed(client, where=["verdict=stale"])["sessions"]
+    assert row["path"] == "b.h5" and row["fit"]["stale"] is True

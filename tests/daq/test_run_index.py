@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
@@ -227,3 +228,77 @@ def test_a_batch_that_crashes_the_reader_is_read_again_file_by_file(folder, monk
     got = _by_name(ri.query(folder, jobs=1)[0])
     assert set(got) == {"a.h5", "b.h5", "c.h5", "garbage.h5", "cut.h5"}
     assert got["a.h5"]["status"] == "success" and got["garbage.h5"]["status"] == "corrupt"
+
+
+def test_a_sealed_session_is_indexed_from_its_records_not_its_tables(folder, monkeypatch):
+    """Issue 29, speed: a sealed session is indexed from its records, its block digests and the names of its tables'
+    columns, without reading the readings and exchanges (a third of a whole read); the row is the one a whole,
+    verified read gives."""
+    from daq import session_reader
+
+    members = []
+    real = session_reader._Reader.node
+
+    def spy(self, name, kind):
+        members.append(name)
+        return real(self, name, kind)
+
+    monkeypatch.setattr(session_reader._Reader, "node", spy)
+    [light] = ri._records_here([folder / "a.h5"])
+    assert members and not [m for m in members if m.startswith(("entry/readings/", "entry/exchanges/"))]
+    full = ri.session_record(folder / "a.h5")  # load_session: every block's SHA-256 and the whole seal
+    assert (light["checked"], full["checked"]) == ("records", "whole")
+    assert {k: v for k, v in light.items() if k != "checked"} == {k: v for k, v in full.items() if k != "checked"}
+
+
+def test_the_index_lists_an_altered_or_damaged_sealed_session_as_corrupt(folder, capsys):
+    """A sealed session whose start record was altered, or whose table lost a column, is read whole and listed
+    corrupt with the reason; a value altered inside a table is found by a whole read (`contactrig sessions FILE`)."""
+    from .hostile import _cell, _copy_then, _delete, _record, _set
+
+    variants = {
+        "operator.h5": _record("entry/start/record", _set("operator", "mallory")),
+        "no-valid.h5": _delete("entry/readings/valid"),
+        "reading.h5": _cell("entry/readings/reading", 3, 1.0),
+    }
+    for name, edit in variants.items():
+        _copy_then(edit)(folder / "a.h5", folder / name)
+        _age(folder / name)
+    got = _by_name(ri.query(folder)[0])
+    assert got["operator.h5"]["status"] == "corrupt" and "start record" in got["operator.h5"]["note"]
+    assert got["no-valid.h5"]["status"] == "corrupt" and "readings/valid" in got["no-valid.h5"]["note"]
+    assert (got["reading.h5"]["status"], got["reading.h5"]["checked"]) == ("success", "records")
+    assert main(["sessions", str(folder / "reading.h5")]) == 0
+    assert "CORRUPT" in capsys.readouterr().out
+
+
+def test_an_index_of_schema_1_is_upgraded_and_its_rows_read_again(folder):
+    """An index written by the previous contactrig (schema 1): upgraded in place, its rows read again from the
+    files (the cache is rebuilt), nothing lost."""
+    index = folder / ri.INDEX_NAME
+    with contextlib.closing(sqlite3.connect(index)) as con:
+        for statement in ri._UPGRADES[0].split(";"):
+            if statement.strip():
+                con.execute(statement)
+        con.execute("INSERT INTO sessions VALUES ('a.h5', 1, 1, 1, 1, 'x', 'success', '', '', '', '', '', '{}')")
+        con.execute("PRAGMA user_version = 1")
+        con.commit()
+    rows, refreshed = ri.query(folder)
+    assert refreshed.read == 5 and len(rows) == 5 and _by_name(rows)["a.h5"]["sample"] == "Bronze ring"
+    with contextlib.closing(sqlite3.connect(index)) as con:
+        assert con.execute("PRAGMA user_version").fetchone()[0] == ri.SCHEMA_VERSION == 2
+
+
+def test_sessions_diff_a_b_names_the_one_setting_that_differs(folder, capsys):
+    """`contactrig sessions diff A.h5 B.h5` as the issue spells it: a.h5 and c.h5 were written with NPLC 1 and 2
+    (write_run's nplc), nothing else of the instruments differs."""
+    assert main(["sessions", "diff", str(folder / "a.h5"), str(folder / "c.h5"), "--json"]) == 0
+    diff = json.loads(capsys.readouterr().out)
+    settings = [d for d in diff["differences"] if d["field"].startswith(("settings", "instruments", "overrides"))]
+    assert settings == [{"field": "settings.delta.nplc", "a": 1.0, "b": 2.0}]
+    assert main(["sessions", "diff", str(folder / "a.h5"), str(folder / "c.h5")]) == 0
+    assert "settings.delta.nplc" in capsys.readouterr().out
+    for argv in (["diff", str(folder / "a.h5")], [str(folder), str(folder / "a.h5"), str(folder / "c.h5")]):
+        assert main(["sessions", *argv]) == 2
+        err = capsys.readouterr().err
+        assert "diff A.h5 B.h5" in err and len(err.strip().splitlines()) == 1

@@ -1,5 +1,5 @@
 """Issue 29: the run index under concurrent refreshes from real processes, and random sequences of add, delete,
-move, damage and tag: the index always equals an index built from nothing (daq.run_index.fresh_scan)."""
+move, damage, tag and fit: the index always equals an index built from nothing (daq.run_index.fresh_scan)."""
 
 from __future__ import annotations
 
@@ -71,7 +71,7 @@ def test_concurrent_refreshes_from_processes_never_corrupt_the_index(templates, 
 
 
 _OPS = st.lists(
-    st.tuples(st.sampled_from(["add", "delete", "move", "damage", "tag", "refresh"]), st.integers(0, 7)),
+    st.tuples(st.sampled_from(["add", "delete", "move", "damage", "tag", "fit", "refresh"]), st.integers(0, 7)),
     min_size=1, max_size=7,
 )  # fmt: skip
 
@@ -103,6 +103,8 @@ def test_random_changes_leave_the_index_equal_to_a_fresh_scan(templates, tmp_pat
                 f.write(os.urandom(512))
         elif op == "tag" and target is not None:
             ri.add_mark(target, "tag", f"t{k}", who="test")
+        elif op == "fit" and target is not None and ri.session_record(target)["status"] not in ri.UNREADABLE:
+            ri.record_fit(target, discriminates=k % 2 == 0, best=f"m{k}", statement="Verdict: test", who="test")
         else:
             ri.refresh(folder)
     ri.refresh(folder)

@@ -47,6 +47,7 @@ const FILTERS = [["f-text", "notes and remarks contain", "text~", "search"], ["f
   ["f-operator", "operator", "operator~", "text"], ["f-scene", "scene", "scene~", "text"], ["f-serial", "instrument serial", "serial=", "text"],
   ["f-tag", "tag", "tag=", "text"], ["f-from", "started from (UTC day)", "start>=", "date"], ["f-to", "started until (UTC day)", "start<=", "date"]];
 const STATUSES = ["", "success", "aborted", "failed", "running", "incomplete", "corrupt", "newer"];
+const VERDICTS = ["", "discriminates", "undecided", "stale", "none"]; // the last fit's (--where verdict=)
 
 function markText(m) { return `${m.text} — ${m.who}, ${m.at}`; }
 
@@ -57,12 +58,13 @@ async function showSessions() {
     return el("label", { class: type === "search" ? "search" : "filter" }, `${label} `, inputs[id]);
   });
   const status = el("select", { id: "f-status" }, ...STATUSES.map((s) => el("option", { value: s, text: s || "any" })));
+  const verdict = el("select", { id: "f-verdict" }, ...VERDICTS.map((v) => el("option", { value: v, text: v || "any" })));
   const table = el("table", { id: "sessions-table" });
   const runsBox = el("div", { id: "console-runs" });
   const state = el("p", { id: "index-state", class: "small" });
   const compare = el("button", { id: "btn-compare", disabled: "disabled", text: "Why do these two runs differ?" });
   compare.addEventListener("click", () => { location.hash = `#/diff/${encodeURIComponent(JSON.stringify(chosen))}`; });
-  main(el("h1", { text: "Sessions" }), runsBox, boxes[0], el("div", { class: "filters" }, ...boxes.slice(1), el("label", { class: "filter" }, "status ", status)),
+  main(el("h1", { text: "Sessions" }), runsBox, boxes[0], el("div", { class: "filters" }, ...boxes.slice(1), el("label", { class: "filter" }, "status ", status), el("label", { class: "filter" }, "last fit ", verdict)),
     el("p", {}, compare, el("span", { id: "compare-picked", class: "small" })), state, table);
   const runs = await api("/api/runs");
   if ((runs.runs || []).length) runsBox.append(el("h2", { text: "Started from this console" }));
@@ -82,6 +84,7 @@ async function showSessions() {
     if (!kick) q.set("kick", "0");
     for (const [id, , key] of FILTERS) if (inputs[id].value.trim()) q.append("where", key + inputs[id].value.trim());
     if (status.value) q.append("where", `status=${status.value}`);
+    if (verdict.value) q.append("where", `verdict=${verdict.value}`);
     const data = await api(`/api/sessions?${q}`);
     if (mine !== asked || !document.body.contains(table)) return; // a newer search, or another page, meanwhile
     if (data.indexing) timer = setTimeout(() => { if (document.body.contains(table)) load(false, true); }, 700);
@@ -91,7 +94,7 @@ async function showSessions() {
     if (data.error) return;
     if (poll && data.generation === shownGeneration) return; // nothing new: the table stays as it is
     shownGeneration = data.generation;
-    const cols = [["", null], ["start", "start"], ["status", "status"], ["blocks", null], ["kind", null], ["sample", "sample"], ["operator", "operator"], ["file", "path"], ["tags", null], ["", null]];
+    const cols = [["", null], ["start", "start"], ["status", "status"], ["blocks", null], ["kind", null], ["sample", "sample"], ["operator", "operator"], ["last fit", null], ["file", "path"], ["tags", null], ["", null]];
     const head = el("tr", {}, ...cols.map(([name, key]) => {
       const th = el("th", { text: name + (key === sortKey ? " ▾" : "") });
       if (key) th.addEventListener("click", () => { sortKey = key; load(false); });
@@ -118,16 +121,19 @@ async function showSessions() {
       pick.dataset.path = s.path;
       const tags = el("td", { class: "tags" }, ...(s.tags || []).map((t) => el("span", { class: "tag", title: `${t.who}, ${t.at}`, text: t.text })));
       const st = ["corrupt", "newer"].includes(s.status) ? s.status.toUpperCase() : s.status;
+      const f = s.fit; // the last fit's verdict (contactrig fit), stale when made with another analysis version
+      const fit = el("td", f ? { class: f.stale ? "fit stale" : "fit", title: `${f.statement} — analysis ${f.analysis_version}, ${f.who}, ${f.at}`,
+        text: `${f.verdict} ${f.best}` + (f.stale ? ` (stale: ${f.analysis_version})` : "") } : {});
       const row = el("tr", {}, el("td", {}, pick), el("td", { text: s.start_shown || s.start_time || "" }),
         el("td", { class: s.status, text: st }), el("td", { text: blocks }), el("td", { text: s.kind }),
-        el("td", { class: "sample text", text: s.sample }), el("td", { class: "text", text: s.operator }), el("td", { class: "text" }, link), tags, action);
+        el("td", { class: "sample text", text: s.sample }), el("td", { class: "text", text: s.operator }), fit, el("td", { class: "text" }, link), tags, action);
       const out = [row];
-      if (s.note && !["success", "running"].includes(s.status)) out.push(el("tr", {}, el("td", { colspan: 10, class: "note", text: s.note })));
-      for (const m of s.remarks || []) out.push(el("tr", {}, el("td"), el("td", { colspan: 9, class: "remark text", text: `remark: ${markText(m)}` })));
+      if (s.note && !["success", "running"].includes(s.status)) out.push(el("tr", {}, el("td", { colspan: 11, class: "note", text: s.note })));
+      for (const m of s.remarks || []) out.push(el("tr", {}, el("td"), el("td", { colspan: 10, class: "remark text", text: `remark: ${markText(m)}` })));
       return out;
     }).flat();
     table.replaceChildren(head, ...rows);
-    if (!rows.length) table.append(el("tr", {}, el("td", { colspan: 10, text: data.indexing ? "(the index is being built…)" : "(no session matches)" })));
+    if (!rows.length) table.append(el("tr", {}, el("td", { colspan: 11, text: data.indexing ? "(the index is being built…)" : "(no session matches)" })));
   };
   let typing = null;
   const later = () => { clearTimeout(typing); typing = setTimeout(() => load(false), 250); };
