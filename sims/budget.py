@@ -17,7 +17,7 @@ stage           memory                                                          
 ``press``       ~48 B per ring pair (influence matrix, Jacobian)                ``[press] n_rings``
 ``bem``         ~200 B per point of the refined grid, per concurrent task,      ``[surfaces.*] n``, ``--refine``,
                 plus ~100 MB for each worker process                            ``--jobs``
-``bem_gpu``     device memory of one solve on the GPU: ~128 B per point,        ``[surfaces.*] n``, ``--refine``,
+``bem_gpu``     device memory of one solve on the GPU: ~160 B per point,        ``[surfaces.*] n``, ``--refine``,
                 against the card's free memory (:func:`check_bem_gpu`)          ``--device gpu``
 ==============  ==============================================================  ======================================
 
@@ -183,11 +183,12 @@ def check_comparison(
 # ---------------------------------------------------------------------------------------------------------------
 # The GPU's memory (boundary elements on CuPy, issue 28).
 
-#: Device memory of one FFT-BEM solve per grid point [bytes]: z, p, w, t (8 B each), the contact mask (1 B), the
-#: half spectra of the direction and its product with the compliance (2 × 8 B), the inverse FFT's output (8 B),
-#: cuFFT's plan work area (~16 B), the compliance and stiffness symbols (2 × 4 B) and the sparse index arrays of the
-#: support (≤ 16 B): ~110 B, rounded up for CuPy's memory pool.
-_BEM_GPU_B = 128.0
+#: Device memory of one FFT-BEM solve per grid point [bytes], measured: CuPy's memory pool held 154 B per point after
+#: a 4096² solve on an H200 (2026-11-27, ``tests/benchmarks/profile_bem_gpu.py``; the pool keeps what it held, so
+#: this is the peak: z, p, w, t, the contact mask, the half spectra (float64 and the float32 filter's), the
+#: interleaved symbols made on the card, the sparse index arrays of the support and cuFFT's plans and work areas),
+#: rounded up. (Before the float32 filter and the symbols on the card the estimate was 128 B, not measured.)
+_BEM_GPU_B = 160.0
 
 
 def bem_gpu(n: int, key: str = "[surfaces.*] n") -> Estimate:
