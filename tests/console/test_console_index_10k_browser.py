@@ -2,10 +2,13 @@
 
 The folder is the run-index benchmark's (:func:`tests.daq.run_files.build_lab`: hard links of 20 real sessions,
 1 % damaged: a truncated copy at ``k % 100 == 37``, garbage at ``k % 100 == 73``), indexed once before the console
-starts (the cost of this test: 10 000 bounded reads, two at once; the time is printed, never asserted: speed is the
-benchmark's, ``tests/benchmarks/bench_run_index.py``). The page must show how many sessions match and the first page
-of rows, list the damaged files as damaged, narrow a search (sample, tag, full text in the notes) to exactly the
-sessions ``daq.run_index.query`` finds on the same folder, in the same order, and page through every match.
+starts. That is the cost of this test: 10 000 bounded reads, two at once, ~6.3 ms of CPU a file — 104–116 s on the
+shared 2-core development machine at load 5–6 (the whole test 2.5 min), about 35–40 s estimated on two free cores.
+Times are printed, never asserted: speed is the benchmark's (``tests/benchmarks/bench_run_index.py``).
+
+The page must show how many sessions match and the first page of rows, list the damaged files as damaged, narrow a
+search (sample, tag, full text in the notes) to exactly the sessions ``daq.run_index.query`` finds on the same
+folder, in the same order, and page through every match.
 """
 
 from __future__ import annotations
