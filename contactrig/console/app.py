@@ -258,8 +258,10 @@ def _finite(value: Any) -> Any:
 async def sessions(request: Request) -> Response:
     """One page of the run index (:meth:`Catalog.rows`: the index as it is, never a scan), the newest first;
     ``where`` (repeated) are ``contactrig sessions --where`` texts, ``sort`` a ``--sort`` key, ``order=asc`` the
-    oldest first. A refresh is started in the background (``kick=0``: not); ``indexing`` and ``generation`` let the
-    page poll until it has ended and draw again."""
+    oldest first, ``offset`` the rows skipped (a later page); ``matched`` counts the sessions that match. A refresh
+    is started in the background (``kick=0``: not); ``indexing`` and ``generation`` let the page poll until it has
+    ended and draw again."""
+    from contactrig.console.catalog import PAGE_ROWS
     from daq.index import SORT_KEYS
 
     console: Console = request.app.state.console
@@ -270,13 +272,17 @@ async def sessions(request: Request) -> Response:
     if request.query_params.get("kick") != "0":
         catalog.kick()
     generation = catalog.generation
+    offset = request.query_params.get("offset", "0")
+    if not offset.isascii() or not offset.isdigit() or len(offset) > 15:
+        return JSONResponse({"error": f"offset {offset!r}: a whole number of rows, 0 or more"}, status_code=400)
     try:
-        rows, more = await asyncio.to_thread(catalog.rows, where, sort,
-                                             descending=request.query_params.get("order") != "asc")  # fmt: skip
+        rows, matched = await asyncio.to_thread(catalog.rows, where, sort, offset=int(offset),
+                                                descending=request.query_params.get("order") != "asc")  # fmt: skip
     except (ValueError, OSError) as exc:
         return JSONResponse({"error": _one_line(exc)}, status_code=400)
-    return IndexJSON({"sessions": rows, "more": more, "indexing": catalog.indexing, "generation": generation,
-                      "notes": catalog.notes})  # fmt: skip
+    more = int(offset) + len(rows) < matched
+    return IndexJSON({"sessions": rows, "more": more, "matched": matched, "offset": int(offset), "page": PAGE_ROWS,
+                      "indexing": catalog.indexing, "generation": generation, "notes": catalog.notes})  # fmt: skip
 
 
 async def add_mark(request: Request) -> Response:

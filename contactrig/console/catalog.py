@@ -20,7 +20,7 @@ from typing import Any
 
 __all__ = ["PAGE_ROWS", "Catalog"]
 
-#: rows on one index page (the newest first); more matching: the page says so (narrow the search)
+#: rows on one index page (the newest first); more matching: the page has the next page's button
 PAGE_ROWS = 500
 
 
@@ -72,22 +72,25 @@ class Catalog:
                     self._busy = False
                     self.generation += 1
 
-    def rows(self, where: Sequence[str], sort: str, *, descending: bool = True) -> tuple[list[dict[str, Any]], bool]:
-        """The index's rows meeting every ``--where`` text (``SettingError`` for a bad one), at most
-        :data:`PAGE_ROWS`, paths relative to the folder, each with the last fit's verdict (``fit``) and without the
-        detail (:data:`daq.run_index.DETAIL_KEYS`: the session page and the diff read it); and whether more
-        matched."""
+    def rows(
+        self, where: Sequence[str], sort: str, *, descending: bool = True, offset: int = 0
+    ) -> tuple[list[dict[str, Any]], int]:
+        """One page of the index's rows meeting every ``--where`` text (``SettingError`` for a bad one): at most
+        :data:`PAGE_ROWS` from ``offset`` on, paths relative to the folder, each with the last fit's verdict (``fit``)
+        and without the detail (:data:`daq.run_index.DETAIL_KEYS`: the session page and the diff read it); and how
+        many sessions matched in all."""
         from daq.run_index import query
 
         rows, result = query(
-            self.root, where, sort=sort, refresh=False, limit=PAGE_ROWS + 1, descending=descending, detail=False
-        )
+            self.root, where, sort=sort, refresh=False, limit=PAGE_ROWS, descending=descending, detail=False,
+            offset=offset,
+        )  # fmt: skip
         base = str(self.root) + "/"
         for r in rows:  # inside the folder, as the index keeps them: the prefix off (not a Path per row)
             r["path"] = r["path"][len(base) :] if r["path"].startswith(base) else self.relative(r["path"])
         if result.index is None:  # scanned into memory (read-only folder…): the query did the refresh itself
             self.notes = result.notes
-        return rows[:PAGE_ROWS], len(rows) > PAGE_ROWS
+        return rows, result.matched
 
     def relative(self, path: str) -> str:
         try:

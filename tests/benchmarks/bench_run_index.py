@@ -32,38 +32,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from daq import run_index
-from tests.daq.run_files import write_run
-
-
-def _age(path: Path) -> None:
-    t = time.time() - 3600
-    os.utime(path, (t, t))
-
-
-def build(folder: Path, n: int, distinct: int) -> None:
-    """``n`` session files under ``folder`` (1 % damaged), from ``distinct`` real sessions."""
-    src = folder / ".sources"
-    src.mkdir()
-    sources = []
-    for i in range(distinct):
-        offset = ("+00:00", "-05:00", "+09:00")[i % 3]
-        sources.append(write_run(
-            src / f"s{i}.h5", sample=f"sample-{i % 7}", operator=("ann", "bob", "chen")[i % 3],
-            notes="liner re-honed" if i % 5 == 0 else "", started=f"2026-01-{1 + i % 28:02d}T10:00:00.000{offset}",
-        ))  # fmt: skip
-    data = sources[0].read_bytes()
-    for k in range(n):
-        sub = folder / f"day{k // 100:03d}"
-        sub.mkdir(exist_ok=True)
-        out = sub / f"run{k:05d}.h5"
-        if k % 100 == 37:
-            out.write_bytes(data[: len(data) // 2])  # truncated: damaged
-        elif k % 100 == 73:
-            out.write_bytes(os.urandom(4096))  # garbage
-        else:
-            os.link(sources[k % distinct], out)
-    for p in [*src.iterdir(), *folder.rglob("*.h5")]:
-        _age(p)
+from tests.daq.run_files import age, build_lab
 
 
 def _best(call: Callable[[], object], n: int = 3) -> float:
@@ -86,7 +55,7 @@ def main(argv: list[str] | None = None) -> int:
         folder = Path(tmp) / "lab"
         folder.mkdir()
         t = time.perf_counter()
-        build(folder, args.n, args.distinct)
+        build_lab(folder, args.n, args.distinct)
         print(f"built {args.n} files ({args.distinct} distinct sessions) in {time.perf_counter() - t:.1f} s")
         print(f"load average before: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
         t = time.perf_counter()
@@ -106,7 +75,7 @@ def main(argv: list[str] | None = None) -> int:
         t = time.perf_counter()
         r = run_index.refresh(folder, jobs=args.jobs)
         print(f"one new:       {time.perf_counter() - t:8.3f} s  ({r.read} read, {r.kept} kept; target ≤ 1 s)")
-        _age(folder / "day000" / "new.h5")  # settled (a file changed in the last 2 s is read at every refresh)
+        age(folder / "day000" / "new.h5")  # settled (a file changed in the last 2 s is read at every refresh)
         run_index.refresh(folder)
         for where in (
             ["sample=sample-3"],

@@ -62,6 +62,23 @@ def test_index_page_is_the_run_index_query(client: Client, lab: Path):
     assert oldest_first == newest_first[::-1]
 
 
+def test_pages_of_the_index_and_the_count(client: Client, lab: Path, monkeypatch: pytest.MonkeyPatch):
+    """``offset`` gives the next page (PAGE_ROWS a page), ``matched`` counts every match; a bad offset is a 400."""
+    from contactrig.console import catalog
+
+    monkeypatch.setattr(catalog, "PAGE_ROWS", 3)
+    first = indexed(client)
+    assert [r["path"] for r in first["sessions"]] == ["c.h5", "sub/d.h5", "b.h5"]  # newest first, 3 a page
+    assert (first["matched"], first["offset"], first["more"]) == (4, 0, True)
+    second = client.get("/api/sessions", params={"kick": "0", "offset": "3"}).json()
+    assert [r["path"] for r in second["sessions"]] == ["a.h5"] and (second["matched"], second["more"]) == (4, False)
+    steel = client.get("/api/sessions", params={"kick": "0", "where": "sample=steel", "offset": "1"}).json()
+    assert [r["path"] for r in steel["sessions"]] == ["sub/d.h5"] and steel["matched"] == 2
+    for bad in ("-1", "x", "1e3", "9" * 20):
+        r = client.get("/api/sessions", params={"offset": bad})
+        assert r.status_code == 400 and "offset" in r.json()["error"] and "\n" not in r.json()["error"], bad
+
+
 def test_a_bad_filter_is_a_one_line_error(client: Client, lab: Path):
     for bad, needle in (("nope=1", "--where"), ("status=great", "status="), ("start>=yesterday", "date")):
         r = client.get("/api/sessions", params={"where": bad})

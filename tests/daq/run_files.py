@@ -3,6 +3,8 @@ FileWriter, the simulated bench): start records with the fields an acquisition r
 
 from __future__ import annotations
 
+import os
+import time
 from pathlib import Path
 from typing import Any
 
@@ -40,3 +42,39 @@ def write_run(
     finally:
         sf.close()
     return path
+
+
+def age(path: Path) -> None:
+    """``path`` modified an hour ago: settled (a file changed in the last 2 s is read again at every refresh)."""
+    t = time.time() - 3600
+    os.utime(path, (t, t))
+
+
+def build_lab(folder: Path, n: int, distinct: int) -> None:
+    """``n`` session files under ``folder`` (100 a sub-folder ``dayNNN/runNNNNN.h5``; 1 % damaged: ``k % 100 == 37``
+    a truncated copy, ``k % 100 == 73`` garbage), hard links of ``distinct`` real sessions kept in ``folder/.sources``
+    (sample ``sample-{i % 7}``, operator ann/bob/chen, notes "liner re-honed" for every fifth, start days 1–28 with
+    UTC offsets +00:00, -05:00, +09:00), all settled. The run-index benchmark's folder and the console's 10 000-file
+    browser test."""
+    src = folder / ".sources"
+    src.mkdir()
+    sources = []
+    for i in range(distinct):
+        offset = ("+00:00", "-05:00", "+09:00")[i % 3]
+        sources.append(write_run(
+            src / f"s{i}.h5", sample=f"sample-{i % 7}", operator=("ann", "bob", "chen")[i % 3],
+            notes="liner re-honed" if i % 5 == 0 else "", started=f"2026-01-{1 + i % 28:02d}T10:00:00.000{offset}",
+        ))  # fmt: skip
+    data = sources[0].read_bytes()
+    for k in range(n):
+        sub = folder / f"day{k // 100:03d}"
+        sub.mkdir(exist_ok=True)
+        out = sub / f"run{k:05d}.h5"
+        if k % 100 == 37:
+            out.write_bytes(data[: len(data) // 2])  # truncated: damaged
+        elif k % 100 == 73:
+            out.write_bytes(os.urandom(4096))  # garbage
+        else:
+            os.link(sources[k % distinct], out)
+    for p in [*src.iterdir(), *folder.rglob("*.h5")]:
+        age(p)

@@ -150,6 +150,22 @@ def test_where_filters(folder):
     assert [os.path.basename(r["path"]) for r in first] == ["c.h5", "a.h5"]
 
 
+def test_pages_by_offset_and_the_count_of_matches(folder):
+    """``offset`` skips rows of the same order (start instant in UTC, unreadable files last, by path) and the
+    ``Refresh`` counts every match, whatever the page (the console's pages and their count)."""
+
+    def page(*where, **kw):
+        rows, result = ri.query(folder, list(where), detail=False, **kw)
+        return [os.path.basename(r["path"]) for r in rows], result.matched
+
+    # c: 2025-12-31 07:00Z, a: 2026-01-01 10:00Z, b: 2026-01-02 04:30Z; then cut.h5 and garbage.h5 (damaged)
+    assert [page(limit=2, offset=k) for k in (0, 2, 4, 6)] == [
+        (["c.h5", "a.h5"], 5), (["b.h5", "cut.h5"], 5), (["garbage.h5"], 5), ([], 5)
+    ]  # fmt: skip
+    assert page("sample=steel", descending=True, limit=1, offset=1) == (["c.h5"], 2)
+    assert page("sample=steel", offset=1) == (["b.h5"], 2) and page("operator=nobody", limit=3) == ([], 0)
+
+
 @pytest.mark.parametrize(
     "bad", ["sample", "color=red", "start=2026-01-01", "start>=yesterday", "sample>=a", "text~!!", "status=done"]
 )

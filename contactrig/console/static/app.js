@@ -62,10 +62,18 @@ async function showSessions() {
   const table = el("table", { id: "sessions-table" });
   const runsBox = el("div", { id: "console-runs" });
   const state = el("p", { id: "index-state", class: "small" });
+  // the count of sessions that match and the page shown (PAGE_ROWS of contactrig/console/catalog.py a page)
+  let offset = 0;
+  const counted = el("span", { id: "index-count" });
+  const prev = el("button", { id: "page-prev", disabled: "disabled", text: "◀ newer page" });
+  const next = el("button", { id: "page-next", disabled: "disabled", text: "next page ▶" });
+  prev.addEventListener("click", () => { offset = Math.max(0, offset - pageRows); load(false); });
+  next.addEventListener("click", () => { offset += pageRows; load(false); });
+  let pageRows = 500;
   const compare = el("button", { id: "btn-compare", disabled: "disabled", text: "Why do these two runs differ?" });
   compare.addEventListener("click", () => { location.hash = `#/diff/${encodeURIComponent(JSON.stringify(chosen))}`; });
   main(el("h1", { text: "Sessions" }), runsBox, boxes[0], el("div", { class: "filters" }, ...boxes.slice(1), el("label", { class: "filter" }, "status ", status), el("label", { class: "filter" }, "last fit ", verdict)),
-    el("p", {}, compare, el("span", { id: "compare-picked", class: "small" })), state, table);
+    el("p", {}, compare, el("span", { id: "compare-picked", class: "small" })), state, el("p", { id: "pager" }, prev, " ", counted, " ", next), table);
   const runs = await api("/api/runs");
   if ((runs.runs || []).length) runsBox.append(el("h2", { text: "Started from this console" }));
   for (const r of runs.runs || []) {
@@ -82,6 +90,7 @@ async function showSessions() {
     if (timer) { clearTimeout(timer); timer = null; }
     const q = new URLSearchParams({ sort: sortKey, order: sortKey === "start" ? "desc" : "asc" }); // newest first; A to Z
     if (!kick) q.set("kick", "0");
+    if (offset) q.set("offset", String(offset));
     for (const [id, , key] of FILTERS) if (inputs[id].value.trim()) q.append("where", key + inputs[id].value.trim());
     if (status.value) q.append("where", `status=${status.value}`);
     if (verdict.value) q.append("where", `verdict=${verdict.value}`);
@@ -89,15 +98,20 @@ async function showSessions() {
     if (mine !== asked || !document.body.contains(table)) return; // a newer search, or another page, meanwhile
     if (data.indexing) timer = setTimeout(() => { if (document.body.contains(table)) load(false, true); }, 700);
     state.textContent = (data.error ? `${data.error} ` : "") + (data.indexing ? "updating the index from the files… (shown: the index as it is) " : "")
-      + (data.more ? "more sessions match than are shown: narrow the search. " : "") + (data.notes || []).join(" ");
+      + (data.notes || []).join(" ");
     state.className = data.error ? "error" : "small";
     if (data.error) return;
     if (poll && data.generation === shownGeneration) return; // nothing new: the table stays as it is
     shownGeneration = data.generation;
+    pageRows = data.page || pageRows;
+    const n = (data.sessions || []).length;
+    counted.textContent = `${data.matched} session${data.matched === 1 ? "" : "s"} match` + (data.matched ? `; shown ${data.offset + (n ? 1 : 0)}–${data.offset + n}` : "");
+    prev.disabled = !data.offset;
+    next.disabled = !data.more;
     const cols = [["", null], ["start", "start"], ["status", "status"], ["blocks", null], ["kind", null], ["sample", "sample"], ["operator", "operator"], ["last fit", null], ["file", "path"], ["tags", null], ["", null]];
     const head = el("tr", {}, ...cols.map(([name, key]) => {
       const th = el("th", { text: name + (key === sortKey ? " ▾" : "") });
-      if (key) th.addEventListener("click", () => { sortKey = key; load(false); });
+      if (key) th.addEventListener("click", () => { sortKey = key; offset = 0; load(false); });
       return th;
     }));
     const rows = (data.sessions || []).map((s) => {
@@ -136,9 +150,10 @@ async function showSessions() {
     if (!rows.length) table.append(el("tr", {}, el("td", { colspan: 11, text: data.indexing ? "(the index is being built…)" : "(no session matches)" })));
   };
   let typing = null;
-  const later = () => { clearTimeout(typing); typing = setTimeout(() => load(false), 250); };
+  const later = () => { clearTimeout(typing); typing = setTimeout(() => { offset = 0; load(false); }, 250); };
   for (const i of Object.values(inputs)) i.addEventListener("input", later);
-  status.addEventListener("change", () => load(false));
+  status.addEventListener("change", () => { offset = 0; load(false); });
+  verdict.addEventListener("change", () => { offset = 0; load(false); });
   await load(true);
 }
 
