@@ -1,6 +1,6 @@
 """The one declaration of the HDF5 session file: layout, columns with their units, records, upgrades and seal.
 
-Layout (schema 4; every numeric field has a ``units`` attribute)::
+Layout (schema 5; every numeric field has a ``units`` attribute)::
 
     /                         attrs contactrig_format, contactrig_schema, creator, HDF5_Version, h5py_version,
                               file_time, default="entry"
@@ -24,6 +24,10 @@ Layout (schema 4; every numeric field has a ``units`` attribute)::
                               adaptive session (``acquire --adaptive``) has ``adaptive`` in its start record (the
                               sequential design's settings) and in its stop record (every suggestion, the evidence
                               behind it and what the operator did, and the stop decision: :mod:`analysis.sequential`)
+    /entry/adaptive           NXcollection (schema 5, an adaptive session only): ``block_<j>`` (JSON), the record of the
+                              suggestion that led to summary row j — the suggestion, the evidence behind it and what the
+                              operator did — written with that block, before its summary row, and flushed with it: a
+                              killed session keeps every suggestion of its blocks (the stop record repeats them all)
 
 The writer (:mod:`daq.session_writer`) creates every table from these declarations and the reader
 (:mod:`daq.session_reader`) checks every member against them; the seal (:func:`seal`) is computed by the one and
@@ -59,7 +63,7 @@ __all__ = [
 ]
 
 FORMAT_NAME = "contactrig-session"
-SCHEMA_VERSION = 4
+SCHEMA_VERSION = 5
 
 
 def _upgrade_1(raw: dict[str, Any]) -> dict[str, Any]:
@@ -82,10 +86,18 @@ def _upgrade_3(raw: dict[str, Any]) -> dict[str, Any]:
     return raw
 
 
+def _upgrade_4(raw: dict[str, Any]) -> dict[str, Any]:
+    """Schema 4 → 5: each suggestion of an adaptive session also as its block's own record (``/entry/adaptive``).
+    Nothing to convert: a schema-4 file has its suggestions in its stop record only (``raw["adaptive"]`` empty)."""
+    return {**raw, "adaptive": dict(raw.get("adaptive") or {})}
+
+
 # Upgrade functions, keyed by the schema they read: UPGRADES[k](raw) turns a loaded schema-k structure into a
 # schema-(k+1) one, so every older file keeps loading. A file opened to be continued (--resume) is upgraded in place
 # (:func:`_upgrade_in_place`).
-UPGRADES: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {1: _upgrade_1, 2: _upgrade_2, 3: _upgrade_3}
+UPGRADES: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {
+    1: _upgrade_1, 2: _upgrade_2, 3: _upgrade_3, 4: _upgrade_4,
+}  # fmt: skip
 
 STR = h5py.string_dtype()
 SUMMARY_FIELDS: dict[str, tuple[Any, str]] = {
@@ -180,7 +192,10 @@ SEAL_PARTS = {
     "readings": "the readings",
     "exchanges": "the recorded instrument exchanges",
     "stop": "the stop record",
+    "adaptive": "the records of the suggestions",
 }
+#: Parts added to the seal after schema 3, with the schema that added them (an older file's seal lacks them).
+SEALED_PARTS_SINCE = {"adaptive": 5}
 
 
 def canonical(value: Any) -> bytes:
@@ -212,6 +227,7 @@ def seal(raw: Mapping[str, Any], stop: Mapping[str, Any]) -> dict[str, str]:
         "readings": table_digest(raw["readings"], READING_FIELDS),
         "exchanges": table_digest(raw["exchanges"], EXCHANGE_FIELDS),
         "stop": sha(canonical({k: v for k, v in stop.items() if k != "seal"})),
+        "adaptive": sha(canonical(raw.get("adaptive") or {})),
     }
 
 
