@@ -40,7 +40,10 @@ the session), each judged at checkpoints by the same rule.
 
 **Stop**: ``decisive``; ``futile`` when P(decisive within the remaining budget) < :data:`FUTILE_P` (5 %), with the
 dominant noise component against the largest difference between the leading models that no (R_s, σ_f) absorbs; or
-the operator's choice (``acquire``).
+the operator's choice (``acquire``). Futile before the first block when the prior noise makes every pair of models
+equivalent on this bench (:meth:`SequentialDesign.hopeless`): the decisive rule needs a separable rival, so then
+P(decisive) = 0 whatever the data — a consequence of the rule, not a threshold (Tab. 1's noise on the paper's rig
+and on the press).
 
 **Noise components**: the scatter between seatings at one weight (re-seating, with any series offset: an adaptive
 session has no series to separate them) from the session once Σ(n_i − 1) ≥ 4, the lack of fit common to every
@@ -635,6 +638,8 @@ class SequentialDesign:
                 f"Δ{ev.criterion} = {ev.margin:.1f} ≥ {self.threshold:g} (ĉ = {ev.c_hat:.2g}, {self.blocks} blocks, "
                 f"{self.spent_s / 60:.0f} min)"
             )
+        if self.hopeless():
+            return "futile", self.hopeless_reason()
         if self.spent_s >= self.budget_s:
             return (
                 "futile",
@@ -654,6 +659,41 @@ class SequentialDesign:
             )
         return None
 
+    def hopeless(self) -> bool:
+        """No model has a rival it could be told from within the budget (every pair equivalent on this bench, with
+        the prior noise: :meth:`_equivalents`): the decisive rule can never be met, whatever the data, so
+        P(decisive) = 0 before the first block — futile at once, no threshold involved."""
+        return all(len(group) == len(self.models) for group in self.groups.values()) and len(self.models) > 1
+
+    def _pair_reach(self) -> tuple[str, str, float]:
+        """The most separable pair and its expected Δ(Q)AIC over the whole budget (the smaller of both ways), with
+        the prior's noise, film and series (as :meth:`_equivalents`)."""
+        counts = np.full(self.weights_kg.size, self._seatings_in_budget())
+        params = (self.series, self.film)
+        best = ("", "", -math.inf)
+        for i, a in enumerate(self.models):
+            for b in self.models[i + 1 :]:
+                d = min(float(self.expected_delta(a, b, counts, params, self.prior)),
+                        float(self.expected_delta(b, a, counts, params, self.prior)))  # fmt: skip
+                if d > best[2]:
+                    best = (a, b, d)
+        return best
+
+    def hopeless_reason(self) -> str:
+        """The stop reason of a :meth:`hopeless` session: the prior noise, its source, the most separable pair's
+        expected Δ(Q)AIC against the threshold, why and what would."""
+        a, b, reach = self._pair_reach()
+        when = "before the first block" if self.blocks == 0 else f"after {self.blocks} blocks"
+        return (
+            f"stop — futile {when}: with the prior noise ({self.prior.source}: series offset "
+            f"{100 * self.prior.series_sd:.3g} %, re-seating {100 * self.prior.reseat_sd:.3g} %, lack of fit "
+            f"{100 * self.prior.lack_sd:.3g} % of ln R) no pair of models is separable "
+            f"within the budget of {self.budget_s / 60:.0f} min (the most separable, {_label(a)} and {_label(b)}, "
+            f"reach an expected Δ(Q)AIC of {reach:.2g} of {self.threshold:g} with the whole budget spread over the "
+            f"{self.weights_kg.size} allowed loads), so no session can end decisive; " + self.why()
+            + "; what would: " + self.what_would()
+        )  # fmt: skip
+
     def difference(self, a: str, b: str) -> float:
         """The largest relative difference between ``a``'s curve and ``b``'s best fit to it over the allowed weights
         (what no R_s, σ_f absorbs) [-], with ``a``'s prior parameters."""
@@ -665,6 +705,9 @@ class SequentialDesign:
     def _leading_pair(self) -> tuple[str, str | None]:
         """The leader (the first model before there is evidence) and its nearest rival (None: only one model)."""
         ev = self.evidence()
+        if ev is None and len(self.models) > 1:  # before there is evidence: the most separable pair
+            a, b, _ = self._pair_reach()
+            return a, b
         lead = ev.leader if ev is not None else self.models[0]
         others = [k for k in self.models if k != lead]
         if ev is not None:
@@ -708,15 +751,10 @@ class SequentialDesign:
 
     def why(self) -> str:
         """The reason the evidence does (not) move: the dominant noise component against the model difference."""
-        ev = self.evidence()
         noise, src = self.noise()
-        lead = ev.leader if ev is not None else self.models[0]
-        others = [k for k in self.models if k != lead]
-        if ev is not None:
-            others.sort(key=lambda k: ev.delta[k])
-        if not others:
+        lead, rival = self._leading_pair()
+        if rival is None:
             return "only one model"
-        rival = others[0]
         # what limits the evidence: the lack of fit as it is (no repeat averages it), the others over the seatings
         # per weight the budget allows
         n = self._seatings_in_budget()
@@ -737,7 +775,8 @@ class SequentialDesign:
         ev = self.evidence()
         noise, src = self.noise()
         p = self.predictive() if predictive else math.nan
-        stop = self.stop(p if predictive else None) if ev is not None or self.spent_s >= self.budget_s else None
+        stop = (self.stop(p if predictive else None) if ev is not None or self.spent_s >= self.budget_s
+                or self.hopeless() else None)  # fmt: skip
         progress = 0.0 if ev is None else min(1.0, max(0.0, ev.margin / self.threshold)) if math.isfinite(
             ev.margin) else 0.0  # fmt: skip
         return {
@@ -810,6 +849,8 @@ def simulate_loop(
     series = noise.series_sd * rng.standard_normal(64)
     lack = noise.lack_sd * rng.standard_normal(m)
     var = noise.series_sd**2 + noise.reseat_sd**2 + noise.lack_sd**2
+    if design.hopeless():  # futile before the first block (the prior makes every pair inseparable)
+        return "futile", "", design.spent_s, design.blocks
     while True:
         p = design.suggest()
         i = design.index_of(p.weight_kg)

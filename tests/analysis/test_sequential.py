@@ -168,3 +168,48 @@ def test_what_would_it_take_scales_the_noise_as_the_noncentrality_says() -> None
     assert found is not None, text
     assert float(found.group(1)) == pytest.approx(math.sqrt(delta / d.threshold), rel=0.01)
     assert "re-seating scatter below" in text
+
+
+def test_futile_before_the_first_block_when_the_prior_separates_no_pair() -> None:
+    """A ∝ W vs A ∝ W^0.98 under a 20 % lack of fit: with the prior noise no pair reaches the decisive Δ(Q)AIC with the
+    whole budget (checked here against the non-centrality of an independent least squares, ĉ from the noise model's
+    closed form), so the decisive rule — which needs a separable rival — can never be met: the loop stops futile at
+    0 blocks and 0 min, and says why and what would. A bench that can separate a pair is not stopped."""
+    noise = NoiseModel(0.0, 0.1, 0.2, "test")
+    d = _design(noise, budget_min=20.0, exponent_b=0.98)
+    n = d._seatings_in_budget()
+    c2 = noise.reseat_sd**2
+    e_chat = (noise.reseat_sd**2 + n * noise.lack_sd**2) / c2  # E[ĉ] of n seatings per weight (module docstring)
+    for a, b in (("a", "b"), ("b", "a"), ("a", "c"), ("b", "c"), ("c", "b")):
+        mu = FILM / d.curves.area_m2[a] + d.curves.clean_ohm[a]
+        sigma = math.sqrt(c2) * mu / math.sqrt(n)
+        x = np.column_stack([np.ones(W.size), 1.0 / d.curves.area_m2[b]]) / sigma[:, None]
+        y = (mu - d.curves.clean_ohm[b]) / sigma
+        lam = float(np.sum((y - x @ np.linalg.lstsq(x, y, rcond=None)[0]) ** 2))
+        assert lam / max(e_chat, 1.0) < d.threshold  # no pair separable within the budget
+    assert d.hopeless()
+    status, _, spent, blocks = simulate_loop(d, "a", np.random.default_rng(1), film_ohm_m2=FILM,
+                                                  series_ohm=0.0, noise=noise)  # fmt: skip
+    assert (status, spent, blocks) == ("futile", 0.0, 0)
+    stop = d.report()["stop"]
+    assert stop["status"] == "futile" and "futile before the first block" in stop["reason"]
+    assert "no pair of models is separable within the budget of 20 min" in stop["reason"]
+    assert "lack of fit" in stop["reason"] and "what would: " in stop["reason"]
+    separable = _design()
+    assert not separable.hopeless() and separable.report()["stop"] is None
+
+
+def test_the_rig_with_tab1_noise_is_futile_before_the_first_block(tmp_path) -> None:
+    """`acquire --sim --adaptive` on the paper's rig (Tab. 1 noise): futile before any weight is placed (no pair of
+    models separable within the budget), the reason and what would in the stop record; it replays."""
+    from analysis.adaptive_session import replay_suggestions
+    from contactrig.cli.main import main
+    from daq import load_session
+
+    path = tmp_path / "rig.h5"
+    assert main(["acquire", "--sim", "--adaptive", "--yes", "--quiet", "--budget-min", "60", "-o", str(path)]) == 0
+    s = load_session(path)
+    assert len(s.summary) == 0 and s.stop["status"] == "success"
+    assert s.stop["adaptive"]["decision"]["status"] == "futile"
+    assert s.stop["reason"].startswith("stop — futile before the first block") and "what would: " in s.stop["reason"]
+    assert replay_suggestions(str(path))[0]
