@@ -467,9 +467,10 @@ class SequentialDesign:
         params: dict[str, tuple[float, float]],
         pi: dict[str, float],
         noise: NoiseModel,
+        at_seating: int = 1,
     ) -> Placement:
         """The placement of largest expected gain per minute from ``counts`` (the start design and a pending second
-        seating first)."""
+        seating first); ``at_seating``: blocks taken at the present seating."""
         crit = "expected gain in Δ(Q)AIC (Box–Hill weighting of model pairs) per minute of bench time"
         w = self.weights_kg
         if pending is not None:
@@ -494,25 +495,42 @@ class SequentialDesign:
                 best = cand
         assert best is not None
         if current is not None and counts[current] > 0:
-            # one more block at the present seating halves its instrument variance only (block noise ≪ re-seating)
+            # one more block at the present seating shrinks only its instrument variance (block noise ≪ re-seating)
             a, cl = self._ac[max(pi, key=pi.__getitem__)]
             rs, sf = params[max(pi, key=pi.__getitem__)]
             mu = rs + sf / a[current] + cl[current]
-            share = self._block_var / (2.0 * ((noise.series_sd**2 + noise.reseat_sd**2) * mu**2 + self._block_var))
-            gain = share * float(gains[current])
+            gain = self.repeat_share(mu, noise, at_seating) * float(gains[current])
             rep = Placement(float(w[current]), "repeat", 1, gain, self.cost.of("repeat"), crit)
             if rep.gain_per_min > best.gain_per_min:
                 best = rep
         return best
 
-    #: variance of one block's mean from the instruments alone [Ω²] (set by the caller when known)
+    #: variance of one block's mean from the instruments alone [Ω²] (set by the caller when known; 1e-14: the
+    #: simulated bench's block SD of 0.1 µΩ)
     _block_var = 1e-14
+
+    def repeat_share(self, mu_ohm: float, noise: NoiseModel, blocks: int = 1) -> float:
+        """The evidence one more block at the present seating (``blocks`` blocks there already) brings, as a share of
+        a new seating's: the information 1/Var of the seating's mean gained, Var = s + v/n (s the seating's variance
+        [Ω²] — series offset and re-seating, shared by its blocks —, v :attr:`_block_var`, n blocks: the one-way
+        random-effects variance of a mean), against 1/(s + v) of a new seating:
+        (s + v)·(1/(s + v/(n+1)) − 1/(s + v/n)); n = 1: v/(2s + v) — 1 when the instruments dominate, ≈ v/(2s)
+        when the seating does (on the rig ~10⁻⁹: a repeat is never worth its block time)."""
+        s = (noise.series_sd**2 + noise.reseat_sd**2) * mu_ohm**2
+        v, n = self._block_var, max(int(blocks), 1)
+        return (s + v) * (1.0 / (s + v / (n + 1)) - 1.0 / (s + v / n))
+
+    def _blocks_at_seating(self) -> int:
+        """Blocks taken at the present seating (0 before the first)."""
+        if self.current is None or not self.seatings[self.current]:
+            return 0
+        return len(self.seatings[self.current][-1])
 
     def suggest(self) -> Placement:
         """The next placement (module docstring)."""
         ev = self.evidence()
         return self._best(self._counts(), self.current, self.pending, self._params(ev), self._weights_pi(ev),
-                          self.noise()[0])  # fmt: skip
+                          self.noise()[0], self._blocks_at_seating())  # fmt: skip
 
     # -- separability, the forward simulation, the stop rule ----------------------------------------------------
     def _equivalents(self) -> dict[str, frozenset[str]]:
@@ -542,15 +560,18 @@ class SequentialDesign:
         params, pi = self._params(ev), self._weights_pi(ev)
         left = self.budget_s - self.spent_s
         out: list[int] = []
+        at_seating = self._blocks_at_seating()
         while len(out) < 400:
-            p = self._best(counts, current, pending, params, pi, noise)
+            p = self._best(counts, current, pending, params, pi, noise, at_seating)
             if p.cost_s > left:
                 break
             left -= p.cost_s
             i = self.index_of(p.weight_kg)
             if p.action == "repeat":  # the evidence counts seatings: a repeat adds none
                 out.append(-1 - i)
+                at_seating += 1
                 continue
+            at_seating = 1
             # the same placement repeated for a share of the budget: at most ~16 greedy steps per forecast
             times = 1 if p.action == "place" or pending is not None else max(1, int(left / p.cost_s / 16))
             times = min(times, int(left // p.cost_s) + 1)
