@@ -353,39 +353,50 @@ def replay_suggestions(path: str) -> tuple[bool, str]:
     if isinstance(by_block, str):
         return False, f"{path}: {by_block}"
     design = build_design(parse_scene(session.scene_text, f"{path} (recorded scene)"), settings)
-    summary = session.summary  # in the order the blocks were taken (the file's order)
     checked = 0
-    for _, row in summary.iterrows():
-        entry = by_block.get(design.blocks)
-        if entry is not None:
+    rows = session.summary  # in the order the blocks were taken (the file's order)
+    for w, v in [*zip(rows["weight_kg"], rows["mean_ohm"], strict=True), (math.nan, math.nan)]:
+        entries = by_block.pop(design.blocks, [])
+        if entries:
             state = design.report()
             again = json.loads(json.dumps({"suggestion": state["suggestion"], "evidence": state["evidence"],
                                            "p_decisive": state["p_decisive"]}, allow_nan=False))  # fmt: skip
-            if again != {k: entry[k] for k in again}:
+            if any(again != {k: entry.get(k) for k in again} for entry in entries):
                 return False, f"the suggestion before block {design.blocks + 1} differs from the recorded one"
-            checked += 1
-        if math.isfinite(float(row["mean_ohm"])):
-            design.ingest(float(row["weight_kg"]), float(row["mean_ohm"]))
+            checked += len(entries)
+        if math.isfinite(float(v)):
+            design.ingest(float(w), float(v))
+    if by_block:
+        return False, f"{sum(map(len, by_block.values()))} recorded suggestion(s) fit no block of the file"
     left = "" if session.complete else " (an incomplete session: the suggestions of its blocks)"
     return True, f"{checked} suggestion(s) reproduced bit for bit{left}"
 
 
-def recorded_suggestions(session: Any) -> dict[int, dict[str, Any]] | str:
-    """Every recorded suggestion of an adaptive session by the number of blocks taken before it: the blocks' own
-    records (schema 5: a killed session keeps them) and the stop record's (schema 4 and later; also the suggestion
-    the operator stopped at). A block's record that its stop record contradicts: a sentence saying so."""
-    out: dict[int, dict[str, Any]] = {}
+def recorded_suggestions(session: Any) -> dict[int, list[dict[str, Any]]] | str:
+    """Every recorded suggestion of an adaptive session by the number of blocks taken before it (several when a block
+    in compliance was not counted), in order: the blocks' own records (schema 5: a killed session keeps them) and the
+    stop record's (schema 4 and later; also the suggestion the operator stopped at). A block's record that its stop
+    record contradicts: a sentence saying so."""
+    out: dict[int, list[dict[str, Any]]] = {}
     for row, entry in sorted(session.adaptive.items()):
         if not isinstance(entry, dict) or not isinstance(entry.get("block"), int):
             return f"the record of block row {row} is not a suggestion"
-        out[entry["block"]] = entry
+        out.setdefault(entry["block"], []).append(entry)
     stop = session.stop if isinstance(session.stop, dict) else {}
     recorded = stop.get("adaptive")
     entries = recorded.get("entries", []) if isinstance(recorded, dict) else []
+    in_stop: dict[int, list[dict[str, Any]]] = {}
     for entry in entries if isinstance(entries, list) else []:
         if not isinstance(entry, dict) or not isinstance(entry.get("block"), int):
             return "a suggestion of the stop record is not one"
-        if entry["block"] in out and out[entry["block"]] != entry:
-            return f"the suggestion before block {entry['block'] + 1} differs in its block's record and the stop record"
-        out[entry["block"]] = entry
-    return out
+        in_stop.setdefault(entry["block"], []).append(entry)
+    if not in_stop:  # a killed session (or one whose stop record could not keep them): the blocks' records
+        return out
+    for block, own in out.items():
+        listed = in_stop.get(block, [])
+        n = min(len(own), len(listed))
+        if own[:n] != listed[:n]:
+            return f"the suggestion before block {block + 1} differs in its block's record and the stop record"
+        if len(own) > len(listed):
+            return f"the suggestion before block {block + 1} is in its block's record, not in the stop record"
+    return in_stop

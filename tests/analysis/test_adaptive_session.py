@@ -107,6 +107,8 @@ def test_operator_may_place_another_weight(tmp_path: Path) -> None:
     actions = [e["operator"] for e in record["entries"]]
     assert "placed 10 kg instead" in actions and actions[-1] == "stopped the session"
     assert record["decision"]["status"] == "operator" and result.reason.startswith("operator")
+    same, text = replay_suggestions(str(path))  # the one the operator stopped at (no block follows) included
+    assert same and text.startswith(f"{len(actions)} suggestion(s) reproduced"), text
 
 
 def test_schema_3_files_are_still_read(press_session, tmp_path: Path) -> None:
@@ -262,3 +264,21 @@ def test_a_killed_adaptive_session_keeps_its_suggestions_and_replays_them(tmp_pa
     with pytest.warns(UserWarning):
         same, text = replay_suggestions(str(path))
     assert not same and "differs" in text
+
+
+def test_recorded_suggestions_keep_two_made_before_the_same_block_count() -> None:
+    """A block in compliance is not ingested, so the next suggestion is made at the same block count: both are kept
+    (in order), from the blocks' records and the stop record alike; a block's record the stop record contradicts, or
+    leaves out, is reported."""
+    from types import SimpleNamespace
+
+    from analysis.adaptive_session import recorded_suggestions
+
+    one, two = {"block": 6, "operator": "took the suggestion"}, {"block": 6, "operator": "placed 10 kg instead"}
+    stop = {"adaptive": {"entries": [{"block": 0, "operator": "took the suggestion"}, one, two]}}
+    found = recorded_suggestions(SimpleNamespace(adaptive={6: one, 7: two}, stop=stop))
+    assert found == {0: [stop["adaptive"]["entries"][0]], 6: [one, two]}
+    assert recorded_suggestions(SimpleNamespace(adaptive={6: one, 7: two}, stop=None)) == {6: [one, two]}
+    assert "differs" in recorded_suggestions(SimpleNamespace(adaptive={6: two}, stop=stop))
+    alone = {"adaptive": {"entries": [one]}}
+    assert "not in the stop record" in recorded_suggestions(SimpleNamespace(adaptive={6: one, 7: two}, stop=alone))
