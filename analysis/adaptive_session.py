@@ -8,7 +8,9 @@ another allowed weight, or stops; unattended (``--yes``) the suggestion is follo
 (decisive, futile) and says why (the engine puts ``stop_reason`` in the stop record); ``record()`` — every
 suggestion, the evidence behind it and what the operator did, and the stop decision — goes into the stop record
 (session schema 4) and ``settings()`` into the start record, so that :func:`replay_suggestions` rebuilds the design
-from the file and reproduces every suggestion bit for bit.
+from the file and reproduces every suggestion bit for bit. Each suggestion is also its block's own record (schema 5:
+:class:`daq.plan.Measure`'s ``adaptive``, written and flushed with the first block it led to), so a killed session
+keeps the suggestions of all its blocks and replays them too.
 
 Block numbers: the k-th seating (k = 0, 1, …) at the plan's weight i is block i·R + k, R the plan's ``repeats``
 raised to the most seatings the budget allows at one weight (:func:`adaptive_plan`), so the k-th seating at a weight
@@ -35,6 +37,7 @@ __all__ = [
     "adaptive_source",
     "build_design",
     "evidence_line",
+    "recorded_suggestions",
     "replay_suggestions",
     "session_design",
     "session_evidence",
@@ -162,7 +165,8 @@ class AdaptiveSteps:
                     return
                 chosen = float(answer)
             took = math.isclose(chosen, placement.weight_kg, rel_tol=1e-9)
-            self._log(state, "took the suggestion" if took else f"placed {chosen:g} kg instead")
+            entry: dict[str, Any] | None = self._log(state, "took the suggestion" if took else
+                                                     f"placed {chosen:g} kg instead")  # fmt: skip
             i = self.design.index_of(chosen)
             wi = next(j for j, w in enumerate(weights) if math.isclose(w, chosen, rel_tol=1e-9))
             seatings = placement.seatings if took else 1
@@ -173,9 +177,13 @@ class AdaptiveSteps:
                     self.stop_reason = f"stop — every block the plan numbers at {chosen:g} kg is taken ({cap})"
                     return
                 yield PlaceWeight(weight_index=wi, weight_kg=chosen, repeats_left=1)
-                yield Measure(block=wi * cap + k, weight_index=wi, weight_kg=chosen, repeat=k + 1)
+                # the suggestion goes with the first block it led to: written and flushed with that block
+                yield Measure(block=wi * cap + k, weight_index=wi, weight_kg=chosen, repeat=k + 1, adaptive=entry)
+                entry = None
 
-    def _log(self, state: Mapping[str, Any], action: str) -> None:
+    def _log(self, state: Mapping[str, Any], action: str) -> dict[str, Any]:
+        """Keep the suggestion of ``state``, the evidence behind it and the operator's ``action``; returns the
+        record (plain JSON data) that goes with the block it leads to."""
         ev = state["evidence"]
         self.entries.append({
             "block": self.design.blocks,
@@ -186,6 +194,8 @@ class AdaptiveSteps:
             "noise": state["noise"],
             "operator": action,
         })  # fmt: skip
+        self.entries[-1] = json.loads(json.dumps(self.entries[-1], allow_nan=False))
+        return self.entries[-1]
 
     # -- the writer: every block to the design -------------------------------------------------------------------
     def start(self, start: dict[str, Any], scene_text: str) -> None:
@@ -337,21 +347,56 @@ def replay_suggestions(path: str) -> tuple[bool, str]:
     settings = session.start.get("adaptive")
     stop = session.stop if isinstance(session.stop, dict) else {}
     recorded = stop.get("adaptive") if isinstance(stop, dict) else None
-    if not isinstance(settings, dict) or not isinstance(recorded, dict):
-        return False, f"{path} is not a complete adaptive session (no adaptive records)"
+    if not isinstance(settings, dict) or not (isinstance(recorded, dict) or session.adaptive):
+        return False, f"{path} is not an adaptive session (no adaptive records)"
+    by_block = recorded_suggestions(session)
+    if isinstance(by_block, str):
+        return False, f"{path}: {by_block}"
     design = build_design(parse_scene(session.scene_text, f"{path} (recorded scene)"), settings)
-    summary = session.summary  # in the order the blocks were taken (the file's order)
-    by_block = {e["block"]: e for e in recorded.get("entries", [])}
     checked = 0
-    for _, row in summary.iterrows():
-        entry = by_block.get(design.blocks)
-        if entry is not None:
+    rows = session.summary  # in the order the blocks were taken (the file's order)
+    for w, v in [*zip(rows["weight_kg"], rows["mean_ohm"], strict=True), (math.nan, math.nan)]:
+        entries = by_block.pop(design.blocks, [])
+        if entries:
             state = design.report()
             again = json.loads(json.dumps({"suggestion": state["suggestion"], "evidence": state["evidence"],
                                            "p_decisive": state["p_decisive"]}, allow_nan=False))  # fmt: skip
-            if again != {k: entry[k] for k in again}:
+            if any(again != {k: entry.get(k) for k in again} for entry in entries):
                 return False, f"the suggestion before block {design.blocks + 1} differs from the recorded one"
-            checked += 1
-        if math.isfinite(float(row["mean_ohm"])):
-            design.ingest(float(row["weight_kg"]), float(row["mean_ohm"]))
-    return True, f"{checked} suggestion(s) reproduced bit for bit"
+            checked += len(entries)
+        if math.isfinite(float(v)):
+            design.ingest(float(w), float(v))
+    if by_block:
+        return False, f"{sum(map(len, by_block.values()))} recorded suggestion(s) fit no block of the file"
+    left = "" if session.complete else " (an incomplete session: the suggestions of its blocks)"
+    return True, f"{checked} suggestion(s) reproduced bit for bit{left}"
+
+
+def recorded_suggestions(session: Any) -> dict[int, list[dict[str, Any]]] | str:
+    """Every recorded suggestion of an adaptive session by the number of blocks taken before it (several when a block
+    in compliance was not counted), in order: the blocks' own records (schema 5: a killed session keeps them) and the
+    stop record's (schema 4 and later; also the suggestion the operator stopped at). A block's record that its stop
+    record contradicts: a sentence saying so."""
+    out: dict[int, list[dict[str, Any]]] = {}
+    for row, entry in sorted(session.adaptive.items()):
+        if not isinstance(entry, dict) or not isinstance(entry.get("block"), int):
+            return f"the record of block row {row} is not a suggestion"
+        out.setdefault(entry["block"], []).append(entry)
+    stop = session.stop if isinstance(session.stop, dict) else {}
+    recorded = stop.get("adaptive")
+    entries = recorded.get("entries", []) if isinstance(recorded, dict) else []
+    in_stop: dict[int, list[dict[str, Any]]] = {}
+    for entry in entries if isinstance(entries, list) else []:
+        if not isinstance(entry, dict) or not isinstance(entry.get("block"), int):
+            return "a suggestion of the stop record is not one"
+        in_stop.setdefault(entry["block"], []).append(entry)
+    if not in_stop:  # a killed session (or one whose stop record could not keep them): the blocks' records
+        return out
+    for block, own in out.items():
+        listed = in_stop.get(block, [])
+        n = min(len(own), len(listed))
+        if own[:n] != listed[:n]:
+            return f"the suggestion before block {block + 1} differs in its block's record and the stop record"
+        if len(own) > len(listed):
+            return f"the suggestion before block {block + 1} is in its block's record, not in the stop record"
+    return in_stop

@@ -797,8 +797,8 @@ del _spec
 
 # ---- the physical resistance model's terms (issue 21 §2; owned by analysis.resistance_model's fit) -------------
 def _draw_physical_terms(a: Any) -> Any:
-    """The best model's physical fit as stacked terms against weight [kg]: R_s, σ_f/A, Barber, band constriction
-    (unit from the data), with the measured mean; None unless ``--conversion physical``."""
+    """The best model's physical fit as stacked terms against weight [kg]: R_s, σ_f/A, Barber, macro-constriction (the
+    rig's band, the press's spot; unit from the data), with the measured mean; None unless ``--conversion physical``."""
     if a.comparison is None or a.conversion != "physical":
         return None
     f = a.comparison.best
@@ -813,7 +813,7 @@ def _draw_physical_terms(a: Any) -> Any:
     ax.plot(pts.weight_kg, pts.measured_ohm * k_unit, "s", color=MEASURED_COLOUR, label="measured mean")
     ax.set(
         xlabel="weight W [kg]", ylabel=f"resistance R [{unit}]",
-        title=f"{_legend_text(a.title)}: R = R$_s$ + σ$_f$/A + Barber + band ({model_label(f.model)})",
+        title=f"{_legend_text(a.title)}: R = R$_s$ + σ$_f$/A + Barber + macro ({model_label(f.model)})",
     )  # fmt: skip
     ax.legend(fontsize=7)
     return fig

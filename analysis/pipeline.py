@@ -196,23 +196,34 @@ def physical_terms(
     scene: Any, models: list[str], weights_kg: np.ndarray, database: Any = None
 ) -> dict[str, dict[str, np.ndarray]]:
     """The computed terms of the physical model (``--conversion physical``) per model and weight [Ω]: Barber's
-    clean-metal constriction and the band's macro-constriction (:func:`analysis.resistance_model.
-    rig_resistance_terms`). A press scene, a scene without both resistivities, or a model that is not registered is a
-    SettingError naming what is missing."""
-    from analysis.resistance_model import rig_resistance_terms
+    clean-metal constriction and the macro-constriction — on the rig the band's
+    (:func:`analysis.resistance_model.rig_resistance_terms`), on the press Holm's circular spot of the contact radius
+    with Barber's term from the press stiffness (:func:`analysis.resistance_model.specimen_resistance_terms`, the
+    design's and the simulated bench's model). A scene without both resistivities, or a model that is not registered,
+    is a SettingError naming what is missing."""
+    from analysis.resistance_model import rig_resistance_terms, specimen_resistance_terms
     from contactrig.core.validation import SettingError
     from sims.config import SimConfig
     from sims.models import model_names
 
     config = SimConfig.from_scene(scene)
-    if config.press is not None:
-        raise SettingError("conversion", "physical", "the physical model describes the piston/liner rig, not a press")
-    out = {}
     for name in models:
         if name not in model_names():
             raise SettingError("conversion", "physical", f"model {name!r} is not registered: its stiffness is needed")
+    weights = [float(w) for w in weights_kg]
+    if config.press is not None:
+        laws = {n: database[n] for n in models if database is not None and n in database}
+        missing = [n for n in models if n not in laws]
+        if missing:
+            from sims.database import build_database
+
+            built = build_database(config, models=missing)
+            laws.update({n: built[n] for n in missing})
+        return {n: t.terms for n, t in specimen_resistance_terms(config, models, weights, laws=laws).items()}
+    out = {}
+    for name in models:
         law = database[name] if database is not None and name in database else None
-        out[name] = rig_resistance_terms(config, name, [float(w) for w in weights_kg], law=law).known_terms()
+        out[name] = rig_resistance_terms(config, name, weights, law=law).known_terms()
     return out
 
 

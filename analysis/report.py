@@ -481,7 +481,7 @@ def _shares_blocks(fit: Any) -> list[Any]:
         (f"{w:g}", *(f"{100 * float(fit.shares[n][i]):.2f}" for n in names)) for i, w in enumerate(fit.points.weight_kg)
     )
     return [
-        Para(["Share of the measured mean R per weight [%], ", _label(fit.model), " (R_s, σ_f/A, Barber, band):"]),
+        Para(["Share of the measured mean R per weight [%], ", _label(fit.model), " (R_s, σ_f/A, Barber, macro):"]),
         Table(("weight [kg]", *names), rows),
     ]
 

@@ -40,7 +40,10 @@ the session), each judged at checkpoints by the same rule.
 
 **Stop**: ``decisive``; ``futile`` when P(decisive within the remaining budget) < :data:`FUTILE_P` (5 %), with the
 dominant noise component against the largest difference between the leading models that no (R_s, σ_f) absorbs; or
-the operator's choice (``acquire``).
+the operator's choice (``acquire``). Futile before the first block when the prior noise makes every pair of models
+equivalent on this bench (:meth:`SequentialDesign.hopeless`): the decisive rule needs a separable rival, so then
+P(decisive) = 0 whatever the data — a consequence of the rule, not a threshold (Tab. 1's noise on the paper's rig
+and on the press).
 
 **Noise components**: the scatter between seatings at one weight (re-seating, with any series offset: an adaptive
 session has no series to separate them) from the session once Σ(n_i − 1) ≥ 4, the lack of fit common to every
@@ -464,9 +467,10 @@ class SequentialDesign:
         params: dict[str, tuple[float, float]],
         pi: dict[str, float],
         noise: NoiseModel,
+        at_seating: int = 1,
     ) -> Placement:
         """The placement of largest expected gain per minute from ``counts`` (the start design and a pending second
-        seating first)."""
+        seating first); ``at_seating``: blocks taken at the present seating."""
         crit = "expected gain in Δ(Q)AIC (Box–Hill weighting of model pairs) per minute of bench time"
         w = self.weights_kg
         if pending is not None:
@@ -491,25 +495,42 @@ class SequentialDesign:
                 best = cand
         assert best is not None
         if current is not None and counts[current] > 0:
-            # one more block at the present seating halves its instrument variance only (block noise ≪ re-seating)
+            # one more block at the present seating shrinks only its instrument variance (block noise ≪ re-seating)
             a, cl = self._ac[max(pi, key=pi.__getitem__)]
             rs, sf = params[max(pi, key=pi.__getitem__)]
             mu = rs + sf / a[current] + cl[current]
-            share = self._block_var / (2.0 * ((noise.series_sd**2 + noise.reseat_sd**2) * mu**2 + self._block_var))
-            gain = share * float(gains[current])
+            gain = self.repeat_share(mu, noise, at_seating) * float(gains[current])
             rep = Placement(float(w[current]), "repeat", 1, gain, self.cost.of("repeat"), crit)
             if rep.gain_per_min > best.gain_per_min:
                 best = rep
         return best
 
-    #: variance of one block's mean from the instruments alone [Ω²] (set by the caller when known)
+    #: variance of one block's mean from the instruments alone [Ω²] (set by the caller when known; 1e-14: the
+    #: simulated bench's block SD of 0.1 µΩ)
     _block_var = 1e-14
+
+    def repeat_share(self, mu_ohm: float, noise: NoiseModel, blocks: int = 1) -> float:
+        """The evidence one more block at the present seating (``blocks`` blocks there already) brings, as a share of
+        a new seating's: the information 1/Var of the seating's mean gained, Var = s + v/n (s the seating's variance
+        [Ω²] — series offset and re-seating, shared by its blocks —, v :attr:`_block_var`, n blocks: the one-way
+        random-effects variance of a mean), against 1/(s + v) of a new seating:
+        (s + v)·(1/(s + v/(n+1)) − 1/(s + v/n)); n = 1: v/(2s + v) — 1 when the instruments dominate, ≈ v/(2s)
+        when the seating does (on the rig ~10⁻⁹: a repeat is never worth its block time)."""
+        s = (noise.series_sd**2 + noise.reseat_sd**2) * mu_ohm**2
+        v, n = self._block_var, max(int(blocks), 1)
+        return (s + v) * (1.0 / (s + v / (n + 1)) - 1.0 / (s + v / n))
+
+    def _blocks_at_seating(self) -> int:
+        """Blocks taken at the present seating (0 before the first)."""
+        if self.current is None or not self.seatings[self.current]:
+            return 0
+        return len(self.seatings[self.current][-1])
 
     def suggest(self) -> Placement:
         """The next placement (module docstring)."""
         ev = self.evidence()
         return self._best(self._counts(), self.current, self.pending, self._params(ev), self._weights_pi(ev),
-                          self.noise()[0])  # fmt: skip
+                          self.noise()[0], self._blocks_at_seating())  # fmt: skip
 
     # -- separability, the forward simulation, the stop rule ----------------------------------------------------
     def _equivalents(self) -> dict[str, frozenset[str]]:
@@ -539,15 +560,18 @@ class SequentialDesign:
         params, pi = self._params(ev), self._weights_pi(ev)
         left = self.budget_s - self.spent_s
         out: list[int] = []
+        at_seating = self._blocks_at_seating()
         while len(out) < 400:
-            p = self._best(counts, current, pending, params, pi, noise)
+            p = self._best(counts, current, pending, params, pi, noise, at_seating)
             if p.cost_s > left:
                 break
             left -= p.cost_s
             i = self.index_of(p.weight_kg)
             if p.action == "repeat":  # the evidence counts seatings: a repeat adds none
                 out.append(-1 - i)
+                at_seating += 1
                 continue
+            at_seating = 1
             # the same placement repeated for a share of the budget: at most ~16 greedy steps per forecast
             times = 1 if p.action == "place" or pending is not None else max(1, int(left / p.cost_s / 16))
             times = min(times, int(left // p.cost_s) + 1)
@@ -635,6 +659,8 @@ class SequentialDesign:
                 f"Δ{ev.criterion} = {ev.margin:.1f} ≥ {self.threshold:g} (ĉ = {ev.c_hat:.2g}, {self.blocks} blocks, "
                 f"{self.spent_s / 60:.0f} min)"
             )
+        if self.hopeless():
+            return "futile", self.hopeless_reason()
         if self.spent_s >= self.budget_s:
             return (
                 "futile",
@@ -654,6 +680,41 @@ class SequentialDesign:
             )
         return None
 
+    def hopeless(self) -> bool:
+        """No model has a rival it could be told from within the budget (every pair equivalent on this bench, with
+        the prior noise: :meth:`_equivalents`): the decisive rule can never be met, whatever the data, so
+        P(decisive) = 0 before the first block — futile at once, no threshold involved."""
+        return all(len(group) == len(self.models) for group in self.groups.values()) and len(self.models) > 1
+
+    def _pair_reach(self) -> tuple[str, str, float]:
+        """The most separable pair and its expected Δ(Q)AIC over the whole budget (the smaller of both ways), with
+        the prior's noise, film and series (as :meth:`_equivalents`)."""
+        counts = np.full(self.weights_kg.size, self._seatings_in_budget())
+        params = (self.series, self.film)
+        best = ("", "", -math.inf)
+        for i, a in enumerate(self.models):
+            for b in self.models[i + 1 :]:
+                d = min(float(self.expected_delta(a, b, counts, params, self.prior)),
+                        float(self.expected_delta(b, a, counts, params, self.prior)))  # fmt: skip
+                if d > best[2]:
+                    best = (a, b, d)
+        return best
+
+    def hopeless_reason(self) -> str:
+        """The stop reason of a :meth:`hopeless` session: the prior noise, its source, the most separable pair's
+        expected Δ(Q)AIC against the threshold, why and what would."""
+        a, b, reach = self._pair_reach()
+        when = "before the first block" if self.blocks == 0 else f"after {self.blocks} blocks"
+        return (
+            f"stop — futile {when}: with the prior noise ({self.prior.source}: series offset "
+            f"{100 * self.prior.series_sd:.3g} %, re-seating {100 * self.prior.reseat_sd:.3g} %, lack of fit "
+            f"{100 * self.prior.lack_sd:.3g} % of ln R) no pair of models is separable "
+            f"within the budget of {self.budget_s / 60:.0f} min (the most separable, {_label(a)} and {_label(b)}, "
+            f"reach an expected Δ(Q)AIC of {reach:.2g} of {self.threshold:g} with the whole budget spread over the "
+            f"{self.weights_kg.size} allowed loads), so no session can end decisive; " + self.why()
+            + "; what would: " + self.what_would()
+        )  # fmt: skip
+
     def difference(self, a: str, b: str) -> float:
         """The largest relative difference between ``a``'s curve and ``b``'s best fit to it over the allowed weights
         (what no R_s, σ_f absorbs) [-], with ``a``'s prior parameters."""
@@ -665,6 +726,9 @@ class SequentialDesign:
     def _leading_pair(self) -> tuple[str, str | None]:
         """The leader (the first model before there is evidence) and its nearest rival (None: only one model)."""
         ev = self.evidence()
+        if ev is None and len(self.models) > 1:  # before there is evidence: the most separable pair
+            a, b, _ = self._pair_reach()
+            return a, b
         lead = ev.leader if ev is not None else self.models[0]
         others = [k for k in self.models if k != lead]
         if ev is not None:
@@ -718,15 +782,10 @@ class SequentialDesign:
 
     def why(self) -> str:
         """The reason the evidence does (not) move: the dominant noise component against the model difference."""
-        ev = self.evidence()
         noise, src = self.noise()
-        lead = ev.leader if ev is not None else self.models[0]
-        others = [k for k in self.models if k != lead]
-        if ev is not None:
-            others.sort(key=lambda k: ev.delta[k])
-        if not others:
+        lead, rival = self._leading_pair()
+        if rival is None:
             return "only one model"
-        rival = others[0]
         # what limits the evidence: the lack of fit as it is (no repeat averages it), the others over the seatings
         # per weight the budget allows
         n = self._seatings_in_budget()
@@ -747,7 +806,8 @@ class SequentialDesign:
         ev = self.evidence()
         noise, src = self.noise()
         p = self.predictive() if predictive else math.nan
-        stop = self.stop(p if predictive else None) if ev is not None or self.spent_s >= self.budget_s else None
+        stop = (self.stop(p if predictive else None) if ev is not None or self.spent_s >= self.budget_s
+                or self.hopeless() else None)  # fmt: skip
         progress = 0.0 if ev is None else min(1.0, max(0.0, ev.margin / self.threshold)) if math.isfinite(
             ev.margin) else 0.0  # fmt: skip
         return {
@@ -820,6 +880,8 @@ def simulate_loop(
     series = noise.series_sd * rng.standard_normal(64)
     lack = noise.lack_sd * rng.standard_normal(m)
     var = noise.series_sd**2 + noise.reseat_sd**2 + noise.lack_sd**2
+    if design.hopeless():  # futile before the first block (the prior makes every pair inseparable)
+        return "futile", "", design.spent_s, design.blocks
     while True:
         p = design.suggest()
         i = design.index_of(p.weight_kg)

@@ -365,6 +365,7 @@ class AcquisitionEngine:
             started=started,
             exchanges=tuple(ex),
             compliance=bool(getattr(block, "compliance", False)),  # pairs without a compliance flag: never
+            adaptive=step.adaptive,
         )
 
 

@@ -282,12 +282,14 @@ class PlaceWeight:
 
 @dataclass(frozen=True)
 class Measure:
-    """Run one block: block number ``block`` (position in the plan), ``repeat`` 1 … repeats."""
+    """Run one block: block number ``block`` (position in the plan), ``repeat`` 1 … repeats; ``adaptive``: the
+    record of the suggestion that led to it (an adaptive session), written with the block."""
 
     block: int
     weight_index: int
     weight_kg: float
     repeat: int
+    adaptive: dict[str, Any] | None = dataclasses.field(default=None, compare=False)
 
 
 def session_steps(

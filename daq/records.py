@@ -124,6 +124,8 @@ class BlockRecord:
     ``reading`` is in ``unit`` (e.g. ``V`` or ``OHMS``, as the instrument returned it; invalid entries NaN),
     ``resistance_ohm`` the same readings in Ω, ``time_s`` the instrument's timestamps (first = 0 s).
     ``exchanges`` are the instrument exchanges of this block, for replay (empty for imported tables).
+    ``adaptive``: in an adaptive session, the suggestion that led to this block, the evidence behind it and what
+    the operator did (:class:`daq.plan.Measure`'s ``adaptive``), written with the block (``/entry/adaptive``).
     ``stats`` are the block statistics of ``resistance_ohm`` over ``valid``, in Ω.
     ``compliance``: the source was in compliance during the block (readings wrong by an unknown amount): ``valid``
     is then all False whatever was passed, so the statistics have no value (NaN mean, n = 0, every reading counted
@@ -142,6 +144,8 @@ class BlockRecord:
     started: str
     exchanges: tuple[Exchange, ...] = ()
     compliance: bool = False
+    #: an adaptive session's record of the suggestion that led to this block (schema 5; not part of its digest)
+    adaptive: dict[str, Any] | None = None
     stats: BlockStatistics = field(init=False)
     sha256: str = field(init=False)
     exchanges_sha256: str = field(init=False)

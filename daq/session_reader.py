@@ -45,6 +45,7 @@ from daq.session_schema import (
     REQUIRED_STOP_FIELDS,
     SCHEMA_VERSION,
     SEAL_PARTS,
+    SEALED_PARTS_SINCE,
     SEALED_SINCE,
     START_FIELDS,
     STOP_FIELDS,
@@ -94,6 +95,9 @@ class Session:
     running: bool = False
     #: False: only the records and block digests were read and checked (:func:`load_records`, the run index's read)
     tables_read: bool = True
+    #: an adaptive session's records (schema 5), by summary row: the suggestion that led to that block, the evidence
+    #: behind it and what the operator did (``/entry/adaptive``; empty for older files and fixed plans)
+    adaptive: dict[int, dict[str, Any]] = field(repr=False, default_factory=dict)
 
     @property
     def status(self) -> str:
@@ -410,6 +414,7 @@ def read_raw(h5: h5py.File, path: Path, stop_override: dict[str, Any] | None = N
         "scene_text": scene_text,
         "stop": stop,
         "runs": _run_records(reader),
+        "adaptive": _adaptive_records(reader, n_blocks),
         "trailing_readings": max(on_file - n_readings, 0),
         "dropped_blocks": dropped,
         "stop_note": stop_note,
@@ -454,6 +459,16 @@ def _run_records(reader: _Reader) -> list[dict[str, Any]]:
     return runs
 
 
+def _adaptive_records(reader: _Reader, n_blocks: int) -> dict[int, dict[str, Any]]:
+    """The records of an adaptive session's suggestions (schema 5), by the summary row of the block each led to;
+    a record beyond the last complete block (its block cut short by a kill) is no block's and is left out."""
+    if not reader.has("entry/adaptive"):
+        return {}
+    group = reader.group("entry/adaptive")
+    rows = sorted(int(name[6:]) for name in group if name.startswith("block_") and name[6:].isdigit())
+    return {j: reader.record(f"entry/adaptive/block_{j}") for j in rows if j < n_blocks}
+
+
 def _check_seal(raw: Mapping[str, Any], path: Path, schema: int) -> bool:
     """True when the session is sealed and the seal holds; False when it has no seal; raises when it does not hold."""
     stop = raw["stop"]
@@ -466,6 +481,8 @@ def _check_seal(raw: Mapping[str, Any], path: Path, schema: int) -> bool:
     recorded = stop["seal"]
     actual = seal(raw, stop)
     for part, name in SEAL_PARTS.items():
+        if schema < SEALED_PARTS_SINCE.get(part, SEALED_SINCE):  # an older file's seal lacks the newer parts
+            continue
         if recorded.get(part) != actual[part]:
             raise ChecksumError(
                 f"{path}: {name} changed after the session was sealed (SHA-256 in the stop record): the file was "
@@ -544,7 +561,8 @@ def _drop_last_block(raw: dict[str, Any]) -> dict[str, Any]:
     r = {k: v[:n_readings] for k, v in raw["readings"].items()}
     n_ex = int(s["first_exchange"][-1] + s["n_exchanges"][-1]) if len(s["block"]) else 0
     e = {k: v[:n_ex] for k, v in raw["exchanges"].items()}
-    return {**raw, "summary": s, "readings": r, "exchanges": e}
+    a = {j: v for j, v in raw.get("adaptive", {}).items() if j < len(s["block"])}
+    return {**raw, "summary": s, "readings": r, "exchanges": e, "adaptive": a}
 
 
 def load_session(path: str | Path, *, verify: bool = True, timeout: float | None = None) -> Session:
@@ -620,6 +638,7 @@ def _checked(
         warnings=tuple(notes),
         sealed=sealed,
         running=running and raw["stop"] is None,
+        adaptive=dict(raw.get("adaptive") or {}),
     )
 
 

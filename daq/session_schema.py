@@ -26,6 +26,10 @@ Layout (schema 5; every numeric field has a ``units`` attribute)::
                               behind it and what the operator did, and the stop decision: :mod:`analysis.sequential`).
                               Schema 5: a run record holds ``pauses``, the operator's pauses at block boundaries
                               (reason, who, UTC times with offset, the block after which: :mod:`daq.pause`)
+    /entry/adaptive           NXcollection (schema 5, an adaptive session only): ``block_<j>`` (JSON), the record of the
+                              suggestion that led to summary row j — the suggestion, the evidence behind it and what the
+                              operator did — written with that block, before its summary row, and flushed with it: a
+                              killed session keeps every suggestion of its blocks (the stop record repeats them all)
 
 The writer (:mod:`daq.session_writer`) creates every table from these declarations and the reader
 (:mod:`daq.session_reader`) checks every member against them; the seal (:func:`seal`) is computed by the one and
@@ -86,9 +90,10 @@ def _upgrade_3(raw: dict[str, Any]) -> dict[str, Any]:
 
 
 def _upgrade_4(raw: dict[str, Any]) -> dict[str, Any]:
-    """Schema 4 → 5: the ``pauses`` of a run record (:mod:`daq.pause`). Nothing to convert: a schema-4 session was
-    never paused."""
-    return raw
+    """Schema 4 → 5: the ``pauses`` of a run record (:mod:`daq.pause`), and each suggestion of an adaptive session
+    also as its block's own record (``/entry/adaptive``). Nothing to convert: a schema-4 session was never paused, and
+    has its suggestions in its stop record only (``raw["adaptive"]`` empty)."""
+    return {**raw, "adaptive": dict(raw.get("adaptive") or {})}
 
 
 # Upgrade functions, keyed by the schema they read: UPGRADES[k](raw) turns a loaded schema-k structure into a
@@ -191,7 +196,10 @@ SEAL_PARTS = {
     "readings": "the readings",
     "exchanges": "the recorded instrument exchanges",
     "stop": "the stop record",
+    "adaptive": "the records of the suggestions",
 }
+#: Parts added to the seal after schema 3, with the schema that added them (an older file's seal lacks them).
+SEALED_PARTS_SINCE = {"adaptive": 5}
 
 
 def canonical(value: Any) -> bytes:
@@ -223,6 +231,7 @@ def seal(raw: Mapping[str, Any], stop: Mapping[str, Any]) -> dict[str, str]:
         "readings": table_digest(raw["readings"], READING_FIELDS),
         "exchanges": table_digest(raw["exchanges"], EXCHANGE_FIELDS),
         "stop": sha(canonical({k: v for k, v in stop.items() if k != "seal"})),
+        "adaptive": sha(canonical(raw.get("adaptive") or {})),
     }
 
 

@@ -618,6 +618,10 @@ class SessionFile:
             )
             if rec.exchanges:
                 self.append_exchanges(rec.exchanges, block=rec.block, sync=False)
+            if rec.adaptive is not None:  # the suggestion that led to this block: flushed with it (schema 5)
+                group = self._entry.require_group("adaptive")
+                group.attrs["NX_class"] = "NXcollection"
+                _json_dataset(group, f"block_{self.n_blocks}", rec.adaptive)
             # the readings reach the disk before the summary row that vouches for them: a write that fails (full
             # disk) or a kill leaves at most readings without a summary row, which readers ignore
             self._h5.flush()
@@ -652,7 +656,8 @@ class SessionFile:
     def _check_room(self, rec: BlockRecord) -> None:
         """Refuse (before anything is written) a block the file cannot take (:func:`_require_room`), against twice
         the block's bytes plus 1 MiB for HDF5's chunks and metadata."""
-        _require_room(self.path, self.file, 2 * (int(rec.reading.size) * 33 + _exchange_bytes(rec.exchanges)))
+        note = len(provenance.to_json(rec.adaptive)) if rec.adaptive is not None else 0
+        _require_room(self.path, self.file, 2 * (int(rec.reading.size) * 33 + _exchange_bytes(rec.exchanges) + note))
 
     def append_exchanges(self, exchanges: Iterable[Exchange], *, block: int = -1, sync: bool = True) -> None:
         """Record instrument exchanges of this run (``block`` −1: outside any block, e.g. identify, close)."""

@@ -59,7 +59,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--conversion", choices=("bulk", "holm", "physical"), default="bulk",
         help="area → resistance: bulk = seed eq. 23 ζh/A (default), holm = Holm single spot ζ√π/(2√A), an upper "
         "bound on the clean-metal constriction, physical = R_s + σ_f/A + Barber + band constriction (the last two "
-        "computed from the scene's resistivities)",
+        "computed from the scene's resistivities; on a press, Holm's spot of the contact radius)",
     )  # fmt: skip
     common.add_argument(
         "--weighting", choices=("relative", "repeats", "pooled", "blocks"), default="relative",

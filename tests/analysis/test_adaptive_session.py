@@ -1,9 +1,11 @@
 """``acquire --sim --adaptive`` (analysis.adaptive_session, issue 27 §2): the session follows the suggestions on the
-simulated bench, ends decisive and says why; every suggestion is in the stop record (schema 4) and replays bit for
-bit; the file fits; an old (schema 3) file is still read; the operator may place another weight."""
+simulated bench, ends decisive and says why; every suggestion is in the stop record (schema 4) and its block's own
+record (schema 5: a killed session keeps them) and replays bit for bit; the file fits; old (schema 3, 4) files are
+still read; the operator may place another weight."""
 
 from __future__ import annotations
 
+import json
 import math
 import re
 from pathlib import Path
@@ -16,6 +18,7 @@ from analysis.simulated_session import SimulatedRigBench
 from contactrig.core.scene import parse_scene
 from daq import load_session
 from daq.acquire import acquire
+from daq.session_file import SCHEMA_VERSION
 
 PRESS = Path(__file__).resolve().parents[2] / "contactrig" / "scenes" / "press.toml"
 
@@ -43,7 +46,7 @@ def test_press_iid_ends_decisive_and_says_why(press_session) -> None:
     assert result.status == "success"
     assert result.reason.startswith("decisive: Greenwood–Tripp") and "≥ 10" in result.reason
     s = load_session(path)
-    assert s.schema_version >= 4  # adaptive records since schema 4
+    assert s.schema_version == SCHEMA_VERSION == 5
     assert s.start["adaptive"]["budget_s"] == 1800.0
     record = s.stop["adaptive"]
     assert record["decision"]["status"] == "decisive"
@@ -104,6 +107,8 @@ def test_operator_may_place_another_weight(tmp_path: Path) -> None:
     actions = [e["operator"] for e in record["entries"]]
     assert "placed 10 kg instead" in actions and actions[-1] == "stopped the session"
     assert record["decision"]["status"] == "operator" and result.reason.startswith("operator")
+    same, text = replay_suggestions(str(path))  # the one the operator stopped at (no block follows) included
+    assert same and text.startswith(f"{len(actions)} suggestion(s) reproduced"), text
 
 
 def test_schema_3_files_are_still_read(press_session, tmp_path: Path) -> None:
@@ -153,3 +158,127 @@ def test_session_state_is_plain_data_for_the_console(press_session) -> None:
     assert json.loads(json.dumps(state, allow_nan=False)) == state
     assert state["stop"]["status"] == "decisive" and state["stop_record"]["reason"] == result.reason
     assert state["progress"] == 1.0 and state["evidence"]["leader"] == "greenwood_tripp"
+
+
+def test_each_suggestion_is_also_its_blocks_record(press_session) -> None:
+    """Schema 5: each suggestion, with the evidence behind it and what the operator did, is the record of the first
+    block it led to (``/entry/adaptive/block_<row>``): the same entries as the stop record's, at the right rows."""
+    path, _ = press_session
+    s = load_session(path)
+    entries = s.stop["adaptive"]["entries"]
+    assert s.adaptive and sorted(s.adaptive) == [e["block"] for e in entries]  # no compliance block: row = count
+    for row, entry in s.adaptive.items():
+        assert entry == entries[[e["block"] for e in entries].index(row)]
+        assert entry["operator"] == "took the suggestion" and "suggestion" in entry and "evidence" in entry
+
+
+def test_a_block_record_is_sealed(press_session, tmp_path: Path) -> None:
+    """The blocks' suggestion records are a part of the seal: an edited one makes the file refused as altered."""
+    from daq.errors import ChecksumError
+
+    path, _ = press_session
+    copy = tmp_path / "edited.h5"
+    copy.write_bytes(path.read_bytes())
+    with h5py.File(copy, "r+") as h5:
+        group = h5["entry/adaptive"]
+        name = sorted(group)[-1]
+        text = group[name][()].decode().replace('"took the suggestion"', '"placed 1 kg instead"')
+        del group[name]
+        group.create_dataset(name, data=text, dtype=h5py.string_dtype())
+    with pytest.raises(ChecksumError, match="the records of the suggestions changed"):
+        load_session(copy)
+
+
+def test_schema_4_files_are_still_read_and_replayed(press_session, tmp_path: Path) -> None:
+    """A schema-4 adaptive file (suggestions in the stop record only, its seal without the blocks' records) loads
+    sealed and replays from its stop record."""
+    path, _ = press_session
+    old = tmp_path / "schema4.h5"
+    old.write_bytes(path.read_bytes())
+    with h5py.File(old, "r+") as h5:
+        del h5["entry/adaptive"]
+        h5.attrs["contactrig_schema"] = 4
+    s = load_session(old)
+    assert s.schema_version == 4 and s.sealed and s.adaptive == {}
+    same, text = replay_suggestions(str(old))
+    assert same and text.startswith(f"{len(s.stop['adaptive']['entries'])} suggestion(s)")
+
+
+def test_a_killed_adaptive_session_keeps_its_suggestions_and_replays_them(tmp_path: Path) -> None:
+    """``acquire --sim --adaptive`` killed (SIGKILL) mid-session: the file has no stop record, yet every block's
+    suggestion was flushed with it, and replay reproduces them bit for bit; an edited one is found."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    import warnings
+
+    if not hasattr(signal, "SIGKILL"):
+        pytest.skip("SIGKILL")
+    scene = tmp_path / "press.toml"
+    scene.write_text(_scene().text)
+    path = tmp_path / "killed.h5"
+    argv = [sys.executable, "-m", "contactrig", "acquire", str(scene), "--sim", "--sim-speed", "10", "--adaptive",
+            "--yes", "--quiet", "--budget-min", "30", "-o", str(path)]  # fmt: skip
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    proc = subprocess.Popen(argv, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    try:
+        end = time.monotonic() + 120
+        while time.monotonic() < end and proc.poll() is None:
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")  # a RUNNING session, said
+                    if len(load_session(path).summary) >= 10:
+                        break
+            except Exception:  # not yet created, or caught between writes: look again
+                pass
+            time.sleep(0.05)
+        assert proc.poll() is None, f"the session ended before it was killed: {proc.stdout.read().decode()[-800:]}"
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    with pytest.warns(UserWarning):
+        s = load_session(path)
+    assert not s.complete and s.stop is None and len(s.summary) >= 10
+    assert s.adaptive and max(s.adaptive) >= 8  # the suggestions of blocks after the three starting loads
+    assert all(entry["operator"] == "took the suggestion" for entry in s.adaptive.values())
+    with pytest.warns(UserWarning):
+        same, text = replay_suggestions(str(path))
+    assert same, text
+    assert text.startswith(f"{len(s.adaptive)} suggestion(s) reproduced bit for bit") and "incomplete" in text
+    from contactrig.cli.main import main
+
+    with pytest.warns(UserWarning):
+        assert main(["replay", str(path)]) == 0  # the blocks and the suggestions, as `contactrig replay` checks them
+    with h5py.File(path, "r+") as h5:  # no seal to break: the replay itself compares
+        group = h5["entry/adaptive"]
+        name = f"block_{max(s.adaptive)}"
+        record = json.loads(group[name][()])
+        record["p_decisive"] = 0.123456
+        del group[name]
+        group.create_dataset(name, data=json.dumps(record), dtype=h5py.string_dtype())
+    with pytest.warns(UserWarning):
+        same, text = replay_suggestions(str(path))
+    assert not same and "differs" in text
+
+
+def test_recorded_suggestions_keep_two_made_before_the_same_block_count() -> None:
+    """A block in compliance is not ingested, so the next suggestion is made at the same block count: both are kept
+    (in order), from the blocks' records and the stop record alike; a block's record the stop record contradicts, or
+    leaves out, is reported."""
+    from types import SimpleNamespace
+
+    from analysis.adaptive_session import recorded_suggestions
+
+    one, two = {"block": 6, "operator": "took the suggestion"}, {"block": 6, "operator": "placed 10 kg instead"}
+    stop = {"adaptive": {"entries": [{"block": 0, "operator": "took the suggestion"}, one, two]}}
+    found = recorded_suggestions(SimpleNamespace(adaptive={6: one, 7: two}, stop=stop))
+    assert found == {0: [stop["adaptive"]["entries"][0]], 6: [one, two]}
+    assert recorded_suggestions(SimpleNamespace(adaptive={6: one, 7: two}, stop=None)) == {6: [one, two]}
+    assert "differs" in recorded_suggestions(SimpleNamespace(adaptive={6: two}, stop=stop))
+    alone = {"adaptive": {"entries": [one]}}
+    assert "not in the stop record" in recorded_suggestions(SimpleNamespace(adaptive={6: one, 7: two}, stop=alone))

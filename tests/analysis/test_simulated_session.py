@@ -63,8 +63,8 @@ def test_sim_speed_sets_the_time_scale():
 # ---- the simulated bench's noise and resistance model (issue 21 §1–§3) ------------------------------------------
 
 
-def _bench_sessions(noise: str, n: int, series_ohm: float = 2e-4):
-    """``n`` simulated sessions of the default scene (seeds 1 … n) as the bench makes them
+def _bench_sessions(noise: str, n: int, series_ohm: float = 2e-4, text: str | None = None):
+    """``n`` simulated sessions of the default scene (or of the scene ``text``; seeds 1 … n) as the bench makes them
     (:func:`simulated_resistances`; the instrument noise, ~1e-5 of R, left out), each fitted as ``fit --conversion
     physical`` fits a session (the clean terms of :func:`analysis.pipeline.physical_terms`). Returns the truth
     (σ_f, R_s), the t-interval hits of both per session, ĉ per session and the noise model used."""
@@ -80,8 +80,8 @@ def _bench_sessions(noise: str, n: int, series_ohm: float = 2e-4):
     from daq.plan import SessionPlan
     from sims.config import SimConfig
 
-    text = re.sub(r"^series_resistance_ohm\s*=.*$", f"series_resistance_ohm = {series_ohm}", default_scene_text(),
-                  flags=re.M)  # fmt: skip
+    text = re.sub(r"^series_resistance_ohm\s*=.*$", f"series_resistance_ohm = {series_ohm}",
+                  default_scene_text() if text is None else text, flags=re.M)  # fmt: skip
     scene = parse_scene(text)
     plan = SessionPlan.from_scene(scene)
     model, w = plan.session.sim_model, np.asarray(plan.session.weights_kg)
@@ -132,6 +132,24 @@ def test_physical_fit_of_simulated_sessions_recovers_film_and_series():
     assert np.all(hits.mean(axis=0) >= 0.90), hits.mean(axis=0)
     hits_iid, _, _, _, _ = _bench_sessions("iid", 300)
     assert np.all(hits_iid.mean(axis=0) >= 0.92), hits_iid.mean(axis=0)
+
+
+def test_physical_fit_of_simulated_press_sessions_recovers_film_and_series():
+    """The press (issue 27): `fit --conversion physical` subtracts the press's clean-metal terms (Barber's from the
+    press stiffness, Holm's spot of the contact radius), the simulated bench's; over 300 simulated press sessions
+    (iid re-seating 15 %, R_s = 0.2 mΩ) the 95 % t-intervals of σ_f and R_s contain the simulated values in ≥ 92 %
+    (measured 0.94 / 0.94 over 400). With Tab. 1's noise the σ_f interval covers less on the press than on the rig
+    (measured 0.89 / 0.95 over 400 press sessions, against 0.935 / 0.945 over 4000 on the rig: the lack of fit common
+    to every seating, 14.5 %, weighs most at the press's smallest loads, where σ_f/A is 150 times larger than at its
+    largest); the test holds it at ≥ 0.85."""
+    from pathlib import Path
+
+    press = (Path(__file__).resolve().parents[2] / "contactrig" / "scenes" / "press.toml").read_text()
+    hits, _, info, _, _ = _bench_sessions("iid", 300, text=press)
+    assert info["weights_kg"][0] == 0.5  # the press's loads
+    assert np.all(hits.mean(axis=0) >= 0.92), hits.mean(axis=0)
+    hits, _, _, _, _ = _bench_sessions("tab1", 300, text=press)
+    assert np.all(hits.mean(axis=0) >= 0.85), hits.mean(axis=0)
 
 
 def test_sim_noise_is_a_checked_scene_key_matching_the_noise_models():

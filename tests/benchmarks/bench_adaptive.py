@@ -136,23 +136,38 @@ def run(args: argparse.Namespace, threshold: float, seed0: int, pool: ProcessPoo
             setup = _setup(scene_name, noise_name)
             models = list(setup["curves"].area_m2)
             fixed = _fixed(setup, args.sessions, args.budget_min, seed0) if not args.no_fixed else {}
+            # session i of every model before session i + 1 of any: an interim table (--progress-every) has the same
+            # sessions for every model, so a run cut short still reports a complete, smaller run
             jobs = [(scene_name, noise_name, t, seed0 + i, args.budget_min, threshold, args.forward, args.check_every)
-                    for t in models for i in range(args.sessions)]  # fmt: skip
-            results = list(pool.map(_adaptive_one, jobs, chunksize=4))
-            for j, truth in enumerate(models):
-                res = results[j * args.sessions : (j + 1) * args.sessions]
-                n = len(res)
-                dec = np.mean([s == "decisive" for s, *_ in res])
-                fut = np.mean([s == "futile" for s, *_ in res])
-                wrong = np.mean([x[4] for x in res])
-                mean_t = np.mean([x[2] for x in res]) / 60
-                f = fixed.get(truth, {})
-                rows.append({"scene": scene_name, "noise": noise_name, "truth": truth, "n": n, "decisive": dec,
-                             "futile": fut, "wrong": wrong, "time_min": mean_t,
-                             "fixed_decisive": f.get("decisive", math.nan), "fixed_wrong": f.get("wrong", math.nan),
-                             "fixed_time_min": f.get("time_s", math.nan) / 60,
-                             "fixed_plan": f.get("plan", "")})  # fmt: skip
+                    for i in range(args.sessions) for t in models]  # fmt: skip
+            results = []
+            for k, r in enumerate(pool.map(_adaptive_one, jobs, chunksize=4)):  # in order, as they come
+                results.append(r)
+                done = (k + 1) // len(models)
+                if args.progress_every and (k + 1) % len(models) == 0 and done % args.progress_every == 0:
+                    interim = _rows(scene_name, noise_name, models, results, done, fixed)
+                    print(f"# {scene_name}/{noise_name}: {done} sessions per model after "
+                          f"{time.perf_counter() - t0:.0f} s\n{table(interim, threshold)}", file=sys.stderr, flush=True)
+            rows += _rows(scene_name, noise_name, models, results, args.sessions, fixed)
             print(f"# {scene_name}/{noise_name}: {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
+    return rows
+
+
+def _rows(scene_name: str, noise_name: str, models: list[str], results: list, sessions: int, fixed: dict) -> list:
+    """One row per true model from the first ``sessions`` sessions of each (``results`` in job order)."""
+    rows = []
+    for j, truth in enumerate(models):
+        res = results[j : sessions * len(models) : len(models)]
+        n = len(res)
+        dec = np.mean([s == "decisive" for s, *_ in res])
+        fut = np.mean([s == "futile" for s, *_ in res])
+        wrong = np.mean([x[4] for x in res])
+        mean_t = np.mean([x[2] for x in res]) / 60
+        f = fixed.get(truth, {})
+        rows.append({"scene": scene_name, "noise": noise_name, "truth": truth, "n": n, "decisive": dec,
+                     "futile": fut, "wrong": wrong, "time_min": mean_t,
+                     "fixed_decisive": f.get("decisive", math.nan), "fixed_wrong": f.get("wrong", math.nan),
+                     "fixed_time_min": f.get("time_s", math.nan) / 60, "fixed_plan": f.get("plan", "")})  # fmt: skip
     return rows
 
 
@@ -185,6 +200,7 @@ def main() -> int:
     p.add_argument("--forward", type=int, default=100, help="futures of the predictive probability (100)")
     p.add_argument("--check-every", type=int, default=4, help="blocks between futility checks (4)")
     p.add_argument("--no-fixed", action="store_true", help="leave out the fixed plan (faster)")
+    p.add_argument("--progress-every", type=int, default=0, help="print the table so far every N sessions per model")
     args = p.parse_args()
     from analysis.sequential import DECISIVE_DELTA
 
