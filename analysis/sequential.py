@@ -712,7 +712,7 @@ class SequentialDesign:
             f"within the budget of {self.budget_s / 60:.0f} min (the most separable, {_label(a)} and {_label(b)}, "
             f"reach an expected Δ(Q)AIC of {reach:.2g} of {self.threshold:g} with the whole budget spread over the "
             f"{self.weights_kg.size} allowed loads), so no session can end decisive; " + self.why()
-            + "; what would: " + self.what_would()
+            + "; what would: " + self.what_would_futile()
         )  # fmt: skip
 
     def difference(self, a: str, b: str) -> float:
