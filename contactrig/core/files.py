@@ -131,12 +131,12 @@ def refuse_existing(
     ``force`` or not: an output must never replace the file it is made from. Returns the paths."""
     from contactrig.core.validation import SettingError
 
-    out = [Path(p) for p in paths]
+    out = [check_new_file(p, force=force) for p in paths]  # its one-line errors first (a name too long, …)
     sources = [Path(i) for i in inputs if Path(i).exists()]
     for path in out:
-        if path.exists() and any(os.path.samefile(path, src) for src in sources):
+        if sources and path.exists() and any(os.path.samefile(path, src) for src in sources):
             raise SettingError("-o", str(path), "a file other than the input it is made from")
-    return [check_new_file(p, force=force) for p in out]
+    return out
 
 
 @contextmanager
