@@ -13,8 +13,8 @@ code of ours can cover is the interpreter's own start, before Python itself take
 the signal, exit −2), and its ``site`` import (Python's "Fatal Python error: init_import_site").
 """
 
-from __future__ import annotations
-
+# No ``from __future__ import annotations`` here: it imports the ``__future__`` module (a file read), a window in
+# which a Ctrl-C cut this file before its handler was taken (seen once in CI). Nothing below needs it.
 # the builtin behind ``signal`` (typeshed has no stub): importing ``signal``, ``typing`` or ``types`` takes milliseconds
 import _signal  # type: ignore[import-not-found]
 
