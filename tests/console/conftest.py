@@ -143,3 +143,21 @@ def client(folder: Path) -> Iterator[Client]:
     c = Client(folder)
     yield c
     c.close()
+
+
+@pytest.fixture(scope="module")
+def console(folder: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator[ConsoleProcess]:
+    """A console on the test module's own module-scoped ``folder``, its state in a fresh folder (browser tests)."""
+    c = ConsoleProcess(folder, tmp_path_factory.mktemp("state"))
+    yield c
+    c.close()
+
+
+@pytest.fixture(scope="module")
+def browser(request: pytest.FixtureRequest) -> Iterator[Any]:
+    """One headless Chromium for the test module, its window ``BROWSER_WINDOW`` of the module (default 1000,1000)."""
+    from tests.console.test_console_browser import chrome
+
+    driver = chrome(getattr(request.module, "BROWSER_WINDOW", "1000,1000"))
+    yield driver
+    driver.quit()

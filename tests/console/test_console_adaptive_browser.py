@@ -23,9 +23,7 @@ pytest.importorskip("selenium", reason="Selenium is not installed: pip install '
 from selenium.common.exceptions import StaleElementReferenceException
 from selenium.webdriver.common.by import By
 
-from tests.console.test_console_browser import CHROMIUM, DRIVER, browser, no_dialog, open_console, shot, text_of, wait
-
-__all__ = ["browser"]  # the module-scoped browser fixture, shared
+from tests.console.test_console_browser import CHROMIUM, DRIVER, no_dialog, open_console, shot, text_of, wait
 
 pytestmark = [
     pytest.mark.slow,
@@ -70,8 +68,9 @@ def test_adaptive_session_in_the_browser(browser: Any, console: ConsoleProcess, 
     # the bar at 0 and the reason it does not move (the analysis's sentence: the limiting noise component)
     bar = browser.find_element(By.ID, "evidence-bar")
     assert float(bar.get_attribute("value") or -1) == 0.0
-    assert "is larger than the difference between Greenwood–Tripp and Pasaribu–Schipper" in text_of(browser,
-                                                                                                     "#evidence-why")
+    assert "is larger than the difference between Greenwood–Tripp and Pasaribu–Schipper" in text_of(
+        browser, "#evidence-why"
+    )
     browser.find_element(By.ID, "btn-other").click()  # the allowed weights offered; this time the suggestion taken
     options = [o.get_attribute("value") for o in browser.find_elements(By.CSS_SELECTOR, "#other-kg option")]
     assert [float(v or "nan") for v in options] == [0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0]

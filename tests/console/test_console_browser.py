@@ -13,7 +13,6 @@ import shutil
 import time
 import urllib.error
 import urllib.request
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -59,13 +58,6 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return d
 
 
-@pytest.fixture(scope="module")
-def console(folder: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator[ConsoleProcess]:
-    c = ConsoleProcess(folder, tmp_path_factory.mktemp("state"))
-    yield c
-    c.close()
-
-
 def chrome(window: str = "1000,1000") -> webdriver.Chrome:
     """A headless Chromium of its own (its own profile, cookies and tabs) driven through the system's chromedriver."""
     # Both paths are given, so Selenium Manager is not consulted; offline, should a Selenium version ever do it.
@@ -78,13 +70,6 @@ def chrome(window: str = "1000,1000") -> webdriver.Chrome:
     driver = webdriver.Chrome(service=Service(executable_path=str(DRIVER)), options=options)
     driver.set_page_load_timeout(30)
     return driver
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[webdriver.Chrome]:
-    driver = chrome()
-    yield driver
-    driver.quit()
 
 
 def shot(driver: webdriver.Chrome, name: str, tmp_path: Path) -> None:

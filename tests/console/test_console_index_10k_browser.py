@@ -15,13 +15,11 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
-from tests.console.conftest import ConsoleProcess
-from tests.console.test_console_browser import CHROMIUM, DRIVER, chrome, open_console, shot, text_of, wait
+from tests.console.test_console_browser import CHROMIUM, DRIVER, open_console, shot, text_of, wait
 from tests.console.test_console_index_browser import fill, rows
 from tests.daq.run_files import build_lab
 
@@ -40,6 +38,9 @@ DISTINCT = 20
 PAGE = 500
 
 
+BROWSER_WINDOW = "1200,1000"  # the window of the conftest's browser fixture
+
+
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     from daq.run_index import add_mark, refresh
@@ -56,20 +57,6 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     print(f"first index of {r.read} files: {time.perf_counter() - t:.1f} s (load average {os.getloadavg()[0]:.1f} "
           f"on {os.cpu_count()} cores)")  # fmt: skip
     return d
-
-
-@pytest.fixture(scope="module")
-def console(folder: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator[ConsoleProcess]:
-    c = ConsoleProcess(folder, tmp_path_factory.mktemp("state"))
-    yield c
-    c.close()
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[webdriver.Chrome]:
-    driver = chrome("1200,1000")
-    yield driver
-    driver.quit()
 
 
 def expected(folder: Path, *where: str) -> list[str]:

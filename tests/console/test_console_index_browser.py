@@ -7,13 +7,12 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
-from tests.console.conftest import ConsoleProcess, scene_text
-from tests.console.test_console_browser import CHROMIUM, DRIVER, chrome, continue_all, open_console, shot, text_of, wait
+from tests.console.conftest import scene_text
+from tests.console.test_console_browser import CHROMIUM, DRIVER, continue_all, open_console, shot, text_of, wait
 from tests.daq.run_files import write_run
 
 pytest.importorskip("selenium", reason="Selenium is not installed: pip install '.[console]'")
@@ -51,6 +50,9 @@ def _build(folder: Path) -> None:
         os.utime(p, (old, old))
 
 
+BROWSER_WINDOW = "1200,1000"  # the window of the conftest's browser fixture
+
+
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     from daq.run_index import refresh
@@ -63,20 +65,6 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     r = refresh(d)
     print(f"\nfirst index of {r.read} files: {time.perf_counter() - t:.1f} s")
     return d
-
-
-@pytest.fixture(scope="module")
-def console(folder: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator[ConsoleProcess]:
-    c = ConsoleProcess(folder, tmp_path_factory.mktemp("state"))
-    yield c
-    c.close()
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[webdriver.Chrome]:
-    driver = chrome("1200,1000")
-    yield driver
-    driver.quit()
 
 
 def rows(driver: webdriver.Chrome) -> list[str]:

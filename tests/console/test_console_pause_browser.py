@@ -7,23 +7,20 @@ Set-up as tests/console/test_console_browser.py: the system's Chromium, headless
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
-from tests.console.conftest import ConsoleProcess, scene_text
+from tests.console.conftest import scene_text
 from tests.console.test_console_protocol import _loaded
 
 pytest.importorskip("selenium", reason="Selenium is not installed: pip install '.[console]'")
 
-from selenium import webdriver
 from selenium.webdriver.common.by import By
 
 from tests.console.test_console_browser import (
     CHROMIUM,
     DRIVER,
-    chrome,
     continue_all,
     open_console,
     start_from_form,
@@ -46,20 +43,6 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     d.mkdir()
     (d / "small.toml").write_text(scene_text(), encoding="utf-8")
     return d
-
-
-@pytest.fixture(scope="module")
-def console(folder: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator[ConsoleProcess]:
-    c = ConsoleProcess(folder, tmp_path_factory.mktemp("state"))
-    yield c
-    c.close()
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[webdriver.Chrome]:
-    driver = chrome()
-    yield driver
-    driver.quit()
 
 
 def test_pause_and_resume_from_the_run_page(browser, console, folder):

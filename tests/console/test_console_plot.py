@@ -13,13 +13,12 @@ import re
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
-from tests.console.conftest import ROOT, ConsoleProcess, scene_text
-from tests.console.test_console_browser import browser, continue_all, open_console, shot, text_of, wait
+from tests.console.conftest import ROOT, scene_text
+from tests.console.test_console_browser import continue_all, open_console, shot, text_of, wait
 
 pytest.importorskip("selenium", reason="Selenium is not installed: pip install '.[console]'")
 
@@ -27,8 +26,6 @@ from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
 
 from tests.console.test_console_browser import pytestmark  # noqa: F401  (slow; skipped without Chromium)
-
-__all__ = ["browser"]  # the fixture, imported
 
 #: the terminal's live line: ``block 3/6  5.44 kg  repeat 3  R = 8.0913 mΩ ± 12.3 µΩ (SEM, n = 10)``
 LIVE_LINE = re.compile(r"block (\d+)/\d+\s+([\d.]+) kg\s+repeat (\d+)\s+R = ([\d.]+ mΩ) ± (\S+ \S+) \(SEM")
@@ -53,13 +50,6 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     (d / "small.toml").write_text(scene_text(), encoding="utf-8")
     (d / "slow.toml").write_text(scene_text(count=60, repeats=3), encoding="utf-8")
     return d
-
-
-@pytest.fixture(scope="module")
-def console(folder: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator[ConsoleProcess]:
-    c = ConsoleProcess(folder, tmp_path_factory.mktemp("state"))
-    yield c
-    c.close()
 
 
 def plot_attr(driver, name: str) -> str:
@@ -173,7 +163,8 @@ def test_a_session_started_in_a_terminal_is_followed_live(browser, console, fold
         deadline = time.monotonic() + 60
         while not browser.find_elements(By.XPATH, "//tr[td/a[text()='terminal.h5']]//a[@class='follow']"):
             assert time.monotonic() < deadline and proc.poll() is None, (
-                f"the running session is not offered to follow: {proc.poll()}, {browser.page_source[-3000:]}")
+                f"the running session is not offered to follow: {proc.poll()}, {browser.page_source[-3000:]}"
+            )
             wait(browser, lambda d: d.find_elements(By.CSS_SELECTOR, "#sessions-table tr"))  # the index is read
             if not browser.find_elements(By.XPATH, "//tr[td/a[text()='terminal.h5']]//a[@class='follow']"):
                 time.sleep(0.3)
