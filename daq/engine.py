@@ -228,12 +228,11 @@ class AcquisitionEngine:
         intr = self.interrupts
         for step in steps:
             intr.enter("idle")
-            if intr.stop_requested:
-                intr.phase = "writing"  # winding down: a second Ctrl-C now must not hit the stop record
-                state.status, state.reason = "aborted", _after_block_reason(state.done)
-                state.interrupted = True
+            if self._stopping(state):
                 return
             self._pause_point(state)
+            if self._stopping(state):  # a Ctrl-C while the pause record was written
+                return
             if isinstance(step, PlaceWeight):
                 self._place(step, state)
             elif step.weight_index != state.skip_weight:
@@ -248,20 +247,37 @@ class AcquisitionEngine:
         # steps that decide themselves when to end (an adaptive session, analysis.sequential) say why
         state.reason = str(getattr(steps, "stop_reason", "") or state.reason)
 
+    def _stopping(self, state: _RunState) -> bool:
+        """Whether a Ctrl-C asked the run to stop (then the stop's reason is set and the run winds down)."""
+        if not self.interrupts.stop_requested:
+            return False
+        self.interrupts.phase = "writing"  # winding down: a second Ctrl-C now must not hit the stop record
+        state.status, state.reason = "aborted", _after_block_reason(state.done)
+        state.interrupted = True
+        return True
+
     def _pause_point(self, state: _RunState) -> None:
         """A block boundary: when the operator asked for a pause, record it and wait for the resume. The source is
         idle here (the driver ends every block with it idle, and nothing is armed between blocks); a Ctrl-C while
-        waiting stops the run as at any idle moment."""
+        waiting stops the run as at any idle moment. The pause record is written as a block is: a Ctrl-C meanwhile
+        waits until it is on disk (then the run stops instead of waiting), so it never cuts the run record short."""
         request = self.pause.take() if self.pause is not None else None
         if request is None or self.pause is None:
             return
+        intr = self.interrupts
         last = block_number(state.done[-1].block) if state.done else 0
         record = pause_record(request["reason"], request["who"], last)
         state.pauses.append(record)
+        intr.enter("writing")
         self._tell_pauses(state)
+        intr.enter("idle")  # a second Ctrl-C during the write stops here
+        if intr.stop_requested:
+            return
         who = self.pause.wait()
+        intr.enter("writing")
         record.update(resumed=now_iso(), resumed_by=who)
         self._tell_pauses(state)
+        intr.enter("idle")
 
     def _tell_pauses(self, state: _RunState) -> None:
         """This run's pause records to every writer that keeps them (a ``pause`` method)."""

@@ -155,6 +155,43 @@ def test_ctrl_c_while_paused_stops_with_the_source_idle(tmp_path: Path):
     assert p["after_block"] == 1 and "resumed" not in p
 
 
+class CtrlCWhilePauseIsWritten(PauseAfter):
+    """A writer told of the pause before the file is: it sends the Ctrl-C while the pause record is being written."""
+
+    def pause(self, pauses):
+        if "resumed" not in pauses[-1]:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)  # the handler runs here, inside the writers' round
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="SIGINT to the own process")
+def test_ctrl_c_while_the_pause_is_written_waits_for_the_record_then_stops(tmp_path: Path):
+    """The CI failure of 2026-11-27: a Ctrl-C that lands while the pause record is written must not cut the run
+    record short (it read ``record is not valid JSON``): the record goes to every writer, then the run stops
+    instead of waiting for a resume."""
+    from daq.engine import Interrupts
+
+    plan = SessionPlan.from_scene(small_scene())
+    control = PauseControl()
+    interrupts = Interrupts()
+    link, source = _bench(plan)
+    path = tmp_path / "w.h5"
+    sf = SessionFile.create(path)
+    try:
+        with interrupts:
+            outcome = drive(link, plan.block_settings, session_steps(plan),
+                            [CtrlCWhilePauseIsWritten(control, 0), FileWriter(sf)], start_record(plan),
+                            plan.scene.text, blocks_planned=plan.blocks_planned, pause=control,
+                            interrupts=interrupts)  # fmt: skip
+    finally:
+        sf.close()
+    assert outcome.interrupted and outcome.stop.status == "aborted"
+    s = load_quietly(path)
+    assert s.sealed and len(s.summary) == 1 and not source.prop("output")
+    [p] = pauses_of(s.runs)  # on file whole: the writer after the Ctrl-C got it too
+    assert p["after_block"] == 1 and "resumed" not in p
+
+
 def test_bad_reason_is_one_line_naming_it():
     from contactrig.core.validation import SettingError
 
