@@ -128,17 +128,26 @@ def _rate(x: float, n: int) -> str:
     return f"{100 * x:.1f} ± {100 * math.sqrt(max(x * (1 - x), 1e-12) / n):.1f} %"
 
 
-def run(args: argparse.Namespace, threshold: float, seed0: int, pool: ProcessPoolExecutor) -> list[dict]:
+def run(args: argparse.Namespace, threshold: float, seed0: int, pool: ProcessPoolExecutor,
+        per_session: list[dict] | None = None) -> list[dict]:
+    """The table's rows; with ``args.json``, every session's outcome is appended to ``per_session``."""
     rows = []
+    per_session = [] if per_session is None else per_session
     for scene_name in args.scenes.split(","):
         for noise_name in args.noise.split(","):
             t0 = time.perf_counter()
             setup = _setup(scene_name, noise_name)
             models = list(setup["curves"].area_m2)
             fixed = _fixed(setup, args.sessions, args.budget_min, seed0) if not args.no_fixed else {}
+            budget_min = args.budget_min
+            if args.budget_of_fixed:
+                # the loop's budget a fraction of the fixed plan's bench time (the same plan for every truth)
+                budget_min = args.budget_of_fixed * next(iter(fixed.values()))["time_s"] / 60
+                print(f"# {scene_name}/{noise_name}: budget {budget_min:.2f} min = {args.budget_of_fixed:g} × the "
+                      "fixed plan's time", file=sys.stderr, flush=True)  # fmt: skip
             # session i of every model before session i + 1 of any: an interim table (--progress-every) has the same
             # sessions for every model, so a run cut short still reports a complete, smaller run
-            jobs = [(scene_name, noise_name, t, seed0 + i, args.budget_min, threshold, args.forward, args.check_every)
+            jobs = [(scene_name, noise_name, t, seed0 + i, budget_min, threshold, args.forward, args.check_every)
                     for i in range(args.sessions) for t in models]  # fmt: skip
             results = []
             for k, r in enumerate(pool.map(_adaptive_one, jobs, chunksize=4)):  # in order, as they come
@@ -149,6 +158,10 @@ def run(args: argparse.Namespace, threshold: float, seed0: int, pool: ProcessPoo
                     print(f"# {scene_name}/{noise_name}: {done} sessions per model after "
                           f"{time.perf_counter() - t0:.0f} s\n{table(interim, threshold)}", file=sys.stderr, flush=True)
             rows += _rows(scene_name, noise_name, models, results, args.sessions, fixed)
+            if args.json:
+                per_session += [{"scene": scene_name, "noise": noise_name, "truth": job[2], "seed": job[3],
+                                 "budget_min": budget_min, "status": r[0], "leader": r[1], "bench_s": r[2],
+                                 "blocks": r[3], "wrong": bool(r[4])} for job, r in zip(jobs, results, strict=True)]
             print(f"# {scene_name}/{noise_name}: {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
     return rows
 
@@ -164,21 +177,47 @@ def _rows(scene_name: str, noise_name: str, models: list[str], results: list, se
         wrong = np.mean([x[4] for x in res])
         mean_t = np.mean([x[2] for x in res]) / 60
         f = fixed.get(truth, {})
+        reach_s, reach_wrong = time_to_rate([(s == "decisive", t, w) for s, _, t, _, w in res],
+                                            f.get("decisive", math.nan))  # fmt: skip
         rows.append({"scene": scene_name, "noise": noise_name, "truth": truth, "n": n, "decisive": dec,
                      "futile": fut, "wrong": wrong, "time_min": mean_t,
                      "fixed_decisive": f.get("decisive", math.nan), "fixed_wrong": f.get("wrong", math.nan),
-                     "fixed_time_min": f.get("time_s", math.nan) / 60, "fixed_plan": f.get("plan", "")})  # fmt: skip
+                     "fixed_time_min": f.get("time_s", math.nan) / 60, "fixed_plan": f.get("plan", ""),
+                     "reach_min": reach_s / 60, "reach_wrong": reach_wrong})  # fmt: skip
     return rows
 
 
+def time_to_rate(sessions: list[tuple[bool, float, bool]], rate: float) -> tuple[float, float]:
+    """The bench time [s] by which the adaptive sessions have declared decisive as often as ``rate`` (the fixed
+    plan's decisive rate), and their wrong-decisive rate by then: ``sessions`` are (decisive, bench time at the stop,
+    wrong). The k-th earliest decisive stop, k = ⌈rate · n⌉; NaN when fewer than k sessions ended decisive (or
+    ``rate`` is NaN or 0: nothing to reach).
+
+    Read with care: a session given a budget of that time would have been checked for futility against it, so the
+    figure is the time at which the loop run with the reported budget passes the fixed plan's rate, not the rate of
+    a loop given that time as its budget (``--budget-of-fixed`` measures that directly)."""
+    n = len(sessions)
+    if n == 0 or not rate > 0.0:
+        return math.nan, math.nan
+    k = math.ceil(rate * n - 1e-9)
+    stops = sorted((t, w) for d, t, w in sessions if d)
+    if len(stops) < k:
+        return math.nan, math.nan
+    t_k = stops[k - 1][0]
+    return t_k, sum(w for t, w in stops if t <= t_k) / n
+
+
 def table(rows: list[dict], threshold: float) -> str:
-    head = ("| bench | noise | true model | adaptive: wrong decisive | decisive | futile | mean time | fixed plan | "
-            "fixed: wrong | decisive | time |\n|---|---|---|---|---|---|---|---|---|---|---|")  # fmt: skip
+    head = ("| bench | noise | true model | adaptive: wrong decisive | decisive | futile | mean time | "
+            "reaches the fixed rate at (wrong by then) | fixed plan | fixed: wrong | decisive | time |\n"
+            "|---|---|---|---|---|---|---|---|---|---|---|---|")  # fmt: skip
     lines = [head]
     for r in rows:
+        reach = (f"{r['reach_min']:.1f} min = {100 * r['reach_min'] / r['fixed_time_min']:.0f} % "
+                 f"({100 * r['reach_wrong']:.1f} %)" if math.isfinite(r["reach_min"]) else "—")  # fmt: skip
         lines.append(
             f"| {r['scene']} | {r['noise']} | {r['truth']} | {_rate(r['wrong'], r['n'])} | "
-            f"{_rate(r['decisive'], r['n'])} | {100 * r['futile']:.0f} % | {r['time_min']:.1f} min | "
+            f"{_rate(r['decisive'], r['n'])} | {100 * r['futile']:.0f} % | {r['time_min']:.1f} min | {reach} | "
             f"{r['fixed_plan']} | "
             f"{100 * r['fixed_wrong']:.1f} % | {100 * r['fixed_decisive']:.1f} % | {r['fixed_time_min']:.0f} min |"
         )
@@ -201,7 +240,14 @@ def main() -> int:
     p.add_argument("--check-every", type=int, default=4, help="blocks between futility checks (4)")
     p.add_argument("--no-fixed", action="store_true", help="leave out the fixed plan (faster)")
     p.add_argument("--progress-every", type=int, default=0, help="print the table so far every N sessions per model")
+    p.add_argument("--budget-of-fixed", type=float, default=0.0,
+                   help="the loop's budget: this fraction of the fixed plan's time (e.g. 0.7)")
+    p.add_argument("--json", type=Path, default=None, help="write the rows and every session's outcome to this file")
     args = p.parse_args()
+    if args.budget_of_fixed and (args.no_fixed or args.calibrate):
+        p.error("--budget-of-fixed needs the fixed plan: not with --no-fixed or --calibrate")
+    if args.budget_of_fixed < 0:
+        p.error(f"--budget-of-fixed: {args.budget_of_fixed:g} is not a fraction > 0")
     from analysis.sequential import DECISIVE_DELTA
 
     threshold = DECISIVE_DELTA if args.threshold is None else args.threshold
@@ -216,8 +262,14 @@ def main() -> int:
                     break
             else:
                 print("calibration: no threshold of the grid keeps the wrong-decisive rate ≤ 5 %", flush=True)
-        rows = run(args, threshold, 0, pool)
+        per_session: list[dict] = []
+        rows = run(args, threshold, 0, pool, per_session)
     print(table(rows, threshold))
+    if args.json:
+        import json
+
+        args.json.write_text(json.dumps({"command": " ".join(sys.argv), "threshold": threshold, "rows": rows,
+                                         "sessions": per_session}, indent=1, default=float) + "\n")  # fmt: skip
     return 0
 
 
