@@ -12,10 +12,15 @@ from the file and reproduces every suggestion bit for bit. Each suggestion is al
 :class:`daq.plan.Measure`'s ``adaptive``, written and flushed with the first block it led to), so a killed session
 keeps the suggestions of all its blocks and replays them too.
 
-Block numbers: the k-th seating (k = 0, 1, …) at the plan's weight i is block i·R + k, R the plan's ``repeats``
-raised to the most seatings the budget allows at one weight (:func:`adaptive_plan`), so the k-th seating at a weight
-is its repeat k + 1 (the simulated bench's factor of that block: series offset k, lack of fit i, re-seating).
-Every block is a new seating (the simulated bench re-makes the contact for every block).
+Block numbers: the j-th block (j = 0, 1, …) at the plan's weight i is block i·R + j, R the plan's ``repeats``
+raised to the most seatings the budget allows at one weight (:func:`adaptive_plan`); its ``repeat`` is the number of
+its seating at that weight (1, 2, …). A block taken on a "repeat at the present seating" suggestion keeps the
+seating's number — consecutive blocks with one weight and one ``repeat`` are one seating — and is measured without
+lifting the weight (no prompt to place it; the simulated bench keeps the seating's contact factor,
+:class:`daq.plan.Measure`'s ``seating_block``); every other block is a new seating (the simulated bench's factor of
+that block: series offset j, lack of fit i, re-seating). The design (:meth:`SequentialDesign.ingest` with
+``seating``), ``fit`` (:meth:`analysis.measured.MeasuredCurve.from_summary`: a seating's blocks averaged into one
+repeat) and :func:`replay_suggestions` read the seatings from the file by that rule.
 """
 
 from __future__ import annotations
@@ -130,6 +135,11 @@ class AdaptiveSteps:
         self.decision: dict[str, Any] | None = None
         self.last: dict[str, Any] | None = None
         self.settings: dict[str, Any] = {}
+        n = len(plan.session.weights_kg)
+        self._taken = [0] * n  # blocks numbered per weight of the plan (block = weight index × R + this)
+        self._seated = [0] * n  # seatings per weight (a block's ``repeat``: the number of its seating)
+        self._first = [0] * n  # the first block of each weight's present seating
+        self._at: int | None = None  # the weight of the present seating
 
     def plan_lines(self) -> list[str]:
         """What ``acquire`` prints at the start of an adaptive session."""
@@ -167,18 +177,24 @@ class AdaptiveSteps:
             took = math.isclose(chosen, placement.weight_kg, rel_tol=1e-9)
             entry: dict[str, Any] | None = self._log(state, "took the suggestion" if took else
                                                      f"placed {chosen:g} kg instead")  # fmt: skip
-            i = self.design.index_of(chosen)
             wi = next(j for j, w in enumerate(weights) if math.isclose(w, chosen, rel_tol=1e-9))
-            seatings = placement.seatings if took else 1
-            for _ in range(seatings):
-                k = len(self.design.seatings[i])
-                if k >= cap:
+            # a repeat at the present seating: the weight stays where it is (no prompt to place it)
+            repeat = took and placement.action == "repeat" and self._at == wi
+            for _ in range(placement.seatings if took else 1):
+                if self._taken[wi] >= cap:
                     self.decision = {"status": "futile", "reason": f"no block left at {chosen:g} kg"}
                     self.stop_reason = f"stop — every block the plan numbers at {chosen:g} kg is taken ({cap})"
                     return
-                yield PlaceWeight(weight_index=wi, weight_kg=chosen, repeats_left=1)
+                block = wi * cap + self._taken[wi]
+                self._taken[wi] += 1
+                if not repeat:
+                    self._seated[wi] += 1
+                    self._first[wi] = block
+                    self._at = wi
+                    yield PlaceWeight(weight_index=wi, weight_kg=chosen, repeats_left=1)
                 # the suggestion goes with the first block it led to: written and flushed with that block
-                yield Measure(block=wi * cap + k, weight_index=wi, weight_kg=chosen, repeat=k + 1, adaptive=entry)
+                yield Measure(block=block, weight_index=wi, weight_kg=chosen, repeat=self._seated[wi], adaptive=entry,
+                              seating_block=self._first[wi] if repeat else None)  # fmt: skip
                 entry = None
 
     def _log(self, state: Mapping[str, Any], action: str) -> dict[str, Any]:
@@ -208,7 +224,7 @@ class AdaptiveSteps:
         value = float(rec.stats.mean)
         if not math.isfinite(value):  # no valid reading (compliance): not a seating the fit could use
             return
-        self.design.ingest(float(rec.weight_kg), value)
+        self.design.ingest(float(rec.weight_kg), value, seating=int(rec.repeat))
         self.say(self.evidence_line())
 
     def stop(self, stop: Any) -> None:
@@ -252,9 +268,10 @@ def session_design(session: Any) -> SequentialDesign | None:
     if not isinstance(settings, dict):
         return None
     design = build_design(parse_scene(session.scene_text, "recorded scene"), settings)
-    for w, v in zip(session.summary["weight_kg"], session.summary["mean_ohm"], strict=True):
+    rows = session.summary
+    for w, r, v in zip(rows["weight_kg"], rows["repeat"], rows["mean_ohm"], strict=True):
         if math.isfinite(float(v)):
-            design.ingest(float(w), float(v))
+            design.ingest(float(w), float(v), seating=int(r))
     return design
 
 
@@ -355,7 +372,7 @@ def replay_suggestions(path: str) -> tuple[bool, str]:
     design = build_design(parse_scene(session.scene_text, f"{path} (recorded scene)"), settings)
     checked = 0
     rows = session.summary  # in the order the blocks were taken (the file's order)
-    for w, v in [*zip(rows["weight_kg"], rows["mean_ohm"], strict=True), (math.nan, math.nan)]:
+    for w, r, v in [*zip(rows["weight_kg"], rows["repeat"], rows["mean_ohm"], strict=True), (math.nan, 0, math.nan)]:
         entries = by_block.pop(design.blocks, [])
         if entries:
             state = design.report()
@@ -365,7 +382,7 @@ def replay_suggestions(path: str) -> tuple[bool, str]:
                 return False, f"the suggestion before block {design.blocks + 1} differs from the recorded one"
             checked += len(entries)
         if math.isfinite(float(v)):
-            design.ingest(float(w), float(v))
+            design.ingest(float(w), float(v), seating=int(r))
     if by_block:
         return False, f"{sum(map(len, by_block.values()))} recorded suggestion(s) fit no block of the file"
     left = "" if session.complete else " (an incomplete session: the suggestions of its blocks)"

@@ -288,6 +288,7 @@ class SequentialDesign:
         self.spent_s = 0.0
         self.current: int | None = None
         self.pending: int | None = None  # a weight placed with one seating: the next suggestion re-seats it
+        self._seating: int | None = None  # the recorded number of the present seating (``ingest``'s ``seating``)
         self.groups = self._equivalents()
         self._cache: dict[str, Any] = {}  # evidence, noise of the present blocks (cleared by ingest)
 
@@ -300,10 +301,16 @@ class SequentialDesign:
             raise ValueError(f"weight {weight_kg:g} kg is not one of the placements allowed ({allowed} kg)")
         return i
 
-    def ingest(self, weight_kg: float, value_ohm: float, *, reseated: bool = True) -> None:
+    def ingest(self, weight_kg: float, value_ohm: float, *, reseated: bool = True, seating: int | None = None) -> None:
         """One block's mean [Ω] at ``weight_kg``: a new seating (``reseated``, or a weight other than the present
-        one), else one more block at the present seating. Its bench time is counted by the :class:`CostModel`."""
+        one), else one more block at the present seating. ``seating``: the block's seating number as a session file
+        records it (its ``repeat``), which decides instead of ``reseated``: the block is at the present seating when
+        its weight and number are those of the block ingested before it. Its bench time is counted by the
+        :class:`CostModel`."""
         i = self.index_of(weight_kg)
+        if seating is not None:
+            reseated = i != self.current or seating != self._seating
+            self._seating = seating
         if i != self.current:
             self.spent_s += self.cost.place_s + self.cost.block_s
             self.seatings[i].append([float(value_ohm)])
@@ -871,7 +878,8 @@ def simulate_loop(
     check_every: int = 4,
 ) -> tuple[str, str, float, int]:
     """One adaptive session on the simulated bench's physics (``design`` fresh): suggestion → block (ln f = a_k + b_i
-    + e_ik, k the seating at weight i, as :func:`analysis.simulated_session.session_factors`) → evidence → stop.
+    + e_ik, k the seating at weight i, as :func:`analysis.simulated_session.session_factors`; a repeat at the present
+    seating keeps its f, only the block noise ``block_sd_ohm`` differs) → evidence → stop.
     Futility is checked every ``check_every`` blocks (the forward simulation is the costly part). Returns (status,
     leader, bench time [s], blocks)."""
     w = design.weights_kg
@@ -882,12 +890,14 @@ def simulate_loop(
     var = noise.series_sd**2 + noise.reseat_sd**2 + noise.lack_sd**2
     if design.hopeless():  # futile before the first block (the prior makes every pair inseparable)
         return "futile", "", design.spent_s, design.blocks
+    f = math.nan
     while True:
         p = design.suggest()
         i = design.index_of(p.weight_kg)
         for _ in range(p.seatings):
-            k = len(design.seatings[i]) if p.action != "repeat" else max(len(design.seatings[i]) - 1, 0)
-            f = math.exp(series[k % 64] + lack[i] + noise.reseat_sd * rng.standard_normal() - 0.5 * var)
+            if p.action != "repeat" or not math.isfinite(f):  # a repeat keeps the present seating's contact
+                k = len(design.seatings[i])
+                f = math.exp(series[k % 64] + lack[i] + noise.reseat_sd * rng.standard_normal() - 0.5 * var)
             value = float(bench_resistance_ohm(series_ohm, film_ohm_m2, a[i : i + 1], cl[i : i + 1], [[f]])[0, 0])
             design.ingest(p.weight_kg, value + block_sd_ohm * rng.standard_normal(), reseated=p.action != "repeat")
             ev = design.evidence()
