@@ -33,6 +33,7 @@ import sys
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any
 
+from analysis.noise_model import NoiseModel
 from analysis.sequential import DECISIVE_DELTA, CostModel, Placement, SequentialDesign
 from daq.plan import Measure, PlaceWeight, SessionPlan, block_duration_s
 
@@ -42,6 +43,7 @@ __all__ = [
     "adaptive_source",
     "build_design",
     "evidence_line",
+    "file_prior",
     "recorded_suggestions",
     "replay_suggestions",
     "session_design",
@@ -73,19 +75,42 @@ def adaptive_plan(plan: SessionPlan, budget_min: float) -> SessionPlan:
     return dataclasses.replace(plan, session=dataclasses.replace(plan.session, repeats=cap))
 
 
-def settings_of(plan: SessionPlan, budget_min: float, *, simulated: bool, seed: int = 0) -> dict[str, Any]:
-    """The design's settings for the start record: budget, threshold, cost model, the prior noise model (the
-    simulated bench's with ``--sim``, else Tab. 1's), the prior film and series (the scene's circuit), the seed."""
+#: The prior noise of a session file (``--noise-from``): the model and where it came from (file name, content id).
+Prior = tuple[NoiseModel, dict[str, str]]
+
+
+def file_prior(path: str) -> Prior:
+    """The prior noise of ``acquire --adaptive --noise-from SESSION.h5``: what ``design --noise-from`` estimates
+    from that file (:func:`analysis.noise_model.session_noise`, no second estimator), its source said as "noise from
+    NAME", and the file's name and content id (recorded in the start record's ``adaptive.noise_from``)."""
+    from analysis.noise_model import session_noise
+
+    noise, origin = session_noise(path)
+    return dataclasses.replace(noise, source=f"noise from {origin['file']}"), origin
+
+
+def settings_of(
+    plan: SessionPlan, budget_min: float, *, simulated: bool, seed: int = 0, prior: Prior | None = None
+) -> dict[str, Any]:
+    """The design's settings for the start record: budget, threshold, cost model, the prior noise model (``prior``,
+    :func:`file_prior`, with ``noise_from`` where it came from; else the simulated bench's with ``--sim``, else Tab.
+    1's), the prior film and series (the scene's circuit), the seed. A replay rebuilds the design from these alone
+    (the recorded prior, not the other file)."""
     from analysis.circuit import CircuitSettings
     from analysis.noise_model import noise_model, tab1_noise
 
-    noise = noise_model(plan.session.sim_noise, plan.session.sim_repeat_sd) if simulated else tab1_noise()
+    if prior is not None:
+        noise = prior[0]
+    else:
+        noise = noise_model(plan.session.sim_noise, plan.session.sim_repeat_sd) if simulated else tab1_noise()
     circuit = CircuitSettings.from_scene(plan.scene)
+    origin = {"noise_from": dict(prior[1])} if prior is not None else {}
     return {
         "budget_s": 60.0 * float(budget_min),
         "threshold": DECISIVE_DELTA,
         "cost": dataclasses.asdict(_cost(plan)),
         "noise": noise.as_dict(),
+        **origin,
         "film_ohm_m2": circuit.resistivity_ohm_m * circuit.contact_height_m,
         "series_ohm": circuit.series_resistance_ohm,
         "weights_kg": [float(w) for w in plan.session.weights_kg],
@@ -101,7 +126,6 @@ _CURVES: dict[str, Any] = {}
 def build_design(scene: Any, settings: Mapping[str, Any]) -> SequentialDesign:
     """The :class:`SequentialDesign` of ``settings`` (:func:`settings_of`, or a start record's ``adaptive``)."""
     from analysis.design import model_curves
-    from analysis.noise_model import NoiseModel
 
     weights = [float(w) for w in settings["weights_kg"]]
     noise = NoiseModel(**settings["noise"])
@@ -149,7 +173,7 @@ class AdaptiveSteps:
             f"adaptive session: budget {d.budget_s / 60:.0f} min; placements "
             f"{', '.join(f'{w:g}' for w in d.weights_kg)} kg; next placement by {how}",
             f"stops decisive (Δ(Q)AIC ≥ {d.threshold:g} over every separable rival), futile (P(decisive within the "
-            f"budget) < 5 %) or by the operator; prior noise: {d.prior.describe()}",
+            f"budget) < 5 %) or by the operator; prior noise: {d.prior.describe()}{_origin(self.settings)}",
         ]
 
     # -- the engine's steps -------------------------------------------------------------------------------------
@@ -242,6 +266,12 @@ class AdaptiveSteps:
                                      allow_nan=False))  # fmt: skip
 
 
+def _origin(settings: Mapping[str, Any]) -> str:
+    """`` (content id sha256:…)`` of a prior from a session file (``noise_from``), else ""."""
+    origin = settings.get("noise_from")
+    return f" (content id {origin.get('content_id')})" if isinstance(origin, dict) else ""
+
+
 def evidence_line(design: SequentialDesign) -> str:
     """``evidence: Hertz leads, ΔQAIC 4.2 of 10 (42 %) · ĉ 3.1 · 12 of 60 min`` — what the live line and ``watch``
     show after each block: the leader, its margin over the nearest separable rival against the decisive threshold
@@ -251,6 +281,8 @@ def evidence_line(design: SequentialDesign) -> str:
     d = design
     ev = d.evidence()
     spent = f"{d.spent_s / 60:.0f} of {d.budget_s / 60:.0f} min"
+    if d.prior.source.startswith("noise from "):  # a prior from a session file (--noise-from): said on every line
+        spent += f" · {d.prior.source}"
     if ev is None:
         return f"evidence: not yet (the fit needs ≥ 2 seatings at ≥ 3 weights) · {spent}"
     margin = "no separable rival" if not math.isfinite(ev.margin) else f"Δ{ev.criterion} {ev.margin:.1f}"
@@ -336,17 +368,20 @@ def terminal_chooser(stream: Any = None, read: Callable[[], str] = input) -> Cho
 
 
 def adaptive_source(
-    budget_min: float, *, simulated: bool, choose: Chooser | None = None, seed: int = 0
+    budget_min: float, *, simulated: bool, choose: Chooser | None = None, seed: int = 0, noise_from: str | None = None
 ) -> Callable[[SessionPlan], AdaptiveSteps]:
     """What ``acquire(adaptive=…)`` takes: given the session's plan, the :class:`AdaptiveSteps` of a design with a
-    budget of ``budget_min`` minutes (the plan's block numbers raised, :func:`adaptive_plan`)."""
+    budget of ``budget_min`` minutes (the plan's block numbers raised, :func:`adaptive_plan`); ``noise_from``: a
+    session file whose noise is the prior (:func:`file_prior`), read now, so that a bad file is an error before any
+    output is made."""
     from contactrig.core.validation import check_range
 
     check_range("--budget-min", budget_min, 0.0, 24 * 60.0, lo_open=True, unit="min")
+    prior = file_prior(noise_from) if noise_from is not None else None
 
     def make(plan: SessionPlan) -> AdaptiveSteps:
         wide = adaptive_plan(plan, budget_min)
-        settings = settings_of(wide, budget_min, simulated=simulated, seed=seed)
+        settings = settings_of(wide, budget_min, simulated=simulated, seed=seed, prior=prior)
         steps = AdaptiveSteps(wide, build_design(wide.scene, settings), choose=choose)
         steps.settings = settings
         return steps

@@ -48,7 +48,8 @@ and on the press).
 **Noise components**: the scatter between seatings at one weight (re-seating, with any series offset: an adaptive
 session has no series to separate them) from the session once Σ(n_i − 1) ≥ 4, the lack of fit common to every
 seating once ≥ 4 weights have ≥ 2 seatings (relative misfit of the best physical fit's means beyond the seating
-scatter / n_i); until then the prior's (Tab. 1's, or the simulated bench's), said.
+scatter / n_i); until then the prior's (Tab. 1's, the simulated bench's, or an earlier session's: ``acquire
+--noise-from``), said.
 
 **Intervals of an adaptive session**: the placements depend on the data only through earlier blocks, so the
 likelihood — the estimates and Δ(Q)AIC of ``fit`` — is that of a fixed design with the same placements (Ford,
@@ -251,9 +252,9 @@ class SequentialDesign:
     ``curves`` the models' A(W) and clean terms (:func:`analysis.design.model_curves`, covering ``weights_kg``);
     ``weights_kg`` the placements the bench allows [kg]; ``cost`` the :class:`CostModel`; ``budget_s`` the bench
     time allowed [s]; ``noise`` the prior noise model (Tab. 1's on a real bench, the simulated bench's with
-    ``--sim``); ``film_ohm_m2``, ``series_ohm`` prior σ_f, R_s (the scene's circuit); ``threshold`` the decisive
-    Δ(Q)AIC; ``n_forward`` futures of the predictive probability; ``seed`` its generator (with the block count: a
-    replay gives the same numbers).
+    ``--sim``, an earlier session's with ``--noise-from``); ``film_ohm_m2``, ``series_ohm`` prior σ_f, R_s (the
+    scene's circuit); ``threshold`` the decisive Δ(Q)AIC; ``n_forward`` futures of the predictive probability;
+    ``seed`` its generator (with the block count: a replay gives the same numbers).
     """
 
     def __init__(
@@ -801,7 +802,9 @@ class SequentialDesign:
         size = getattr(noise, comp)
         diff = self.difference(lead, rival)
         rel = "larger" if size > diff else "smaller"
-        where = "from this session" if src[comp].startswith("session") else f"from {self.prior.source}"
+        prior = self.prior.source  # "noise from NAME" (a session file, --noise-from) reads as it is
+        where = "from this session" if src[comp].startswith("session") else (
+            prior if prior.startswith("noise from ") else f"from {prior}")  # fmt: skip
         return (
             f"{COMPONENT_WORDS[comp]}, {100 * size:.0f} % ({where}), is {rel} than the difference between "
             f"{_label(lead)} and {_label(rival)}, {100 * diff:.1f} %"
