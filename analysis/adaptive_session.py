@@ -12,10 +12,15 @@ from the file and reproduces every suggestion bit for bit. Each suggestion is al
 :class:`daq.plan.Measure`'s ``adaptive``, written and flushed with the first block it led to), so a killed session
 keeps the suggestions of all its blocks and replays them too.
 
-Block numbers: the k-th seating (k = 0, 1, …) at the plan's weight i is block i·R + k, R the plan's ``repeats``
-raised to the most seatings the budget allows at one weight (:func:`adaptive_plan`), so the k-th seating at a weight
-is its repeat k + 1 (the simulated bench's factor of that block: series offset k, lack of fit i, re-seating).
-Every block is a new seating (the simulated bench re-makes the contact for every block).
+Block numbers: the j-th block (j = 0, 1, …) at the plan's weight i is block i·R + j, R the plan's ``repeats``
+raised to the most seatings the budget allows at one weight (:func:`adaptive_plan`); its ``repeat`` is the number of
+its seating at that weight (1, 2, …). A block taken on a "repeat at the present seating" suggestion keeps the
+seating's number — consecutive blocks with one weight and one ``repeat`` are one seating — and is measured without
+lifting the weight (no prompt to place it; the simulated bench keeps the seating's contact factor,
+:class:`daq.plan.Measure`'s ``seating_block``); every other block is a new seating (the simulated bench's factor of
+that block: series offset j, lack of fit i, re-seating). The design (:meth:`SequentialDesign.ingest` with
+``seating``), ``fit`` (:meth:`analysis.measured.MeasuredCurve.from_summary`: a seating's blocks averaged into one
+repeat) and :func:`replay_suggestions` read the seatings from the file by that rule.
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ import sys
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any
 
+from analysis.noise_model import NoiseModel
 from analysis.sequential import DECISIVE_DELTA, CostModel, Placement, SequentialDesign
 from daq.plan import Measure, PlaceWeight, SessionPlan, block_duration_s
 
@@ -37,6 +43,7 @@ __all__ = [
     "adaptive_source",
     "build_design",
     "evidence_line",
+    "file_prior",
     "recorded_suggestions",
     "replay_suggestions",
     "session_design",
@@ -68,19 +75,42 @@ def adaptive_plan(plan: SessionPlan, budget_min: float) -> SessionPlan:
     return dataclasses.replace(plan, session=dataclasses.replace(plan.session, repeats=cap))
 
 
-def settings_of(plan: SessionPlan, budget_min: float, *, simulated: bool, seed: int = 0) -> dict[str, Any]:
-    """The design's settings for the start record: budget, threshold, cost model, the prior noise model (the
-    simulated bench's with ``--sim``, else Tab. 1's), the prior film and series (the scene's circuit), the seed."""
+#: The prior noise of a session file (``--noise-from``): the model and where it came from (file name, content id).
+Prior = tuple[NoiseModel, dict[str, str]]
+
+
+def file_prior(path: str) -> Prior:
+    """The prior noise of ``acquire --adaptive --noise-from SESSION.h5``: what ``design --noise-from`` estimates
+    from that file (:func:`analysis.noise_model.session_noise`, no second estimator), its source said as "noise from
+    NAME", and the file's name and content id (recorded in the start record's ``adaptive.noise_from``)."""
+    from analysis.noise_model import session_noise
+
+    noise, origin = session_noise(path)
+    return dataclasses.replace(noise, source=f"noise from {origin['file']}"), origin
+
+
+def settings_of(
+    plan: SessionPlan, budget_min: float, *, simulated: bool, seed: int = 0, prior: Prior | None = None
+) -> dict[str, Any]:
+    """The design's settings for the start record: budget, threshold, cost model, the prior noise model (``prior``,
+    :func:`file_prior`, with ``noise_from`` where it came from; else the simulated bench's with ``--sim``, else Tab.
+    1's), the prior film and series (the scene's circuit), the seed. A replay rebuilds the design from these alone
+    (the recorded prior, not the other file)."""
     from analysis.circuit import CircuitSettings
     from analysis.noise_model import noise_model, tab1_noise
 
-    noise = noise_model(plan.session.sim_noise, plan.session.sim_repeat_sd) if simulated else tab1_noise()
+    if prior is not None:
+        noise = prior[0]
+    else:
+        noise = noise_model(plan.session.sim_noise, plan.session.sim_repeat_sd) if simulated else tab1_noise()
     circuit = CircuitSettings.from_scene(plan.scene)
+    origin = {"noise_from": dict(prior[1])} if prior is not None else {}
     return {
         "budget_s": 60.0 * float(budget_min),
         "threshold": DECISIVE_DELTA,
         "cost": dataclasses.asdict(_cost(plan)),
         "noise": noise.as_dict(),
+        **origin,
         "film_ohm_m2": circuit.resistivity_ohm_m * circuit.contact_height_m,
         "series_ohm": circuit.series_resistance_ohm,
         "weights_kg": [float(w) for w in plan.session.weights_kg],
@@ -96,7 +126,6 @@ _CURVES: dict[str, Any] = {}
 def build_design(scene: Any, settings: Mapping[str, Any]) -> SequentialDesign:
     """The :class:`SequentialDesign` of ``settings`` (:func:`settings_of`, or a start record's ``adaptive``)."""
     from analysis.design import model_curves
-    from analysis.noise_model import NoiseModel
 
     weights = [float(w) for w in settings["weights_kg"]]
     noise = NoiseModel(**settings["noise"])
@@ -130,6 +159,11 @@ class AdaptiveSteps:
         self.decision: dict[str, Any] | None = None
         self.last: dict[str, Any] | None = None
         self.settings: dict[str, Any] = {}
+        n = len(plan.session.weights_kg)
+        self._taken = [0] * n  # blocks numbered per weight of the plan (block = weight index × R + this)
+        self._seated = [0] * n  # seatings per weight (a block's ``repeat``: the number of its seating)
+        self._first = [0] * n  # the first block of each weight's present seating
+        self._at: int | None = None  # the weight of the present seating
 
     def plan_lines(self) -> list[str]:
         """What ``acquire`` prints at the start of an adaptive session."""
@@ -139,7 +173,7 @@ class AdaptiveSteps:
             f"adaptive session: budget {d.budget_s / 60:.0f} min; placements "
             f"{', '.join(f'{w:g}' for w in d.weights_kg)} kg; next placement by {how}",
             f"stops decisive (Δ(Q)AIC ≥ {d.threshold:g} over every separable rival), futile (P(decisive within the "
-            f"budget) < 5 %) or by the operator; prior noise: {d.prior.describe()}",
+            f"budget) < 5 %) or by the operator; prior noise: {d.prior.describe()}{_origin(self.settings)}",
         ]
 
     # -- the engine's steps -------------------------------------------------------------------------------------
@@ -167,18 +201,24 @@ class AdaptiveSteps:
             took = math.isclose(chosen, placement.weight_kg, rel_tol=1e-9)
             entry: dict[str, Any] | None = self._log(state, "took the suggestion" if took else
                                                      f"placed {chosen:g} kg instead")  # fmt: skip
-            i = self.design.index_of(chosen)
             wi = next(j for j, w in enumerate(weights) if math.isclose(w, chosen, rel_tol=1e-9))
-            seatings = placement.seatings if took else 1
-            for _ in range(seatings):
-                k = len(self.design.seatings[i])
-                if k >= cap:
+            # a repeat at the present seating: the weight stays where it is (no prompt to place it)
+            repeat = took and placement.action == "repeat" and self._at == wi
+            for _ in range(placement.seatings if took else 1):
+                if self._taken[wi] >= cap:
                     self.decision = {"status": "futile", "reason": f"no block left at {chosen:g} kg"}
                     self.stop_reason = f"stop — every block the plan numbers at {chosen:g} kg is taken ({cap})"
                     return
-                yield PlaceWeight(weight_index=wi, weight_kg=chosen, repeats_left=1)
+                block = wi * cap + self._taken[wi]
+                self._taken[wi] += 1
+                if not repeat:
+                    self._seated[wi] += 1
+                    self._first[wi] = block
+                    self._at = wi
+                    yield PlaceWeight(weight_index=wi, weight_kg=chosen, repeats_left=1)
                 # the suggestion goes with the first block it led to: written and flushed with that block
-                yield Measure(block=wi * cap + k, weight_index=wi, weight_kg=chosen, repeat=k + 1, adaptive=entry)
+                yield Measure(block=block, weight_index=wi, weight_kg=chosen, repeat=self._seated[wi], adaptive=entry,
+                              seating_block=self._first[wi] if repeat else None)  # fmt: skip
                 entry = None
 
     def _log(self, state: Mapping[str, Any], action: str) -> dict[str, Any]:
@@ -208,7 +248,7 @@ class AdaptiveSteps:
         value = float(rec.stats.mean)
         if not math.isfinite(value):  # no valid reading (compliance): not a seating the fit could use
             return
-        self.design.ingest(float(rec.weight_kg), value)
+        self.design.ingest(float(rec.weight_kg), value, seating=int(rec.repeat))
         self.say(self.evidence_line())
 
     def stop(self, stop: Any) -> None:
@@ -226,6 +266,12 @@ class AdaptiveSteps:
                                      allow_nan=False))  # fmt: skip
 
 
+def _origin(settings: Mapping[str, Any]) -> str:
+    """`` (content id sha256:…)`` of a prior from a session file (``noise_from``), else ""."""
+    origin = settings.get("noise_from")
+    return f" (content id {origin.get('content_id')})" if isinstance(origin, dict) else ""
+
+
 def evidence_line(design: SequentialDesign) -> str:
     """``evidence: Hertz leads, ΔQAIC 4.2 of 10 (42 %) · ĉ 3.1 · 12 of 60 min`` — what the live line and ``watch``
     show after each block: the leader, its margin over the nearest separable rival against the decisive threshold
@@ -235,6 +281,8 @@ def evidence_line(design: SequentialDesign) -> str:
     d = design
     ev = d.evidence()
     spent = f"{d.spent_s / 60:.0f} of {d.budget_s / 60:.0f} min"
+    if d.prior.source.startswith("noise from "):  # a prior from a session file (--noise-from): said on every line
+        spent += f" · {d.prior.source}"
     if ev is None:
         return f"evidence: not yet (the fit needs ≥ 2 seatings at ≥ 3 weights) · {spent}"
     margin = "no separable rival" if not math.isfinite(ev.margin) else f"Δ{ev.criterion} {ev.margin:.1f}"
@@ -252,9 +300,10 @@ def session_design(session: Any) -> SequentialDesign | None:
     if not isinstance(settings, dict):
         return None
     design = build_design(parse_scene(session.scene_text, "recorded scene"), settings)
-    for w, v in zip(session.summary["weight_kg"], session.summary["mean_ohm"], strict=True):
+    rows = session.summary
+    for w, r, v in zip(rows["weight_kg"], rows["repeat"], rows["mean_ohm"], strict=True):
         if math.isfinite(float(v)):
-            design.ingest(float(w), float(v))
+            design.ingest(float(w), float(v), seating=int(r))
     return design
 
 
@@ -319,17 +368,20 @@ def terminal_chooser(stream: Any = None, read: Callable[[], str] = input) -> Cho
 
 
 def adaptive_source(
-    budget_min: float, *, simulated: bool, choose: Chooser | None = None, seed: int = 0
+    budget_min: float, *, simulated: bool, choose: Chooser | None = None, seed: int = 0, noise_from: str | None = None
 ) -> Callable[[SessionPlan], AdaptiveSteps]:
     """What ``acquire(adaptive=…)`` takes: given the session's plan, the :class:`AdaptiveSteps` of a design with a
-    budget of ``budget_min`` minutes (the plan's block numbers raised, :func:`adaptive_plan`)."""
+    budget of ``budget_min`` minutes (the plan's block numbers raised, :func:`adaptive_plan`); ``noise_from``: a
+    session file whose noise is the prior (:func:`file_prior`), read now, so that a bad file is an error before any
+    output is made."""
     from contactrig.core.validation import check_range
 
     check_range("--budget-min", budget_min, 0.0, 24 * 60.0, lo_open=True, unit="min")
+    prior = file_prior(noise_from) if noise_from is not None else None
 
     def make(plan: SessionPlan) -> AdaptiveSteps:
         wide = adaptive_plan(plan, budget_min)
-        settings = settings_of(wide, budget_min, simulated=simulated, seed=seed)
+        settings = settings_of(wide, budget_min, simulated=simulated, seed=seed, prior=prior)
         steps = AdaptiveSteps(wide, build_design(wide.scene, settings), choose=choose)
         steps.settings = settings
         return steps
@@ -355,7 +407,7 @@ def replay_suggestions(path: str) -> tuple[bool, str]:
     design = build_design(parse_scene(session.scene_text, f"{path} (recorded scene)"), settings)
     checked = 0
     rows = session.summary  # in the order the blocks were taken (the file's order)
-    for w, v in [*zip(rows["weight_kg"], rows["mean_ohm"], strict=True), (math.nan, math.nan)]:
+    for w, r, v in [*zip(rows["weight_kg"], rows["repeat"], rows["mean_ohm"], strict=True), (math.nan, 0, math.nan)]:
         entries = by_block.pop(design.blocks, [])
         if entries:
             state = design.report()
@@ -365,7 +417,7 @@ def replay_suggestions(path: str) -> tuple[bool, str]:
                 return False, f"the suggestion before block {design.blocks + 1} differs from the recorded one"
             checked += len(entries)
         if math.isfinite(float(v)):
-            design.ingest(float(w), float(v))
+            design.ingest(float(w), float(v), seating=int(r))
     if by_block:
         return False, f"{sum(map(len, by_block.values()))} recorded suggestion(s) fit no block of the file"
     left = "" if session.complete else " (an incomplete session: the suggestions of its blocks)"

@@ -88,14 +88,18 @@ class MeasuredCurve:
     def from_summary(cls, summary: Any, *, source: str = "", provenance: dict[str, Any] | None = None):
         """From a session summary DataFrame (columns weight_kg, repeat, mean_ohm, sem_ohm, …; one row per block).
 
-        Blocks with no valid reading (NaN mean) count as missing repeats. Two blocks with the same weight and
-        repeat are an error.
+        Blocks with no valid reading (NaN mean) count as missing repeats. Consecutive blocks with the same weight
+        and repeat are blocks at one seating (an adaptive session's repeat at the present seating, the weight not
+        lifted: they share the seating's contact, so they are one repeat): their mean is the mean of their valid
+        block means, its within-block standard error √(Σ sem²)/n. Two other blocks with the same weight and repeat
+        are an error.
         """
         for col in ("weight_kg", "repeat", "mean_ohm"):
             if col not in summary.columns:
                 raise SettingError("summary", list(summary.columns), f"expected a column {col!r}")
         if len(summary) == 0:
             raise SettingError("summary", "empty", "expected at least one block")
+        summary = _seatings(summary)
         dup = summary.duplicated(["weight_kg", "repeat"])
         if dup.any():
             row = summary[dup].iloc[0]
@@ -172,6 +176,28 @@ def _values(values_ohm: Any, w: np.ndarray) -> np.ndarray:
     if np.any(n == 0):
         raise SettingError("values_ohm", f"no valid repeat at {w[n == 0][0]:g} kg", "expected >= 1 per weight")
     return v
+
+
+def _seatings(summary: Any) -> Any:
+    """``summary`` with each run of consecutive blocks of one weight and repeat (one seating) as one row: mean of
+    the valid block means, √(Σ sem²)/n of their SEMs (NaN when none is valid)."""
+    key = summary[["weight_kg", "repeat"]]
+    start = (key != key.shift()).any(axis=1).to_numpy()
+    if start.all():
+        return summary
+    group = np.cumsum(start)
+    cols = ["weight_kg", "repeat", "mean_ohm"] + (["sem_ohm"] if "sem_ohm" in summary.columns else [])
+    frame = summary[cols].reset_index(drop=True).assign(_seating=group)
+    frame["_valid"] = np.isfinite(frame["mean_ohm"].astype(float).to_numpy())
+    if "sem_ohm" in cols:
+        frame["sem_ohm"] = np.where(frame["_valid"], frame["sem_ohm"].astype(float) ** 2, np.nan)
+    grouped = frame.groupby("_seating", sort=False)
+    out = grouped[["weight_kg", "repeat"]].first()
+    out["mean_ohm"] = grouped["mean_ohm"].mean()  # NaN means skipped; all NaN: NaN
+    if "sem_ohm" in cols:
+        n = grouped["_valid"].sum()
+        out["sem_ohm"] = np.sqrt(grouped["sem_ohm"].sum(min_count=1)) / n.where(n > 0)
+    return out.reset_index(drop=True)
 
 
 def _labels(repeat_labels: Any, r: int) -> tuple[str, ...]:

@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["NOISE_MODELS", "NoiseModel", "estimate_noise", "noise_model", "tab1_noise"]
+__all__ = ["NOISE_MODELS", "NoiseModel", "estimate_noise", "noise_model", "session_noise", "tab1_noise"]
 
 
 @dataclass(frozen=True)
@@ -130,6 +130,29 @@ def _best_relative_misfit(weight_kg: np.ndarray, mean: np.ndarray, curves: Any) 
         fit = fit_film_series(mean, mean, a, c)  # equal relative weights
         best = min(best, float(np.sum(((mean - fit.predicted_ohm) / fit.predicted_ohm) ** 2)) / (m - 2))
     return best
+
+
+def session_noise(path: str, option: str = "--noise-from") -> tuple[NoiseModel, dict[str, str]]:
+    """The noise model of a session file of one's own bench (``design --noise-from SESSION.h5``, and the prior of
+    ``acquire --adaptive --noise-from SESSION.h5``): :func:`estimate_noise` of its repeats (lack of fit about a power
+    law, as for Tab. 1; source: ``path``), and where it came from — ``file`` (the name), ``content_id``
+    (:func:`daq.run_index.content_id`: a copy or a renamed file has the same). A missing, foreign or damaged file, or
+    too few complete repeats to estimate from: :class:`~contactrig.core.validation.SettingError` naming ``option``
+    and ``path``."""
+    from pathlib import Path
+
+    from analysis.measured import MeasuredCurve
+    from contactrig.core.validation import SettingError
+    from daq import load_session
+    from daq.run_index import content_id
+
+    allowed = "expected a contactrig session file with ≥ 4 weights × ≥ 2 complete repeats"
+    try:
+        session = load_session(path)
+        noise = estimate_noise(MeasuredCurve.from_summary(session.summary, source=path), None, path)
+    except (OSError, ValueError) as exc:
+        raise SettingError(option, path, f"{allowed} ({exc})") from None
+    return noise, {"file": Path(path).name, "content_id": content_id(session.start)}
 
 
 @functools.cache

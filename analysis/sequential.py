@@ -48,7 +48,8 @@ and on the press).
 **Noise components**: the scatter between seatings at one weight (re-seating, with any series offset: an adaptive
 session has no series to separate them) from the session once Σ(n_i − 1) ≥ 4, the lack of fit common to every
 seating once ≥ 4 weights have ≥ 2 seatings (relative misfit of the best physical fit's means beyond the seating
-scatter / n_i); until then the prior's (Tab. 1's, or the simulated bench's), said.
+scatter / n_i); until then the prior's (Tab. 1's, the simulated bench's, or an earlier session's: ``acquire
+--noise-from``), said.
 
 **Intervals of an adaptive session**: the placements depend on the data only through earlier blocks, so the
 likelihood — the estimates and Δ(Q)AIC of ``fit`` — is that of a fixed design with the same placements (Ford,
@@ -251,9 +252,9 @@ class SequentialDesign:
     ``curves`` the models' A(W) and clean terms (:func:`analysis.design.model_curves`, covering ``weights_kg``);
     ``weights_kg`` the placements the bench allows [kg]; ``cost`` the :class:`CostModel`; ``budget_s`` the bench
     time allowed [s]; ``noise`` the prior noise model (Tab. 1's on a real bench, the simulated bench's with
-    ``--sim``); ``film_ohm_m2``, ``series_ohm`` prior σ_f, R_s (the scene's circuit); ``threshold`` the decisive
-    Δ(Q)AIC; ``n_forward`` futures of the predictive probability; ``seed`` its generator (with the block count: a
-    replay gives the same numbers).
+    ``--sim``, an earlier session's with ``--noise-from``); ``film_ohm_m2``, ``series_ohm`` prior σ_f, R_s (the
+    scene's circuit); ``threshold`` the decisive Δ(Q)AIC; ``n_forward`` futures of the predictive probability;
+    ``seed`` its generator (with the block count: a replay gives the same numbers).
     """
 
     def __init__(
@@ -288,6 +289,7 @@ class SequentialDesign:
         self.spent_s = 0.0
         self.current: int | None = None
         self.pending: int | None = None  # a weight placed with one seating: the next suggestion re-seats it
+        self._seating: int | None = None  # the recorded number of the present seating (``ingest``'s ``seating``)
         self.groups = self._equivalents()
         self._cache: dict[str, Any] = {}  # evidence, noise of the present blocks (cleared by ingest)
 
@@ -300,10 +302,16 @@ class SequentialDesign:
             raise ValueError(f"weight {weight_kg:g} kg is not one of the placements allowed ({allowed} kg)")
         return i
 
-    def ingest(self, weight_kg: float, value_ohm: float, *, reseated: bool = True) -> None:
+    def ingest(self, weight_kg: float, value_ohm: float, *, reseated: bool = True, seating: int | None = None) -> None:
         """One block's mean [Ω] at ``weight_kg``: a new seating (``reseated``, or a weight other than the present
-        one), else one more block at the present seating. Its bench time is counted by the :class:`CostModel`."""
+        one), else one more block at the present seating. ``seating``: the block's seating number as a session file
+        records it (its ``repeat``), which decides instead of ``reseated``: the block is at the present seating when
+        its weight and number are those of the block ingested before it. Its bench time is counted by the
+        :class:`CostModel`."""
         i = self.index_of(weight_kg)
+        if seating is not None:
+            reseated = i != self.current or seating != self._seating
+            self._seating = seating
         if i != self.current:
             self.spent_s += self.cost.place_s + self.cost.block_s
             self.seatings[i].append([float(value_ohm)])
@@ -794,7 +802,9 @@ class SequentialDesign:
         size = getattr(noise, comp)
         diff = self.difference(lead, rival)
         rel = "larger" if size > diff else "smaller"
-        where = "from this session" if src[comp].startswith("session") else f"from {self.prior.source}"
+        prior = self.prior.source  # "noise from NAME" (a session file, --noise-from) reads as it is
+        where = "from this session" if src[comp].startswith("session") else (
+            prior if prior.startswith("noise from ") else f"from {prior}")  # fmt: skip
         return (
             f"{COMPONENT_WORDS[comp]}, {100 * size:.0f} % ({where}), is {rel} than the difference between "
             f"{_label(lead)} and {_label(rival)}, {100 * diff:.1f} %"
@@ -871,7 +881,8 @@ def simulate_loop(
     check_every: int = 4,
 ) -> tuple[str, str, float, int]:
     """One adaptive session on the simulated bench's physics (``design`` fresh): suggestion → block (ln f = a_k + b_i
-    + e_ik, k the seating at weight i, as :func:`analysis.simulated_session.session_factors`) → evidence → stop.
+    + e_ik, k the seating at weight i, as :func:`analysis.simulated_session.session_factors`; a repeat at the present
+    seating keeps its f, only the block noise ``block_sd_ohm`` differs) → evidence → stop.
     Futility is checked every ``check_every`` blocks (the forward simulation is the costly part). Returns (status,
     leader, bench time [s], blocks)."""
     w = design.weights_kg
@@ -882,12 +893,14 @@ def simulate_loop(
     var = noise.series_sd**2 + noise.reseat_sd**2 + noise.lack_sd**2
     if design.hopeless():  # futile before the first block (the prior makes every pair inseparable)
         return "futile", "", design.spent_s, design.blocks
+    f = math.nan
     while True:
         p = design.suggest()
         i = design.index_of(p.weight_kg)
         for _ in range(p.seatings):
-            k = len(design.seatings[i]) if p.action != "repeat" else max(len(design.seatings[i]) - 1, 0)
-            f = math.exp(series[k % 64] + lack[i] + noise.reseat_sd * rng.standard_normal() - 0.5 * var)
+            if p.action != "repeat" or not math.isfinite(f):  # a repeat keeps the present seating's contact
+                k = len(design.seatings[i])
+                f = math.exp(series[k % 64] + lack[i] + noise.reseat_sd * rng.standard_normal() - 0.5 * var)
             value = float(bench_resistance_ohm(series_ohm, film_ohm_m2, a[i : i + 1], cl[i : i + 1], [[f]])[0, 0])
             design.ingest(p.weight_kg, value + block_sd_ohm * rng.standard_normal(), reseated=p.action != "repeat")
             ev = design.evidence()

@@ -23,11 +23,12 @@ Tab. 1's fits are over-dispersed (χ²/ν = 3 for its independent series M1–M3
 * ``"iid"``: independent re-seating of SD ``[session].sim_repeat_sd`` (0 switches it off; χ²/ν ≈ 1).
 
 f is log-normal (a resistance factor, always > 0) with mean 1, so E[R_b] = R_s + σ_f/A + R_clean. The series
-resistance (leads, bodies) is not re-made and stays fixed. The factors are drawn from their own generator seeded by
-``[session].sim_seed``, for the whole plan at once (weights × repeats, in block order), so a resumed or partly skipped
-session gets the same factor for the same block; they are recorded with the noise model's parameters in the start
-record's ``simulation``. Noise, thermal EMF and drift come from the simulated instruments. Only the requested model
-is built.
+resistance (leads, bodies) is not re-made and stays fixed. A block repeated at the present seating (an adaptive
+session's "repeat", :class:`daq.plan.Measure`'s ``seating_block``) keeps that seating's factor: only the instruments'
+noise differs. The factors are drawn from their own generator seeded by ``[session].sim_seed``, for the whole plan
+at once (weights × repeats, in block order), so a resumed or partly skipped session gets the same factor for the
+same block; they are recorded with the noise model's parameters in the start record's ``simulation``. Noise, thermal
+EMF and drift come from the simulated instruments. Only the requested model is built.
 
 :class:`SimulatedRigBench` is the :class:`daq.link.Bench` that ``daq.acquire.acquire`` runs ``--sim`` sessions on
 (this composition lives here, above ``daq``, because it needs the rig and the circuit). Replay serves the
@@ -195,7 +196,7 @@ class SimulatedRigBench:
         noise_seed = run_noise_seed(plan.session.sim_seed, run)
         sim = plan.pair.simulate(resistance_ohm=by_block[0], seed=noise_seed, time_scale=self.time_scale)
 
-        def prepare(block: int) -> None:  # the contact as it was made for this repeat
+        def prepare(block: int) -> None:  # the contact of this block's seating (the engine passes its first block)
             sim.bench.resistance_ohm = by_block[block]
 
         sim.bench.any_address = True  # rehearsed at the address the real bench will use

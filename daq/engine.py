@@ -303,7 +303,8 @@ class AcquisitionEngine:
         intr = self.interrupts
         state.current = step
         started = now_iso()
-        self.link.prepare_block(step.block)
+        # the contact this block measures: its own, or that of the seating it repeats at (the weight not lifted)
+        self.link.prepare_block(step.block if step.seating_block is None else step.seating_block)
         intr.enter("instrument")
         block = self.link.run_block(self.settings)
         intr.enter("writing")

@@ -34,8 +34,9 @@ class InstrumentLink:
     """The driver of ``pair`` (default: the default pair) on ``transport``, every exchange recorded.
 
     ``place_weight(weight_kg)`` is called when the operator has placed a weight, ``prepare_block(block)`` just
-    before block number ``block`` starts (the simulated bench uses them to set its resistance; on real hardware
-    and in replay they do nothing). ``clock``/``sleep`` go to the driver (replay injects them), and so do
+    before a block starts, with the number of the block whose contact it measures — its own, or for a block repeated
+    at the present seating the seating's first block — (the simulated bench uses them to set its resistance; on real
+    hardware and in replay they do nothing). ``clock``/``sleep`` go to the driver (replay injects them), and so do
     ``driver_options`` (e.g. ``chunk_size`` over RS-232; replay passes the recorded ones). ``connection`` is what the
     start record keeps about how the instrument was reached (VISA library, Nagle, serial parameters, chunk size).
     """

@@ -283,13 +283,17 @@ class PlaceWeight:
 @dataclass(frozen=True)
 class Measure:
     """Run one block: block number ``block`` (position in the plan), ``repeat`` 1 … repeats; ``adaptive``: the
-    record of the suggestion that led to it (an adaptive session), written with the block."""
+    record of the suggestion that led to it (an adaptive session), written with the block; ``seating_block``: for a
+    block repeated at the present seating (an adaptive session's "repeat", same weight and ``repeat`` number as the
+    block before it, the weight not lifted), the number of that seating's first block, whose contact it measures
+    again (the simulated bench keeps that block's contact factor); None: a new seating."""
 
     block: int
     weight_index: int
     weight_kg: float
     repeat: int
     adaptive: dict[str, Any] | None = dataclasses.field(default=None, compare=False)
+    seating_block: int | None = None
 
 
 def session_steps(

@@ -29,7 +29,9 @@ Layout (schema 5; every numeric field has a ``units`` attribute)::
     /entry/adaptive           NXcollection (schema 5, an adaptive session only): ``block_<j>`` (JSON), the record of the
                               suggestion that led to summary row j — the suggestion, the evidence behind it and what the
                               operator did — written with that block, before its summary row, and flushed with it: a
-                              killed session keeps every suggestion of its blocks (the stop record repeats them all)
+                              killed session keeps every suggestion of its blocks (the stop record repeats them all). In
+                              an adaptive session a summary row's ``repeat`` is its seating's number at that weight:
+                              consecutive rows of one weight and repeat are blocks repeated at one seating
 
 The writer (:mod:`daq.session_writer`) creates every table from these declarations and the reader
 (:mod:`daq.session_reader`) checks every member against them; the seal (:func:`seal`) is computed by the one and

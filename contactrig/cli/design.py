@@ -57,15 +57,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _noise(source: str, repeat_sd: float) -> Any:
     """The noise model of ``--noise-from``: Tab. 1, iid re-seating, or a session file's own repeats."""
-    from analysis.noise_model import NOISE_MODELS, estimate_noise, noise_model
+    from analysis.noise_model import NOISE_MODELS, noise_model, session_noise
 
     if source in NOISE_MODELS:  # "tab1" (default, the simulated bench's too) or "iid"
         return noise_model(source, repeat_sd)
-    from analysis.measured import MeasuredCurve
-    from daq import load_session
-
-    curve = MeasuredCurve.from_summary(load_session(source).summary, source=source)
-    return estimate_noise(curve, None, source)  # lack of fit about a power law, as for Tab. 1
+    return session_noise(source)[0]  # lack of fit about a power law, as for Tab. 1
 
 
 def _design(args: argparse.Namespace) -> int:

@@ -163,6 +163,7 @@ OPTION_VOCABULARY: dict[str, tuple[str, str]] = {
     "--no-compare-models": ("flag", "--compare-models/--no-compare-models: run the BEM comparison or not"),
     "--host": ("text", "address a server listens on (default: loopback)"),
     "--port": ("integer", "TCP port a server listens on"),
+    "--noise-from": ("choice|path", "noise model from a session file (SESSION.h5; design: also tab1 or iid)"),
 }
 #: Options that are not yet one word for one thing (kept for compatibility, listed so that no new one appears):
 #: ``--sim`` is a flag (use the simulated bench) on acquire/instruments and a path (SIM.h5, a rig sweep) on

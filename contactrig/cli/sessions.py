@@ -59,6 +59,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--budget-min", type=float, default=None, metavar="MIN",
         help="--adaptive: bench time allowed, in minutes (default 60); futile when P(decisive within it) < 5 %%",
     )  # fmt: skip
+    acq.add_argument(
+        "--noise-from", default=None, metavar="SESSION.h5",
+        help="--adaptive: the prior noise estimated from an earlier session of this bench, as `design --noise-from` "
+        "does (default: Tab. 1's, or the simulated bench's with --sim); recorded with the file's name and content id",
+    )  # fmt: skip
     _add_override_options(acq)
     add_max_memory_option(acq)  # --sim: the rig simulation behind the simulated bench
     acq.set_defaults(handler=acquire_command)
@@ -183,14 +188,18 @@ def _adaptive(args: argparse.Namespace) -> Any:
     """``--adaptive [--budget-min N]``: the steps chosen as the session goes (analysis.adaptive_session)."""
     if args.budget_min is not None and not args.adaptive:
         raise ValueError("--budget-min only applies to --adaptive")
+    if args.noise_from is not None and not args.adaptive:
+        raise ValueError(f"--noise-from {args.noise_from!r}: only applies to --adaptive (its prior noise)")
     if not args.adaptive:
         return None
     if args.resume:
-        raise ValueError("--adaptive does not resume a session: start a new one (without --resume)")
+        prior = f" (--noise-from {args.noise_from!r}: its prior cannot change either)" if args.noise_from else ""
+        raise ValueError(f"--adaptive does not resume a session: start a new one (without --resume){prior}")
     from analysis.adaptive_session import DEFAULT_BUDGET_MIN, adaptive_source, terminal_chooser
 
     budget = DEFAULT_BUDGET_MIN if args.budget_min is None else args.budget_min
-    return adaptive_source(budget, simulated=args.sim, choose=None if args.yes else terminal_chooser())
+    return adaptive_source(budget, simulated=args.sim, choose=None if args.yes else terminal_chooser(),
+                           noise_from=args.noise_from)  # fmt: skip
 
 
 def _live_view(args: argparse.Namespace) -> list:

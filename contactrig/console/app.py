@@ -434,11 +434,12 @@ def _start(console: Console, body: dict[str, Any]) -> SessionRun:
         sample = str(overrides.get("session.sample", sample))
     speed = _speed(body) or recorded_speed  # a resumed simulated session keeps its speed unless the form sets one
     budget = _budget(body, resume=resume)
+    prior = _noise_from(console, body, adaptive=budget is not None)
     request = {"scene": None if scene_path is None else str(scene_path), "output": str(console.root / output),
                "sim": bool(body.get("sim")), "sim_speed": speed, "resume": resume, "overrides": overrides,
                "allow_change": bool(body.get("allow_change"))}  # fmt: skip
     if budget is not None:  # as `acquire --adaptive --budget-min N`: the child runs analysis.adaptive_session
-        request["adaptive"] = {"budget_min": budget}
+        request["adaptive"] = {"budget_min": budget, **({"noise_from": prior} if prior is not None else {})}
     client = str(body.get("client") or "")[:64]
     with console.lock:
         if console.closing.is_set():
@@ -539,6 +540,27 @@ async def start_run(request: Request) -> Response:
 # -- the bench's queue -------------------------------------------------------------------------------------------
 
 
+def _noise_from(console: Console, body: dict[str, Any], *, adaptive: bool) -> str | None:
+    """The form's ``noise_from`` (empty: none), as ``acquire --adaptive --noise-from SESSION.h5`` takes it: a session
+    file in the console's folder whose noise is the design's prior, read now
+    (:func:`analysis.adaptive_session.file_prior`); its path, or None."""
+    given = body.get("noise_from")
+    if given in (None, ""):
+        return None
+    if not adaptive:
+        raise BadRequest("noise_from only applies to an adaptive session (tick adaptive)")
+    path = resolve_under(console.root, given) if isinstance(given, str) else None
+    if path is None:
+        raise BadRequest(f"noise_from {given!r}: not a session file in the console's folder")
+    from analysis.adaptive_session import file_prior
+
+    try:
+        file_prior(str(path))
+    except ValueError as exc:
+        raise BadRequest(f"noise_from: {exc}") from None
+    return str(path)
+
+
 def _queued(console: Console, body: dict[str, Any]) -> tuple[dict[str, Any], str]:
     """The New-session form of a planned session, checked as a start checks it (scene, overrides, file name), and
     its bench address."""
@@ -551,8 +573,12 @@ def _queued(console: Console, body: dict[str, Any]) -> tuple[dict[str, Any], str
     client = str(body.get("client") or "")[:64]
     form = {"scene": body.get("scene") or "", "sim": bool(body.get("sim")), "sim_speed": body.get("sim_speed"),
             "overrides": body.get("overrides") or {}, "output": output, "client": client}  # fmt: skip
-    if _budget(body, resume=False) is not None:  # an adaptive session keeps its budget in the queue
+    if _budget(body, resume=False) is not None:  # an adaptive session keeps its budget (and prior) in the queue
         form.update(adaptive=True, budget_min=body.get("budget_min"))
+        if _noise_from(console, body, adaptive=True) is not None:
+            form.update(noise_from=body.get("noise_from"))
+    elif body.get("noise_from") not in (None, ""):
+        _noise_from(console, body, adaptive=False)  # refused: only with adaptive
     return form, plan.instrument.address
 
 

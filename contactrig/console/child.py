@@ -180,11 +180,11 @@ def pipe_resume_chooser(channel: _Channel) -> Callable[[float], bool]:
 
 
 def pipe_adaptive(
-    channel: _Channel, budget_min: float, *, simulated: bool
+    channel: _Channel, budget_min: float, *, simulated: bool, noise_from: str | None = None
 ) -> tuple[Callable[[Any], Any], Callable[[], None]]:
-    """An adaptive session from the console (``acquire --adaptive --budget-min N``): the factory
-    ``acquire(adaptive=…)`` takes (:func:`analysis.adaptive_session.adaptive_source`, the operator asked over the
-    pipe) and a function that sends the session's last state once it has ended.
+    """An adaptive session from the console (``acquire --adaptive --budget-min N [--noise-from SESSION.h5]``): the
+    factory ``acquire(adaptive=…)`` takes (:func:`analysis.adaptive_session.adaptive_source`, the operator asked
+    over the pipe) and a function that sends the session's last state once it has ended.
 
     After every block the design's state goes to the page (``evidence``); before each placement the question
     ``suggest`` carries the suggestion, the allowed weights and the state the
@@ -210,7 +210,7 @@ def pipe_adaptive(
             if not isinstance(chosen, str):  # "again": not an answer to this question
                 return chosen
 
-    make = adaptive_source(budget_min, simulated=simulated, choose=choose)
+    make = adaptive_source(budget_min, simulated=simulated, choose=choose, noise_from=noise_from)
 
     def factory(plan: Any) -> Any:
         steps = make(plan)
@@ -290,7 +290,7 @@ class _Lines:
 
 def run(request: dict[str, Any], channel: _Channel) -> int:
     """One ``acquire`` as ``request`` says (scene, output, sim, sim_speed, resume, overrides, adaptive: its
-    ``budget_min``); returns the exit
+    ``budget_min`` and ``noise_from``); returns the exit
     code of ``contactrig acquire`` (0 done, 1 stopped early, 2 error)."""
     from analysis.simulated_session import DEFAULT_SIM_SPEED, SimulatedRigBench
     from analysis.watch import Guarded
@@ -303,7 +303,8 @@ def run(request: dict[str, Any], channel: _Channel) -> int:
     final: Callable[[], None] | None = None
     if isinstance(request.get("adaptive"), dict):  # the steps ask the operator themselves (no weight prompt)
         adaptive, final = pipe_adaptive(channel, float(request["adaptive"]["budget_min"]),
-                                        simulated=bool(request.get("sim")))  # fmt: skip
+                                        simulated=bool(request.get("sim")),
+                                        noise_from=request["adaptive"].get("noise_from"))  # fmt: skip
     try:
         result = acquire(
             request.get("scene"), request["output"], bench=bench, resume=bool(request.get("resume")),

@@ -282,3 +282,70 @@ def test_recorded_suggestions_keep_two_made_before_the_same_block_count() -> Non
     assert "differs" in recorded_suggestions(SimpleNamespace(adaptive={6: two}, stop=stop))
     alone = {"adaptive": {"entries": [one]}}
     assert "not in the stop record" in recorded_suggestions(SimpleNamespace(adaptive={6: one, 7: two}, stop=alone))
+
+
+def test_a_repeat_at_the_present_seating_is_one_seating_end_to_end(tmp_path: Path, monkeypatch) -> None:
+    """A taken "repeat at the present seating" suggestion (forced here: the design rightly hardly ever makes one) is
+    recorded as a repeat at that seating (its weight and seating number, a block number of its own, no prompt to
+    place the weight), simulated at that seating's contact factor (only the instruments' noise differs: the
+    simulated bench's factors per block, recorded in the start record, are the truth), fitted as one seating (its
+    blocks averaged: ``fit``'s repeats at that weight are seatings, not blocks) and counted as one by the design,
+    and replayed: the suggestions bit for bit, the instrument replies identical."""
+    import numpy as np
+
+    from analysis.adaptive_session import session_design
+    from analysis.measured import MeasuredCurve
+    from analysis.sequential import Placement, SequentialDesign
+    from daq.replay import replay_session
+
+    real = SequentialDesign.suggest
+
+    def suggest(self: SequentialDesign) -> Placement:
+        p = real(self)
+        if self.blocks in (6, 7) and self.current is not None:  # after the start design: repeat twice
+            return Placement(float(self.weights_kg[self.current]), "repeat", 1, 0.0, self.cost.of("repeat"),
+                             p.criterion, "forced by the test")  # fmt: skip
+        return p
+
+    monkeypatch.setattr(SequentialDesign, "suggest", suggest)
+    placed: list[float] = []
+
+    def prompter(step):  # the operator asked to place (or re-place) a weight
+        placed.append(step.weight_kg)
+        return "go"
+
+    path = tmp_path / "repeat.h5"
+    acquire(_scene(), path, bench=SimulatedRigBench(math.inf), prompter=prompter, quiet=True,
+            adaptive=adaptive_source(30.0, simulated=True))  # fmt: skip
+    s = load_session(path)
+    rows = s.summary
+    assert rows["block"].is_unique and len(rows) > 8
+    took = {j: e["suggestion"]["action"] for j, e in s.adaptive.items()}
+    assert took[6] == took[7] == "repeat" and s.adaptive[6]["operator"] == "took the suggestion"
+    w, rep = float(rows["weight_kg"][5]), int(rows["repeat"][5])
+    # the file: rows 5–7 one seating (weight and seating number of row 5), own block numbers
+    assert rows["weight_kg"][5:8].tolist() == [w] * 3 and rows["repeat"][5:8].tolist() == [rep] * 3 == [2] * 3
+    assert len(placed) == len(rows) - 2  # no prompt to place the weight for the two repeats
+    # the simulated bench: the seating's contact factor for all three (truth: the start record's factors per block)
+    truth = np.asarray(s.start["simulation"]["block_resistance_ohm"])
+    blocks = rows["block"].to_numpy()
+    mean = rows["mean_ohm"].to_numpy()
+    seat = truth[blocks[5]]
+    assert not np.isclose(truth[blocks[6]], seat, rtol=1e-3)  # a new seating would have had another factor
+    assert np.allclose(mean[5:8], seat, rtol=1e-4)  # instrument noise only, ≪ the 15 % re-seating scatter
+    others = [j for j in range(len(rows)) if j not in (6, 7)]
+    assert np.allclose(mean[others], truth[blocks[others]], rtol=1e-4)
+    # fit: one repeat at that weight for the three blocks, their mean; the design counts seatings alike
+    curve = MeasuredCurve.from_summary(rows)
+    i = int(np.flatnonzero(curve.weight_kg == w)[0])
+    at_w = rows["weight_kg"].to_numpy() == w
+    n_seatings = len(set(rows["repeat"][at_w].tolist()))
+    assert curve.n[i] == n_seatings == np.count_nonzero(at_w) - 2
+    assert curve.values_ohm[i, rep - 1] == pytest.approx(float(np.mean(mean[5:8])), rel=1e-15)
+    design = session_design(s)
+    j = design.index_of(w)
+    assert [len(x) for x in design.seatings[j]][rep - 1] == 3 and len(design.seatings[j]) == n_seatings
+    # replay: the suggestions (the forced ones too, the test's design still in place) and the instrument replies
+    same, text = replay_suggestions(str(path))
+    assert same, text
+    assert replay_session(path).identical

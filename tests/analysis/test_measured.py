@@ -151,3 +151,20 @@ def test_post_init_checks_shapes_labels_and_sem():
         MeasuredCurve([1.0, 2.0], [[1.0], [np.nan]])
     c = MeasuredCurve([1.0, 2.0], [1.0, 2.0])
     assert c.values_ohm.shape == (2, 1) and c.repeat_labels == ("1",) and not c.values_ohm.flags.writeable
+
+
+def test_consecutive_blocks_of_one_weight_and_repeat_are_one_seating():
+    """An adaptive session's repeat at the present seating (same weight and repeat as the block before): one repeat,
+    the mean of the blocks' means, SEM √(Σ sem²)/n; a block in compliance (NaN) among them counts for nothing."""
+    s = pd.DataFrame(
+        {
+            "weight_kg": [5.0, 5.0, 5.0, 5.0, 10.0, 10.0],
+            "repeat": [1, 2, 2, 2, 1, 2],
+            "mean_ohm": [1.0, 2.0, 4.0, np.nan, 0.5, 0.7],
+            "sem_ohm": [0.1, 0.3, 0.4, np.nan, 0.1, 0.1],
+        }
+    )
+    c = MeasuredCurve.from_summary(s)
+    assert c.values_ohm.tolist() == [[1.0, 3.0], [0.5, 0.7]]
+    assert c.block_sem_ohm[0, 1] == pytest.approx(0.5 / 2)
+    assert c.n.tolist() == [2, 2]

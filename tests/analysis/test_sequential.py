@@ -236,3 +236,30 @@ def test_a_repeat_at_the_same_seating_is_worth_what_the_variance_of_the_seating_
     assert d.repeat_share(mu, noise, 1) == pytest.approx(1.0, abs=1e-5)  # the instruments dominate: as a new seating
     d._block_var = 1e-14
     assert d.repeat_share(mu, noise, 1) == pytest.approx(1e-14 / (2 * s), rel=1e-6)
+
+
+def test_a_repeat_in_the_simulated_loop_keeps_the_seating_and_ingest_reads_the_recorded_seating(monkeypatch) -> None:
+    """simulate_loop (the benchmark's bench): a taken repeat (forced) measures the present seating again — its
+    value differs from the seating's first block by the block noise only, not by a new re-seating draw (15 %) — and
+    the design counts it at that seating; ``ingest(seating=…)``: one recorded seating number at one weight is one
+    seating, a new number or weight a new one."""
+    from analysis.sequential import Placement
+
+    real = SequentialDesign.suggest
+
+    def suggest(self: SequentialDesign) -> Placement:
+        p = real(self)
+        if self.blocks in (2, 3):  # after the first weight's two seatings: repeat twice at the second
+            return Placement(float(self.weights_kg[self.current]), "repeat", 1, 0.0, 3.0, p.criterion, "forced")
+        return p
+
+    monkeypatch.setattr(SequentialDesign, "suggest", suggest)
+    d = _design()
+    simulate_loop(d, "a", np.random.default_rng(5), film_ohm_m2=FILM, series_ohm=0.0, noise=NoiseModel.iid(0.15),
+                  block_sd_ohm=1e-12)  # fmt: skip
+    seat = next(s for s in (x for seats in d.seatings for x in seats) if len(s) == 3)
+    assert np.allclose(seat, seat[0], rtol=1e-6, atol=0)
+    e = _design()
+    for w, r in [(W[0], 1), (W[0], 1), (W[0], 2), (W[1], 2), (W[1], 2), (W[0], 2)]:
+        e.ingest(float(w), 1.0, seating=r)
+    assert [len(x) for x in e.seatings[0]] == [2, 1, 1] and [len(x) for x in e.seatings[1]] == [2]

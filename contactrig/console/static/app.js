@@ -177,6 +177,8 @@ async function showNew() {
   // adaptive (acquire --adaptive --budget-min N): the next placement chosen as the session goes
   const adaptive = el("input", { type: "checkbox", id: "adaptive" });
   const budget = el("input", { id: "budget-min", value: "60", size: 6 });
+  // its prior noise from an earlier session of this bench (acquire --adaptive --noise-from SESSION.h5); empty: Tab. 1's
+  const noiseFrom = el("input", { id: "noise-from", size: 30, placeholder: "Tab. 1's (simulated: the scene's)" });
   const declared = await api("/api/overrides");
   const fields = {};
   const rows = (declared.overrides || []).map((o) => {
@@ -189,7 +191,7 @@ async function showNew() {
   const name = el("input", { id: "output", value: `session-${stamp}.h5`, size: 40 });
   const plan = el("pre", { id: "plan" });
   const error = el("p", { class: "error", id: "form-error" });
-  const form = { scene, sim, speed, fields, adaptive, budget };
+  const form = { scene, sim, speed, fields, adaptive, budget, noiseFrom };
   let asked = 0; // only the latest preview is shown (answers may come back out of order)
   const preview = async () => {
     const mine = ++asked;
@@ -217,6 +219,7 @@ async function showNew() {
     el("label", {}, "Scene: ", scene),
     el("label", {}, sim, " simulated bench (no instruments); instrument time × 1/", speed),
     el("label", {}, adaptive, " adaptive: each next placement suggested as the session goes, until decisive or futile; budget (min) ", budget),
+    el("label", {}, "adaptive: prior noise from the session file (in the console's folder) ", noiseFrom),
     el("h2", { text: "This run (over the scene)" }), ...rows,
     el("label", {}, "Session file (in the console's folder): ", name),
     el("h2", { text: "Plan" }), plan, error, el("p", { class: "buttons" }, start),
@@ -229,6 +232,7 @@ function body(form) {
   for (const [key, input] of Object.entries(form.fields)) if (input.value) overrides[key] = input.value;
   const out = { scene: form.scene.value, sim: form.sim.checked, sim_speed: form.speed.value, overrides };
   if (form.adaptive && form.adaptive.checked) Object.assign(out, { adaptive: true, budget_min: form.budget.value });
+  if (form.adaptive && form.adaptive.checked && form.noiseFrom.value) out.noise_from = form.noiseFrom.value;
   return out;
 }
 
