@@ -117,7 +117,7 @@ def run_demo(
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         session = load_session(session_path)
-    curve = MeasuredCurve.from_summary(session.summary, source=str(session_path))
+    curve = MeasuredCurve.from_session(session, source=str(session_path))
     sim_info = {"source": f"{sim_path} (simulated now)", "warnings": sweep_result.warnings,
                 "provenance": sweep_result.provenance}  # fmt: skip
     measured_info = {

@@ -85,21 +85,37 @@ class MeasuredCurve:
 
     # -- constructors ------------------------------------------------------------------------------------------
     @classmethod
-    def from_summary(cls, summary: Any, *, source: str = "", provenance: dict[str, Any] | None = None):
+    def from_session(cls, session: Any, *, source: str = "") -> MeasuredCurve:
+        """From a loaded session (:func:`daq.session_file.load_session`): its summary, with an adaptive session's
+        blocks at one seating taken as one repeat (the start record's ``adaptive``; see :meth:`from_summary`)."""
+        adaptive = isinstance(session.start, dict) and bool(session.start.get("adaptive"))
+        return cls.from_summary(session.summary, source=source, seatings=adaptive)
+
+    @classmethod
+    def from_summary(
+        cls,
+        summary: Any,
+        *,
+        source: str = "",
+        provenance: dict[str, Any] | None = None,
+        seatings: bool = False,
+    ):
         """From a session summary DataFrame (columns weight_kg, repeat, mean_ohm, sem_ohm, …; one row per block).
 
-        Blocks with no valid reading (NaN mean) count as missing repeats. Consecutive blocks with the same weight
-        and repeat are blocks at one seating (an adaptive session's repeat at the present seating, the weight not
-        lifted: they share the seating's contact, so they are one repeat): their mean is the mean of their valid
-        block means, its within-block standard error √(Σ sem²)/n. Two other blocks with the same weight and repeat
-        are an error.
+        Blocks with no valid reading (NaN mean) count as missing repeats. ``seatings`` (an adaptive session, whose
+        ``repeat`` numbers the seatings at a weight): consecutive blocks with the same weight and repeat are blocks
+        at one seating (a repeat at the present seating, the weight not lifted: they share the seating's contact, so
+        they are one repeat): their mean is the mean of their valid block means, its within-block standard error
+        √(Σ sem²)/n. Any other two blocks with the same weight and repeat are an error (a fixed plan or an imported
+        table never has them: they would be a mix-up, never averaged silently).
         """
         for col in ("weight_kg", "repeat", "mean_ohm"):
             if col not in summary.columns:
                 raise SettingError("summary", list(summary.columns), f"expected a column {col!r}")
         if len(summary) == 0:
             raise SettingError("summary", "empty", "expected at least one block")
-        summary = _seatings(summary)
+        if seatings:
+            summary = _seatings(summary)
         dup = summary.duplicated(["weight_kg", "repeat"])
         if dup.any():
             row = summary[dup].iloc[0]

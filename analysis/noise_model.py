@@ -149,7 +149,7 @@ def session_noise(path: str, option: str = "--noise-from") -> tuple[NoiseModel, 
     allowed = "expected a contactrig session file with ≥ 4 weights × ≥ 2 complete repeats"
     try:
         session = load_session(path)
-        noise = estimate_noise(MeasuredCurve.from_summary(session.summary, source=path), None, path)
+        noise = estimate_noise(MeasuredCurve.from_session(session, source=path), None, path)
     except (OSError, ValueError) as exc:
         raise SettingError(option, path, f"{allowed} ({exc})") from None
     return noise, {"file": Path(path).name, "content_id": content_id(session.start)}

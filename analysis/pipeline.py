@@ -475,7 +475,7 @@ def analyse_session(
     if len(session.summary) == 0:
         state = "a complete session" if session.complete else "an incomplete session: no stop record"
         raise ValueError(f"{session_path}: no measurement block on disk ({state}); nothing to analyse")
-    curve = MeasuredCurve.from_summary(session.summary, source=str(session_path))
+    curve = MeasuredCurve.from_session(session, source=str(session_path))
     scene = _scene_for(session)
     sweep_result, database, sim_info = _load_sim(sim_path, scene, curve.weight_kg, models, database_path)
     measured_info = {

@@ -65,7 +65,7 @@ def test_replay_reproduces_every_suggestion_and_the_session_fits(press_session) 
     from analysis.measured import MeasuredCurve
 
     s = load_session(path)
-    curve = MeasuredCurve.from_summary(s.summary)
+    curve = MeasuredCurve.from_session(s)
     assert not curve.paired  # unequal seatings per weight: the fit's unpaired rule
     areas = {k: 1e-8 * curve.weight_kg ** (1.0 if k == "a" else 0.5) for k in ("a", "b")}
     assert compare_models(curve, areas, height_m=1e-6, n_boot=0).ranking  # fits without error
@@ -336,7 +336,7 @@ def test_a_repeat_at_the_present_seating_is_one_seating_end_to_end(tmp_path: Pat
     others = [j for j in range(len(rows)) if j not in (6, 7)]
     assert np.allclose(mean[others], truth[blocks[others]], rtol=1e-4)
     # fit: one repeat at that weight for the three blocks, their mean; the design counts seatings alike
-    curve = MeasuredCurve.from_summary(rows)
+    curve = MeasuredCurve.from_summary(rows, seatings=True)
     i = int(np.flatnonzero(curve.weight_kg == w)[0])
     at_w = rows["weight_kg"].to_numpy() == w
     n_seatings = len(set(rows["repeat"][at_w].tolist()))

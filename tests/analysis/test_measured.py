@@ -164,7 +164,16 @@ def test_consecutive_blocks_of_one_weight_and_repeat_are_one_seating():
             "sem_ohm": [0.1, 0.3, 0.4, np.nan, 0.1, 0.1],
         }
     )
-    c = MeasuredCurve.from_summary(s)
+    c = MeasuredCurve.from_summary(s, seatings=True)
     assert c.values_ohm.tolist() == [[1.0, 3.0], [0.5, 0.7]]
     assert c.block_sem_ohm[0, 1] == pytest.approx(0.5 / 2)
     assert c.n.tolist() == [2, 2]
+
+
+def test_consecutive_duplicates_outside_an_adaptive_session_are_still_an_error():
+    """A fixed plan or an imported table never repeats (weight, repeat) on purpose: two such rows, consecutive or
+    not, are a mix-up and refused, never averaged into one repeat."""
+    s = _summary()
+    s = pd.concat([s.iloc[:1], s.iloc[:1], s.iloc[1:]])  # the first block twice in a row
+    with pytest.raises(SettingError, match="duplicate"):
+        MeasuredCurve.from_summary(s)
