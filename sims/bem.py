@@ -591,6 +591,8 @@ class _Solver:
         self.defer = op.be.defer  # speculate: decisions on the device, read in groups (GPU; see run)
         self.lazy = False  # inside a group of speculative iterations
         self.odd: Any = False  # a rare branch was needed in this speculative iteration
+        self.group = _CHECK_EVERY  # the next group's size
+        self.seen: list[tuple[int, float]] = []  # (iteration, residual) read on the host
 
     # -- decisions on the device (GPU) --------------------------------------------------------------------------
 
@@ -650,7 +652,7 @@ class _Solver:
         displacement recomputed, or the solution finalised, as the host does on seeing such a residual) and 1; at a
         rare branch, a NaN or a stall, back to the group's start and the iterations up to that one.
         """
-        k = min(_CHECK_EVERY, self.max_iter - self.nit)
+        k = min(self.group, self.max_iter - self.nit)
         if k < 1:
             return best, best_at, 1
         start, start_best, start_best_at = self._mark(whole=True), best, best_at
@@ -689,9 +691,20 @@ class _Solver:
             elif watch_stall and start.nit + j - best_at >= _STALL_ITERATIONS:
                 break
         else:
+            self._plan(values[:k], start.nit)
             return best, best_at, 0
         self._back(start)
         return start_best, start_best_at, j + 1
+
+    def _plan(self, residuals: list[float], nit: int) -> None:
+        """The next group's size: the iterations the residual needs to reach ``tol`` at the rate of the last ones
+        read, at most ``_CHECK_EVERY``, so that few are computed past convergence."""
+        self.seen += [(nit + j, r) for j, r in enumerate(residuals)]
+        (i0, r0), (i1, r1) = self.seen[-2] if len(self.seen) > 1 else self.seen[-1], self.seen[-1]
+        self.group = _CHECK_EVERY
+        if i1 > i0 and 0.0 < r1 < r0 and self.tol < r1:
+            needed = math.log(self.tol / r1) / math.log(r1 / r0) * (i1 - i0)
+            self.group = max(1, min(_CHECK_EVERY, math.ceil(needed)))
 
     # -- state -----------------------------------------------------------------------------------------------
 
@@ -964,6 +977,7 @@ class _Solver:
         best, best_at = math.inf, 0
         watch_stall = self.load is not None and math.isfinite(self.cap)
         eager = 0 if self.defer else -1  # iterations to run with host decisions before speculating again
+        self.group, self.seen = _CHECK_EVERY, []
         while True:
             if eager == 0:
                 best, best_at, eager = self._speculate(best, best_at, watch_stall)

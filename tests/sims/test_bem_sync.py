@@ -176,3 +176,32 @@ def test_kernels_are_not_used_on_the_cpu_nor_over_numpy():
     assert bem_backend.get_backend(workers=1, xp=np).kernel(bem._MINUS_SCALED) is None
     assert bem_backend.get_backend(workers=1, xp=fake).kernel(bem._MINUS_SCALED) is not None
     assert not bem_backend.get_backend("cpu", 1).defer and bem_backend.get_backend(workers=1, xp=fake).defer
+
+
+def test_quick_gpu_benchmark_runs_end_to_end_on_the_stand_in(tmp_path):
+    """``tests/benchmarks/bench_bem_gpu.sh --quick``, the one run on a lent card, on the CPU with the stand-in as
+    ``cupy`` (grids divided by 32): every grid and case gives its row, the fields agree, and both files are kept."""
+    import json
+    import os
+    import shutil
+    import subprocess
+
+    root = Path(__file__).resolve().parents[2]
+    bindir = tmp_path / "bin"
+    bindir.mkdir()
+    (bindir / "python3").symlink_to(sys.executable)  # the script calls python3: this interpreter
+    env = dict(os.environ, OUT=str(tmp_path / "out"), PYTHONPATH=str(FAKE), PATH=f"{bindir}:{os.environ['PATH']}")
+    script = root / "tests" / "benchmarks" / "bench_bem_gpu.sh"
+    bash = shutil.which("bash") or "/bin/bash"
+    done = subprocess.run([bash, str(script), "--quick", "--shrink", "32"], env=env, cwd=root, capture_output=True,
+                          text=True, timeout=120)  # fmt: skip
+    assert done.returncode == 0, done.stdout + done.stderr
+    out = json.loads((tmp_path / "out" / "bench_bem_gpu.quick.json").read_text(encoding="utf-8"))
+    assert out["errors"] == [] and out["skipped"] == []
+    assert [(r["n"], r["case"]) for r in out["rows"]] == [(32, "elastic"), (32, "capped"), (128, "elastic"),
+                                                          (128, "capped"), (256, "elastic")]  # fmt: skip
+    assert all(f["ok"] for f in out["fields"]) and len(out["fields"]) == 4
+    for r in out["rows"]:
+        assert r["old"]["nit"] == r["new"]["nit"] and r["new"]["syncs_per_it"] < r["old"]["syncs_per_it"]
+        assert r["new"]["computed"] - r["new"]["nit"] <= bem._CHECK_EVERY
+    assert "max|Δp|/max p" in (tmp_path / "out" / "bench_bem_gpu.quick.txt").read_text(encoding="utf-8")
