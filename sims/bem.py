@@ -47,7 +47,9 @@ there (both sides computed, one selected), and the host reads the group's residu
 residual within the tolerance it goes back to that iteration (its pressures are kept) and finishes as before; a rare
 branch (zero curvature, no step, a breakdown, a NaN, a stall) sends it back to the group's start, to run those
 iterations with its own decisions. The iteration count, the fields and the diagnostics are those of the iteration
-at which convergence is detected, as without groups (at most 3 iterations are computed in vain per solve). What
+at which convergence is detected, as without groups. Each group ends with the next iteration's measure, and its size
+follows the residual's rate, so that it ends where convergence is expected: at most 4 iterations (usually none) are
+computed in vain per solve. What
 remains read every iteration is the size of the sets (the points that join the contact, the support: two reads with
 an elastic solid, more with a hardness); three passes are single CuPy kernels (:meth:`sims.bem_backend.Backend.kernel`).
 
@@ -593,6 +595,7 @@ class _Solver:
         self.odd: Any = False  # a rare branch was needed in this speculative iteration
         self.group = _CHECK_EVERY  # the next group's size
         self.seen: list[tuple[int, float]] = []  # (iteration, residual) read on the host
+        self.carried: _Measure | None = None  # the measure that ended the last group: the next one's first
 
     # -- decisions on the device (GPU) --------------------------------------------------------------------------
 
@@ -643,63 +646,82 @@ class _Solver:
         return out
 
     def _speculate(self, best: float, best_at: int, watch_stall: bool) -> tuple[float, int, int]:
-        """Up to ``_CHECK_EVERY`` iterations with their decisions on the device, then one read of their residuals and
-        rare-branch notes on the host; returns (best, best_at, eager) as :meth:`run` keeps them.
+        """Up to ``self.group`` iterations with their decisions on the device and the measure that follows them, then
+        one read of their residuals and rare-branch notes on the host; returns (best, best_at, eager) as :meth:`run`
+        keeps them.
 
         ``eager`` = 0: every iteration stands as the host would have run it (each residual above ``tol``, no stall,
-        no rare branch). Else the state is back at a marked iteration and the next ``eager`` iterations are run
-        with host decisions: at the first residual within ``tol``, back to that iteration (its pressures; the
-        displacement recomputed, or the solution finalised, as the host does on seeing such a residual) and 1; at a
-        rare branch, a NaN or a stall, back to the group's start and the iterations up to that one.
+        no rare branch); the last measure is kept for the next group. Else the next ``eager`` iterations are run
+        with host decisions: at the first residual within ``tol``, 1, the state that iteration's (the group's end
+        as it is; an earlier one from its mark: its pressures, the displacement recomputed, or the solution
+        finalised, as the host does on seeing such a residual); at a rare branch, a NaN or a stall, the state back at
+        the group's start and the iterations up to that one.
         """
         k = min(self.group, self.max_iter - self.nit)
+        carried, self.carried = self.carried, None
         if k < 1:
             return best, best_at, 1
         start, start_best, start_best_at = self._mark(whole=True), best, best_at
+        try:
+            marks, m, values = self._group(k, start, carried)
+        except Exception:  # a state gone wrong after a rare branch: the host runs the group (and raises if it must)
+            self._back(start)
+            return best, best_at, k
+        for j in range(k + 1):
+            r = values[j]
+            if r <= self.tol:
+                self._converged_at(marks[j] if j < k else None)
+                return best, best_at, 1
+            if j == k:
+                self.carried = m
+                self._plan(values[: k + 1], start.nit)
+                return best, best_at, 0
+            if math.isnan(r) or values[k + 1 + j]:
+                break
+            if r < 0.5 * best:
+                best, best_at = r, start.nit + j
+            elif watch_stall and start.nit + j - best_at >= _STALL_ITERATIONS:
+                break
+        self._back(start)
+        return start_best, start_best_at, j + 1
+
+    def _converged_at(self, mark: _Mark | None) -> None:
+        """The state as the host holds it on seeing a residual within ``tol``: ``mark``'s (None: the state now), its
+        displacement recomputed (exactly as it was if it was exact), or the solution finalised if it was not."""
+        if mark is not None:
+            self._back(mark)
+            if self.exact:
+                self._recompute()
+        if not self.exact:
+            self.finalise()
+
+    def _group(self, k: int, start: _Mark, carried: _Measure | None) -> tuple[list[_Mark], _Measure, list[float]]:
+        """``k`` speculative iterations from ``start`` (the first measure ``carried`` over if given) and the measure
+        after them: (the marks at their starts, that last measure, the k + 1 residuals and k rare-branch notes as
+        read on the host in one copy)."""
         marks: list[_Mark] = []
         residuals: list[Any] = []
         notes: list[Any] = []
         self.lazy = True
         try:
             with np.errstate(all="ignore"):
-                for _ in range(k):
+                for j in range(k + 1):
                     marks.append(self._mark(whole=False) if marks else start)
-                    self.odd = False
-                    m = self.measure()
+                    m = carried if j == 0 and carried is not None else self.measure()
                     residuals.append(m.residual)
+                    if j == k:
+                        break
+                    self.odd = False
                     self.nit += 1
                     notes.append(self.odd if self.step(m) else True)
-        except Exception:  # a state gone wrong after a rare branch: the host runs the group (and raises if it must)
-            self._back(start)
-            return best, best_at, k
         finally:
             self.lazy = False
-        values = self._read(residuals + notes)
-        for j in range(k):
-            r, odd = values[j], values[k + j]
-            if r <= self.tol:
-                self._back(marks[j])
-                if self.exact:
-                    self._recompute()
-                else:
-                    self.finalise()
-                return best, best_at, 1
-            if math.isnan(r) or odd:
-                break
-            if r < 0.5 * best:
-                best, best_at = r, start.nit + j
-            elif watch_stall and start.nit + j - best_at >= _STALL_ITERATIONS:
-                break
-        else:
-            self._plan(values[:k], start.nit)
-            return best, best_at, 0
-        self._back(start)
-        return start_best, start_best_at, j + 1
+        return marks, m, self._read(residuals + notes)
 
     def _plan(self, residuals: list[float], nit: int) -> None:
         """The next group's size: the iterations the residual needs to reach ``tol`` at the rate of the last ones
         read, at most ``_CHECK_EVERY``, so that few are computed past convergence."""
-        self.seen += [(nit + j, r) for j, r in enumerate(residuals)]
+        self.seen += [(nit + j, r) for j, r in enumerate(residuals) if not self.seen or nit + j > self.seen[-1][0]]
         (i0, r0), (i1, r1) = self.seen[-2] if len(self.seen) > 1 else self.seen[-1], self.seen[-1]
         self.group = _CHECK_EVERY
         if i1 > i0 and 0.0 < r1 < r0 and self.tol < r1:
@@ -977,7 +999,7 @@ class _Solver:
         best, best_at = math.inf, 0
         watch_stall = self.load is not None and math.isfinite(self.cap)
         eager = 0 if self.defer else -1  # iterations to run with host decisions before speculating again
-        self.group, self.seen = _CHECK_EVERY, []
+        self.group, self.seen, self.carried = _CHECK_EVERY, [], None
         while True:
             if eager == 0:
                 best, best_at, eager = self._speculate(best, best_at, watch_stall)

@@ -99,7 +99,7 @@ def test_group_size_and_rare_branch_roll_backs_change_nothing(surface, monkeypat
 
     monkeypatch.setattr(bem._Solver, "step", step)
     _assert_same(_solve(surface, 0.03, "pressure", xp=np), reference)
-    assert speculative_steps["rolled back"] > 0 and speculative_steps["all"] > reference.nit
+    assert speculative_steps["rolled back"] > 0
 
 
 @pytest.mark.parametrize("hardness", [None, 0.03])
