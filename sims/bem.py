@@ -49,7 +49,7 @@ branch (zero curvature, no step, a breakdown, a NaN, a stall) sends it back to t
 iterations with its own decisions. The iteration count, the fields and the diagnostics are those of the iteration
 at which convergence is detected, as without groups. Each group ends with the next iteration's measure, and its size
 follows the residual's rate, so that it ends where convergence is expected: at most 4 iterations (usually none) are
-computed in vain per solve. What
+computed in vain where convergence is detected. What
 remains read every iteration is the size of the sets (the points that join the contact, the support: two reads with
 an elastic solid, more with a hardness); three passes are single CuPy kernels (:meth:`sims.bem_backend.Backend.kernel`).
 

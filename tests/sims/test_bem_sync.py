@@ -102,6 +102,16 @@ def test_group_size_and_rare_branch_roll_backs_change_nothing(surface, monkeypat
     assert speculative_steps["rolled back"] > 0
 
 
+def test_a_stall_and_its_bracketing_fallback_are_the_same_in_groups(surface, monkeypatch):
+    # a stall rule made hair-trigger: the load-controlled run stalls and the offset bracketing (many inner runs) takes
+    # over; the group's stall check on the host must stop at the same iteration as the one-by-one check
+    monkeypatch.setattr(bem, "_STALL_ITERATIONS", 2)
+    grouped = _solve(surface, 0.03, "pressure", xp=np)
+    assert grouped.success and "stalled" in grouped.message
+    monkeypatch.setattr(bem_backend, "DEVICE_DECISIONS", False)
+    _assert_same(grouped, _solve(surface, 0.03, "pressure", xp=np))
+
+
 @pytest.mark.parametrize("hardness", [None, 0.03])
 def test_gpu_path_on_a_cupy_stand_in_equals_the_cpu_solution(surface, hardness):
     cpu = _solve(surface, hardness, "pressure")
