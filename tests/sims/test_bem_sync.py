@@ -93,7 +93,7 @@ def test_group_size_and_rare_branch_roll_backs_change_nothing(surface, monkeypat
         if self.lazy:
             speculative_steps["all"] += 1
             if self.nit % 3 == 0:
-                self.odd = True
+                self._rare(lambda: True)
                 speculative_steps["rolled back"] += 1
         return ok
 
