@@ -641,9 +641,9 @@ class _Solver:
         """``values`` (numbers, or 0-d arrays of the namespace) as floats, those on the device in one copy."""
         xp = self.xp
         on_device = [i for i, v in enumerate(values) if xp is not np and isinstance(v, xp.ndarray)]
-        out = [math.nan if i in on_device else float(v) for i, v in enumerate(values)]
+        out = [math.nan if xp is not np and isinstance(v, xp.ndarray) else float(v) for v in values]
         if on_device:
-            host = self.op.be.to_host(xp.stack([values[i].astype(xp.float64) for i in on_device]))
+            host = self.op.be.to_host(xp.stack([values[i].astype(xp.float64, copy=False) for i in on_device]))
             for i, v in zip(on_device, host.tolist(), strict=True):
                 out[i] = v
         return out
