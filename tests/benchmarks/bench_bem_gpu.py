@@ -18,8 +18,9 @@ synchronisations were cut, side by side (``old``: every decision read on the hos
 ``sims.bem_backend.DEVICE_DECISIONS = False``; ``new``: the default), at 1024², 4096² and 8192² (elastic; capped at
 1024² and 4096²): time per iteration of the loop and its ratio to the cuFFT pair, iterations, iterations computed
 (the new path computes up to 3 in vain), host synchronisations per iteration where they can be counted (on the
-CuPy stand-in ``tests/sims/fake_cupy``; not on a real card), the largest |Δp|/max p between the two paths and, at
-1024², between the CPU and each GPU path. Each grid and case in its own try/except; the text and the JSON are
+CuPy stand-in ``tests/sims/fake_cupy``; not on a real card), CuPy's memory pool after the solves per grid point
+(their peak: ``sims.budget``'s GPU estimate is 160 B), the largest |Δp|/max p between the two paths and, at 1024²,
+between the CPU and each GPU path. Each grid and case in its own try/except; the text and the JSON are
 written as they come.
 
 Run: PYTHONPATH=. python3 tests/benchmarks/bench_bem_gpu.py [--budget 270] [--json FILE] [--quick] [--shrink K]
@@ -296,9 +297,14 @@ class _Quick:
         h = HARDNESS if case == "capped" else None
         row: dict[str, Any] = {"n": n, "case": case, "pair_ms": pair * 1e3}
         fields = {}
+        import cupy as cp
+
+        pool = cp.get_default_memory_pool()
         for new in (False, True):
             path = "new" if new else "old"
+            pool.free_all_blocks()  # what the pool holds after the runs is their peak (CuPy keeps freed blocks)
             runs = [self.solve(z, new, h) for _ in range(2 if n <= 4096 else 1)]
+            held = getattr(pool, "total_bytes", lambda: None)()
             best = min(runs, key=lambda r: r["seconds"])
             one = self.solve(z, new, h, max_iter=1)
             res = best["res"]
@@ -309,14 +315,16 @@ class _Quick:
             fields[path] = res.pressure
             row[path] = {"seconds": best["seconds"], "nit": res.nit, "computed": best["steps"],
                          "loop_ms_per_it": loop * 1e3, "loop_ratio_to_pair": loop / pair, "syncs_per_it": syncs,
-                         "success": res.success, "residual": res.residual}  # fmt: skip
+                         "success": res.success, "residual": res.residual,
+                         "pool_bytes_per_point": None if held is None else held / n**2}  # fmt: skip
         row["rel_max_dp_old_new"] = float(np.abs(fields["new"] - fields["old"]).max()) / float(fields["old"].max())
         self.out["rows"].append(row)
 
         def cell(r: dict[str, Any]) -> str:
             syncs = "n/a" if r["syncs_per_it"] is None else f"{r['syncs_per_it']:.2f}"
+            pool = "" if r["pool_bytes_per_point"] is None else f", pool {r['pool_bytes_per_point']:.0f} B/point"
             return (f"{r['loop_ms_per_it']:7.2f} ms/it = {r['loop_ratio_to_pair']:5.2f}× pair, {r['nit']:3d} it "
-                    f"({r['computed']} computed), syncs/it {syncs}, solve {r['seconds']:.3f} s"
+                    f"({r['computed']} computed), syncs/it {syncs}, solve {r['seconds']:.3f} s{pool}"
                     + ("" if r["success"] else " NOT CONVERGED"))  # fmt: skip
 
         print(f"  {n:5d}² {case:>7} (pair {pair * 1e3:.3f} ms)  old: {cell(row['old'])}\n"

@@ -176,6 +176,9 @@ class _Pool:
     def free_all_blocks(self) -> None:
         pass
 
+    def total_bytes(self) -> int:
+        return 0  # nothing is held on a card here
+
 
 cuda = types.SimpleNamespace(runtime=_Runtime, Device=_Device)
 
