@@ -11,7 +11,12 @@ One solver (:mod:`sims.bem`) runs over an *array namespace* ``xp`` (NumPy or CuP
 * the element-wise passes over the n×n fields and their half spectra (:meth:`Backend.rows`): on the CPU in
   cache-sized blocks of rows, spread over the ``workers`` threads (NumPy's ufuncs release the GIL), so that several
   operations on one block read memory once and every core takes part; on the GPU one call over the whole array
-  (CuPy's element-wise operations are device kernels already).
+  (CuPy's element-wise operations are device kernels already), and a few passes of several operations fused into
+  one kernel (:meth:`Backend.kernel`, CuPy's ``ElementwiseKernel``/``ReductionKernel``: one read of each operand,
+  no temporary arrays);
+* whether the solver may take its decisions on the device (:attr:`Backend.defer`): on the GPU reading a value on the
+  host waits for the card, so the solver keeps its scalars there and checks its iterations in groups
+  (:mod:`sims.bem`); on the CPU every decision is taken at once, as it costs nothing.
 
 A backend built from any other module passed as ``xp`` (NumPy itself, in the tests) uses the generic path the GPU
 uses, ``xp.fft`` and plain array expressions, so the code the GPU runs is exercised on the CPU.
@@ -30,6 +35,7 @@ from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from contextvars import ContextVar
+from dataclasses import dataclass
 from types import ModuleType
 from typing import Any, TypeVar
 
@@ -40,7 +46,9 @@ from contactrig.core.validation import SettingError, check_choice
 
 __all__ = [
     "DEVICES",
+    "DEVICE_DECISIONS",
     "Backend",
+    "KernelSpec",
     "check_device",
     "default_device",
     "get_backend",
@@ -54,6 +62,9 @@ _DEVICE: ContextVar[str] = ContextVar("contactrig_bem_device", default="cpu")
 _BLOCK_BYTES = 1 << 18  # one block of rows of a complex half spectrum: 256 KiB, inside a core's L2 cache
 _POOLS: dict[tuple[int, int], ThreadPoolExecutor] = {}
 _T = TypeVar("_T")
+#: False: on the GPU every decision of the solver is taken on the host as it comes and no kernels are fused, the
+#: behaviour before the synchronisations were cut (kept to measure against: ``tests/benchmarks/bench_bem_gpu.py``).
+DEVICE_DECISIONS = True
 _GPU_HINT = "needs CuPy and an NVIDIA GPU: pip install 'contactrig[gpu]' (cupy-cuda12x)"
 
 
@@ -131,6 +142,21 @@ class Backend:
         self.workers = workers
         self.fast = fast
         self.cufft = _cufft_module() if name == "gpu" and xp is not np else None
+        #: decisions on the device, checked on the host in groups of iterations (:mod:`sims.bem`); the generic path
+        #: only (NumPy itself in the tests), and not when :data:`DEVICE_DECISIONS` is False
+        self.defer = not fast and DEVICE_DECISIONS
+
+    def kernel(self, spec: KernelSpec) -> Callable[..., Any] | None:
+        """The device kernel of ``spec`` (several element-wise operations in one pass: one read of each operand, no
+        temporary arrays), or None where the caller's own path is used (:meth:`rows`, in place): on the CPU, on the
+        generic path over NumPy itself, and when :data:`DEVICE_DECISIONS` is False.
+
+        On CuPy a ``cupy.ElementwiseKernel`` or ``cupy.ReductionKernel``, compiled at its first call; a namespace
+        without them (an older CuPy, the tests' stand-in) and a kernel that fails to compile or launch get
+        ``spec.fallback``, the same operations as plain array expressions, from then on."""
+        if self.fast or not DEVICE_DECISIONS or self.xp is np:
+            return None
+        return _compiled(self.xp, spec)
 
     def rfft2(self, x: Any) -> Any:
         """The half spectrum of a real n×n array (a new complex array)."""
@@ -192,6 +218,52 @@ class Backend:
         if self.xp is np:
             return np.asarray(x)
         return self.xp.asnumpy(x)  # type: ignore[no-any-return, unused-ignore]
+
+
+@dataclass(frozen=True)
+class KernelSpec:
+    """One fused pass for :meth:`Backend.kernel`: CuPy's kernel arguments (``in_params``, ``out_params``, C types),
+    ``operation`` (element-wise: the body; reduction: the mapped expression, summed), and ``fallback``, a function of
+    the same arguments written with array operators (what runs where the kernel cannot)."""
+
+    name: str
+    in_params: str
+    out_params: str
+    operation: str
+    fallback: Callable[..., Any]
+    reduction: bool = False
+
+
+_COMPILED: dict[tuple[int, str], Callable[..., Any]] = {}
+
+
+def _compiled(xp: ModuleType, spec: KernelSpec) -> Callable[..., Any]:
+    """``spec``'s kernel in the namespace ``xp``, made once, falling back to ``spec.fallback`` for good if it fails."""
+    key = (id(xp), spec.name)
+    done = _COMPILED.get(key)
+    if done is not None:
+        return done
+    kernel: Callable[..., Any] | None
+    try:
+        if spec.reduction:
+            kernel = xp.ReductionKernel(spec.in_params, spec.out_params, spec.operation, "a + b", "y = a", "0",
+                                        spec.name)  # fmt: skip
+        else:
+            kernel = xp.ElementwiseKernel(spec.in_params, spec.out_params, spec.operation, spec.name)
+    except Exception:  # no such kernels in this namespace: the plain expressions
+        kernel = None
+    failed = [kernel is None]
+
+    def call(*args: Any) -> Any:
+        if not failed[0]:
+            try:
+                return kernel(*args)  # type: ignore[misc]
+            except Exception:  # a kernel that does not compile or launch here (CuPy's errors have many classes)
+                failed[0] = True
+        return spec.fallback(*args)
+
+    _COMPILED[key] = call
+    return call
 
 
 def _pool(workers: int) -> ThreadPoolExecutor:

@@ -13,7 +13,17 @@ Parts, each skipped with a note once the time budget (``--budget``, s) is spent:
    at 4096² ≤ 93).
 4. **CPU table**: the same on the CPU with 1 thread (1024², 2048²) and every core (1024²–4096²).
 
-Run: PYTHONPATH=. python3 tests/benchmarks/bench_bem_gpu.py [--budget 270] [--json FILE]
+``--quick`` (≤ 90 s on an H200): instead of parts 1–4, the solver's GPU path before and after the host
+synchronisations were cut, side by side (``old``: every decision read on the host as it comes and no fused kernels,
+``sims.bem_backend.DEVICE_DECISIONS = False``; ``new``: the default), at 1024², 4096² and 8192² (elastic; capped at
+1024² and 4096²): time per iteration of the loop and its ratio to the cuFFT pair, iterations, iterations computed
+(the new path computes up to 3 in vain), host synchronisations per iteration where they can be counted (on the
+CuPy stand-in ``tests/sims/fake_cupy``; not on a real card), CuPy's memory pool after the solves per grid point
+(their peak: ``sims.budget``'s GPU estimate is 160 B), the largest |Δp|/max p between the two paths and, at 1024²,
+between the CPU and each GPU path. Each grid and case in its own try/except; the text and the JSON are
+written as they come.
+
+Run: PYTHONPATH=. python3 tests/benchmarks/bench_bem_gpu.py [--budget 270] [--json FILE] [--quick] [--shrink K]
 """
 
 from __future__ import annotations
@@ -217,12 +227,159 @@ def _parts(run: _Run, parts: set[int], cores: int) -> None:
                 run.part(name, need, body)
 
 
+class _Quick:
+    """``--quick``: the GPU path before and after cutting its host synchronisations (module doc)."""
+
+    def __init__(self, cores: int, json_path: str | None, budget: float) -> None:
+        from sims import bem
+
+        self.cores = cores
+        self.json_path = json_path
+        self.budget = budget
+        self.out: dict[str, Any] = {"rows": [], "fields": [], "errors": [], "skipped": []}
+        self.steps = [0]
+        original = bem._Solver.step
+
+        def counted(solver: Any, m: Any) -> bool:  # iterations computed, the speculative ones included
+            self.steps[0] += 1
+            return original(solver, m)
+
+        bem._Solver.step = counted  # type: ignore[method-assign]
+        self.warm: set[bool] = set()
+
+    def save(self) -> None:
+        if self.json_path:
+            Path(self.json_path).write_text(json.dumps(self.out, indent=1), encoding="utf-8")
+
+    def solve(self, z: np.ndarray, new: bool, h: float | None, max_iter: int = 2000) -> dict[str, Any]:
+        """One GPU solve on the old or the new path: result, seconds, iterations computed, host syncs counted."""
+        import cupy as cp
+
+        from sims import bem, bem_backend
+
+        bem_backend.DEVICE_DECISIONS = new
+        if new not in self.warm:  # CuPy compiles each kernel once per process: not in the timings
+            self.warm.add(new)
+            for hh in (None, HARDNESS):
+                bem.solve_contact(z[:64, :64].copy(), 1 / 64, E_STAR, PRESSURE, hardness=hh, tol=TOL, device="gpu")
+        syncs = getattr(cp, "SYNCS", None)  # the stand-in's counter; a real CuPy has none
+        if syncs is not None:
+            syncs.clear()
+        self.steps[0] = 0
+        n = z.shape[0]
+        cp.cuda.Device().synchronize()
+        t0 = time.perf_counter()
+        res = bem.solve_contact(z, 1 / n, E_STAR, PRESSURE, hardness=h, tol=TOL, device="gpu", max_iter=max_iter)
+        cp.cuda.Device().synchronize()
+        seconds = time.perf_counter() - t0
+        count = sum(syncs.values()) if syncs is not None else None
+        return {"res": res, "seconds": seconds, "steps": self.steps[0], "syncs": count}
+
+    def fields(self, z: np.ndarray, case: str) -> None:
+        from sims import bem
+
+        n = z.shape[0]
+        h = HARDNESS if case == "capped" else None
+        cpu = bem.solve_contact(z, 1 / n, E_STAR, PRESSURE, hardness=h, tol=TOL, device="cpu", workers=self.cores)
+        scale = float(cpu.pressure.max())
+        for new in (False, True):
+            gpu = self.solve(z, new, h)["res"]
+            diff = float(np.abs(gpu.pressure - cpu.pressure).max()) / scale
+            ok = diff <= 1e-6 and gpu.success and cpu.success
+            path = "new" if new else "old"
+            self.out["fields"].append({"n": n, "case": case, "path": path, "rel_max_dp": diff, "nit_cpu": cpu.nit,
+                                       "nit_gpu": gpu.nit, "ok": ok})  # fmt: skip
+            print(f"  fields {n:5d}² {case:>7} CPU vs GPU {path}: max|Δp|/max p = {diff:.2e} "
+                  f"({'PASS' if ok else 'FAIL'}); it CPU {cpu.nit}, GPU {gpu.nit}", flush=True)  # fmt: skip
+
+    def timing(self, z: np.ndarray, case: str, pair: float) -> None:
+        n = z.shape[0]
+        h = HARDNESS if case == "capped" else None
+        row: dict[str, Any] = {"n": n, "case": case, "pair_ms": pair * 1e3}
+        fields = {}
+        import cupy as cp
+
+        pool = cp.get_default_memory_pool()
+        for new in (False, True):
+            path = "new" if new else "old"
+            pool.free_all_blocks()  # what the pool holds after the runs is their peak (CuPy keeps freed blocks)
+            runs = [self.solve(z, new, h) for _ in range(2 if n <= 4096 else 1)]
+            held = getattr(pool, "total_bytes", lambda: None)()
+            best = min(runs, key=lambda r: r["seconds"])
+            one = self.solve(z, new, h, max_iter=1)
+            res = best["res"]
+            loop = max(best["seconds"] - one["seconds"], 0.0) / max(res.nit - 1, 1)
+            syncs = None
+            if best["syncs"] is not None and one["syncs"] is not None:
+                syncs = (best["syncs"] - one["syncs"]) / max(res.nit - 1, 1)
+            fields[path] = res.pressure
+            row[path] = {"seconds": best["seconds"], "nit": res.nit, "computed": best["steps"],
+                         "loop_ms_per_it": loop * 1e3, "loop_ratio_to_pair": loop / pair, "syncs_per_it": syncs,
+                         "success": res.success, "residual": res.residual,
+                         "pool_bytes_per_point": None if held is None else held / n**2}  # fmt: skip
+        row["rel_max_dp_old_new"] = float(np.abs(fields["new"] - fields["old"]).max()) / float(fields["old"].max())
+        self.out["rows"].append(row)
+
+        def cell(r: dict[str, Any]) -> str:
+            syncs = "n/a" if r["syncs_per_it"] is None else f"{r['syncs_per_it']:.2f}"
+            pool = "" if r["pool_bytes_per_point"] is None else f", pool {r['pool_bytes_per_point']:.0f} B/point"
+            return (f"{r['loop_ms_per_it']:7.2f} ms/it = {r['loop_ratio_to_pair']:5.2f}× pair, {r['nit']:3d} it "
+                    f"({r['computed']} computed), syncs/it {syncs}, solve {r['seconds']:.3f} s{pool}"
+                    + ("" if r["success"] else " NOT CONVERGED"))  # fmt: skip
+
+        print(f"  {n:5d}² {case:>7} (pair {pair * 1e3:.3f} ms)  old: {cell(row['old'])}\n"
+              f"  {'':15} new: {cell(row['new'])}; max|Δp|/max p old vs new {row['rel_max_dp_old_new']:.1e}",
+              flush=True)  # fmt: skip
+
+    def run(self, sizes: list[int]) -> None:
+        import cupy as cp
+        import scipy.fft as sfft
+
+        fft = type("fft", (), {"rfft2": staticmethod(lambda x, **k: sfft.rfft2(x, workers=-1, **k)),
+                               "irfft2": staticmethod(lambda x, **k: sfft.irfft2(x, workers=-1, **k))})  # fmt: skip
+        print("\nquick: the GPU path before (old: host decisions, no fused kernels) and after (new)", flush=True)
+        for n in sizes:
+            cases = ("elastic", "capped") if n <= 4096 // SHRINK[0] else ("elastic",)
+            try:
+                z = self_affine(n, fft=fft)
+                pair = gpu_pair_seconds(n, repeats=10)
+            except Exception as exc:  # a grid that cannot be made (memory): the next one
+                self._error(f"{n}² setup", exc)
+                continue
+            if n == sizes[0]:
+                for case in cases:
+                    self._guard(f"fields {n}² {case}", 10.0, lambda z=z, case=case: self.fields(z, case))
+            need = 25.0 if n > 4096 // SHRINK[0] else 10.0
+            for case in cases:
+                self._guard(f"timing {n}² {case}", need, lambda z=z, case=case, pair=pair: self.timing(z, case, pair))
+            del z
+            cp.get_default_memory_pool().free_all_blocks()
+
+    def _guard(self, name: str, need: float, body: Callable[[], None]) -> None:
+        """``body`` if ``need`` seconds of the budget are left, its failure printed and kept, the JSON saved."""
+        if _left(self.budget) < need:
+            self.out["skipped"].append(name)
+            print(f"  skipped (time budget): {name}", flush=True)
+            return
+        try:
+            body()
+        except Exception as exc:  # one grid's failure (memory, a kernel) must not cost the others
+            self._error(name, exc)
+        self.save()
+
+    def _error(self, name: str, exc: BaseException) -> None:
+        self.out["errors"].append({"what": name, "error": f"{type(exc).__name__}: {exc}"})
+        print(f"  FAILED {name}: {type(exc).__name__}: {exc}", flush=True)
+        self.save()
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--budget", type=float, default=270.0, help="seconds for everything (parts left are skipped)")
     ap.add_argument("--json", default=None, help="also write every figure to this JSON file")
     ap.add_argument("--shrink", type=int, default=1, help="divide every grid by this (a quick check of the script)")
     ap.add_argument("--parts", default="1,2,3,4", help="which parts to run, comma-separated (default 1,2,3,4)")
+    ap.add_argument("--quick", action="store_true", help="old and new GPU path side by side, ≤ 90 s (module doc)")
     args = ap.parse_args(argv)
     parts = {int(x) for x in args.parts.split(",")}
     SHRINK[0] = args.shrink
@@ -238,6 +395,14 @@ def main(argv: list[str] | None = None) -> None:
           f"({free / 2**30:.0f} free); CPU: {platform.processor() or platform.machine()}, {cores} cores, load "
           f"{' '.join(f'{v:.2f}' for v in os.getloadavg())}; numpy {np.__version__}, scipy {scipy.__version__}, "
           f"cupy {cp.__version__}", flush=True)  # fmt: skip
+    if args.quick:
+        quick = _Quick(cores, args.json, min(args.budget, 80.0))
+        quick.out["card"] = card
+        quick.run([n // SHRINK[0] for n in (1024, 4096, 8192)])
+        print(f"\ndone in {time.perf_counter() - T0:.0f} s; skipped: {', '.join(quick.out['skipped']) or 'nothing'}; "
+              f"errors: {len(quick.out['errors'])}", flush=True)  # fmt: skip
+        quick.save()
+        return
     run = _Run(args.budget, cores, card)
     _parts(run, parts, cores)
     print(f"\ndone in {time.perf_counter() - T0:.0f} s; skipped: {', '.join(run.out['skipped']) or 'nothing'}")

@@ -9,6 +9,9 @@
 #   bench_bem_gpu.results.json  every figure
 # Usage: tests/benchmarks/bench_bem_gpu.sh [--budget SECONDS]   (default 270: parts left over are skipped, named)
 #        [--parts 1,2,3,4]  (1 fields CPU = GPU, 2 FFT limits, 3 GPU solver, 4 CPU table)
+#        --quick [--shrink K]  ≤ 90 s: the GPU path before and after cutting its host synchronisations, side by side
+#                              (1024², 4096², 8192²; grids divided by K); kept as bench_bem_gpu.quick.{txt,json}.
+#                              On the CPU, with the CuPy stand-in: PYTHONPATH=tests/sims/fake_cupy ... --quick --shrink 16
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$(cd "$here/../.." && pwd)"
@@ -25,5 +28,7 @@ python3 -c "import cupy, numpy, scipy; cupy.cuda.runtime.getDeviceCount()" || {
     exit 2
 }
 nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader 2>/dev/null || true
-timeout 480 python3 "$here/bench_bem_gpu.py" --json "$dest/bench_bem_gpu.results.json" "$@" \
-    2>&1 | tee "$dest/bench_bem_gpu.results.txt"
+name=results limit=480
+for arg in "$@"; do [[ "$arg" == --quick ]] && name=quick limit=120; done
+PYTHONUNBUFFERED=1 timeout "$limit" python3 "$here/bench_bem_gpu.py" --json "$dest/bench_bem_gpu.$name.json" "$@" \
+    2>&1 | tee "$dest/bench_bem_gpu.$name.txt"
