@@ -95,7 +95,17 @@ def test_sessions_index_is_the_shared_index(client: Client, folder: Path):
     (folder / "hostile.toml").write_text(scene_text(sample=hostile, weights="[5.44]", repeats=1), encoding="utf-8")
     run = client.start("hostile.h5", scene="hostile.toml")
     assert client.drive(run)["stop"]["status"] == "success"
-    rows = indexed(client)["sessions"]
+    # CI of 27 Nov 2026 (two cores at load 5): the first refresh after the run ended listed nothing, and the cause
+    # was not found (the run's state says "ended" before its process has closed the file). Up to three refreshes;
+    # if none lists the session, the message gives each refresh's rows and notes.
+    seen = []
+    for _ in range(3):
+        page = indexed(client)
+        rows = page["sessions"]
+        seen.append((len(rows), page["notes"]))
+        if rows:
+            break
+    assert rows, f"the session never came into the index: {seen}"
     expected, _ = query(folder, refresh=False, descending=True)
     assert [r["path"] for r in rows] == [Path(e["path"]).relative_to(folder).as_posix() for e in expected]
     assert rows[0]["sample"] == hostile
