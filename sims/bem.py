@@ -53,7 +53,8 @@ ends with the next iteration's measure, and its size follows the residual's rate
 is expected: at most 4 iterations (usually none) are computed in vain where convergence is detected. What remains
 read every iteration is the size of the sets (the points that join the contact, the support, and a clipping test
 when no point joins: 2.75 reads per iteration with an elastic solid against 15.3 before, 9.5 with a hardness against
-22.3); three passes are single CuPy kernels (:meth:`sims.bem_backend.Backend.kernel`).
+22.3). On an H200 (2026-11-27) the groups made a solve 11 % faster at 1024², 23 % at 4096² and 3 % at 8192²;
+three passes fused into CuPy kernels made it 2–4× slower and were taken out (docs: Benchmarks).
 
 Convergence: the residual is the largest violation of the contact conditions in units of rms(z): |g| on points with
 0 < p < H, −g on points with p = 0, +g on points with p = H (the load, in pressure control, is met exactly).
@@ -94,7 +95,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage, optimize
 
 from contactrig.core.validation import SettingError, check_choice, check_int, check_range
-from sims.bem_backend import Backend, KernelSpec, get_backend
+from sims.bem_backend import Backend, get_backend
 
 __all__ = [
     "STATUS_BREAKDOWN",
@@ -322,33 +323,9 @@ def _residual(free: float, overlap: float, release: float) -> float:
     return max(free, -overlap, release)
 
 
-# Fused passes of the GPU path (sims.bem_backend.Backend.kernel): one kernel each, with the same operations as plain
-# array expressions where CuPy's kernels are unavailable (and on NumPy stand-ins in the tests).
-
-
-def _minus_scaled(w: Any, c: Any, s: Any) -> Any:
-    return w - s * c
-
-
 def _below_unloaded(w: Any, p: Any, level: Any) -> Any:
+    """Where w < level and p ≤ 0 (a boolean array)."""
     return (w < level) & (p <= 0.0)
-
-
-def _weighted_squares(weight: Any, x: Any) -> Any:
-    return (weight * x * x).sum()
-
-
-_MINUS_SCALED = KernelSpec(
-    "contactrig_bem_minus_scaled", "float64 w, float64 c, float64 s", "float64 y", "y = w - s * c", _minus_scaled
-)
-_BELOW_UNLOADED = KernelSpec(
-    "contactrig_bem_below_unloaded", "float64 w, float64 p, float64 level", "bool y", "y = (w < level) && (p <= 0.0)",
-    _below_unloaded,
-)  # fmt: skip
-_WEIGHTED_SQUARES = KernelSpec(
-    "contactrig_bem_weighted_squares", "float64 weight, float64 x", "float64 y", "weight * x * x", _weighted_squares,
-    reduction=True,
-)  # fmt: skip
 
 
 class _Operator:
@@ -393,16 +370,11 @@ class _Operator:
     def curvature(self, t: Any, keep: bool = False) -> tuple[Any, Any]:
         """(C·T with T = rfft2(t), t·Ct): the step's curvature by Parseval's theorem, before any inverse FFT.
 
-        One pass over the half spectrum: each block's share of the curvature, then the block multiplied by C (on the
-        GPU the curvature in one reduction kernel). A float, or with ``keep`` the value as it comes (see _dot)."""
+        One pass over the half spectrum: each block's share of the curvature, then the block multiplied by C. A float,
+        or with ``keep`` the value as it comes (see _dot)."""
         xp = self.xp
         spectrum = self.be.rfft2(t.reshape(self.n, self.n))
         parts = spectrum.view(xp.float64)
-        kernel = self.be.kernel(_WEIGHTED_SQUARES)
-        if kernel is not None:
-            total = kernel(self.parseval, parts)
-            xp.multiply(parts, self.compliance, out=parts)
-            return spectrum, total if keep else float(total)
 
         def block(r: slice) -> Any:
             share = _weighted_square_sum(xp, self.parseval[r], parts[r], keep)
@@ -413,13 +385,10 @@ class _Operator:
         return spectrum, shares[0] if len(shares) == 1 else math.fsum(shares)
 
     def add_step(self, spectrum: Any, tau: Any, w: Any) -> Any:
-        """w − τ·C t from C·T (:meth:`curvature`): one inverse FFT and one fused pass; ``w`` itself, updated in place
-        (on the GPU, a new array from one kernel)."""
+        """w − τ·C t from C·T (:meth:`curvature`): one inverse FFT and one fused pass; ``w`` itself, updated in
+        place."""
         xp = self.xp
         ct = self.be.irfft2(spectrum, self.n)
-        kernel = self.be.kernel(_MINUS_SCALED)
-        if kernel is not None:
-            return kernel(w, ct.reshape(-1), tau)
         w2 = w.reshape(self.n, self.n)
 
         def block(r: slice) -> None:
@@ -431,11 +400,10 @@ class _Operator:
 
     def below(self, w: Any, level: Any, p: Any = None) -> Any:
         """Flat indices where w < level (and, with ``p``, p ≤ 0), in order (one pass, the blocks in parallel; on the
-        GPU one kernel and one read of the count)."""
+        GPU one read of the count)."""
         xp = self.xp
         if p is not None:
-            kernel = self.be.kernel(_BELOW_UNLOADED) or _below_unloaded
-            return xp.flatnonzero(kernel(w, p, level))
+            return xp.flatnonzero(_below_unloaded(w, p, level))
         w2 = w.reshape(self.n, self.n)
         parts = self.rows(lambda r: xp.flatnonzero(w2[r] < level) + (r.start or 0) * self.n)
         return parts[0] if len(parts) == 1 else xp.concatenate(parts)

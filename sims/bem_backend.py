@@ -35,7 +35,6 @@ from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from contextvars import ContextVar
-from dataclasses import dataclass
 from types import ModuleType
 from typing import Any, TypeVar
 
@@ -48,7 +47,6 @@ __all__ = [
     "DEVICES",
     "DEVICE_DECISIONS",
     "Backend",
-    "KernelSpec",
     "check_device",
     "default_device",
     "get_backend",
@@ -62,8 +60,8 @@ _DEVICE: ContextVar[str] = ContextVar("contactrig_bem_device", default="cpu")
 _BLOCK_BYTES = 1 << 18  # one block of rows of a complex half spectrum: 256 KiB, inside a core's L2 cache
 _POOLS: dict[tuple[int, int], ThreadPoolExecutor] = {}
 _T = TypeVar("_T")
-#: False: on the GPU every decision of the solver is taken on the host as it comes and no kernels are fused, the
-#: behaviour before the synchronisations were cut (kept to measure against: ``tests/benchmarks/bench_bem_gpu.py``).
+#: False: on the GPU every decision of the solver is taken on the host as it comes, the behaviour before the
+#: synchronisations were cut (kept to measure against: ``tests/benchmarks/bench_bem_gpu.py``).
 DEVICE_DECISIONS = True
 _GPU_HINT = "needs CuPy and an NVIDIA GPU: pip install 'contactrig[gpu]' (cupy-cuda12x)"
 
@@ -146,18 +144,6 @@ class Backend:
         #: only (NumPy itself in the tests), and not when :data:`DEVICE_DECISIONS` is False
         self.defer = not fast and DEVICE_DECISIONS
 
-    def kernel(self, spec: KernelSpec) -> Callable[..., Any] | None:
-        """The device kernel of ``spec`` (several element-wise operations in one pass: one read of each operand, no
-        temporary arrays), or None where the caller's own path is used (:meth:`rows`, in place): on the CPU, on the
-        generic path over NumPy itself, and when :data:`DEVICE_DECISIONS` is False.
-
-        On CuPy a ``cupy.ElementwiseKernel`` or ``cupy.ReductionKernel``, compiled at its first call; a namespace
-        without them (an older CuPy, the tests' stand-in) and a kernel that fails to compile or launch get
-        ``spec.fallback``, the same operations as plain array expressions, from then on."""
-        if self.fast or not DEVICE_DECISIONS or self.xp is np:
-            return None
-        return _compiled(self.xp, spec)
-
     def rfft2(self, x: Any) -> Any:
         """The half spectrum of a real n×n array (a new complex array)."""
         if self.fast:
@@ -218,52 +204,6 @@ class Backend:
         if self.xp is np:
             return np.asarray(x)
         return self.xp.asnumpy(x)  # type: ignore[no-any-return, unused-ignore]
-
-
-@dataclass(frozen=True)
-class KernelSpec:
-    """One fused pass for :meth:`Backend.kernel`: CuPy's kernel arguments (``in_params``, ``out_params``, C types),
-    ``operation`` (element-wise: the body; reduction: the mapped expression, summed), and ``fallback``, a function of
-    the same arguments written with array operators (what runs where the kernel cannot)."""
-
-    name: str
-    in_params: str
-    out_params: str
-    operation: str
-    fallback: Callable[..., Any]
-    reduction: bool = False
-
-
-_COMPILED: dict[tuple[int, str], Callable[..., Any]] = {}
-
-
-def _compiled(xp: ModuleType, spec: KernelSpec) -> Callable[..., Any]:
-    """``spec``'s kernel in the namespace ``xp``, made once, falling back to ``spec.fallback`` for good if it fails."""
-    key = (id(xp), spec.name)
-    done = _COMPILED.get(key)
-    if done is not None:
-        return done
-    kernel: Callable[..., Any] | None
-    try:
-        if spec.reduction:
-            kernel = xp.ReductionKernel(spec.in_params, spec.out_params, spec.operation, "a + b", "y = a", "0",
-                                        spec.name)  # fmt: skip
-        else:
-            kernel = xp.ElementwiseKernel(spec.in_params, spec.out_params, spec.operation, spec.name)
-    except Exception:  # no such kernels in this namespace: the plain expressions
-        kernel = None
-    failed = [kernel is None]
-
-    def call(*args: Any) -> Any:
-        if not failed[0]:
-            try:
-                return kernel(*args)  # type: ignore[misc]
-            except Exception:  # a kernel that does not compile or launch here (CuPy's errors have many classes)
-                failed[0] = True
-        return spec.fallback(*args)
-
-    _COMPILED[key] = call
-    return call
 
 
 def _pool(workers: int) -> ThreadPoolExecutor:

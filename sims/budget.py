@@ -17,7 +17,7 @@ stage           memory                                                          
 ``press``       ~48 B per ring pair (influence matrix, Jacobian)                ``[press] n_rings``
 ``bem``         ~200 B per point of the refined grid, per concurrent task,      ``[surfaces.*] n``, ``--refine``,
                 plus ~100 MB for each worker process                            ``--jobs``
-``bem_gpu``     device memory of one solve on the GPU: ~160 B per point,        ``[surfaces.*] n``, ``--refine``,
+``bem_gpu``     device memory of one solve on the GPU: ~224 B per point,        ``[surfaces.*] n``, ``--refine``,
                 against the card's free memory (:func:`check_bem_gpu`)          ``--device gpu``
 ==============  ==============================================================  ======================================
 
@@ -183,12 +183,14 @@ def check_comparison(
 # ---------------------------------------------------------------------------------------------------------------
 # The GPU's memory (boundary elements on CuPy, issue 28).
 
-#: Device memory of one FFT-BEM solve per grid point [bytes], measured: CuPy's memory pool held 154 B per point after
-#: a 4096² solve on an H200 (2026-11-27, ``tests/benchmarks/profile_bem_gpu.py``; the pool keeps what it held, so
-#: this is the peak: z, p, w, t, the contact mask, the half spectra (float64 and the float32 filter's), the
-#: interleaved symbols made on the card, the sparse index arrays of the support and cuFFT's plans and work areas),
-#: rounded up. (Before the float32 filter and the symbols on the card the estimate was 128 B, not measured.)
-_BEM_GPU_B = 160.0
+#: Device memory of one FFT-BEM solve per grid point [bytes], measured on an H200: CuPy's memory pool held 154 B per
+#: point after a 4096² solve (2026-11-27, ``tests/benchmarks/profile_bem_gpu.py``), and 142–188 B (host decisions)
+#: and 178–220 B (the iterations in groups, with fused kernels since taken out) after the solves of one grid at
+#: 1024²–8192² (``tests/benchmarks/bench_bem_gpu.sh --quick``, ``gpu_runs/2026-11-27_h200_4_quick.txt``). The pool
+#: keeps what it held, so these are peaks: z, p, w, t, the contact mask, the half spectra (float64 and the float32
+#: filter's), the interleaved symbols, the support's index arrays, a group's kept pressures and cuFFT's plans and
+#: work areas. The largest, rounded up. (Before: 128 B, not measured; then 160 B, from the 4096² figure alone.)
+_BEM_GPU_B = 224.0
 
 
 def bem_gpu(n: int, key: str = "[surfaces.*] n") -> Estimate:

@@ -14,12 +14,12 @@ Parts, each skipped with a note once the time budget (``--budget``, s) is spent:
 4. **CPU table**: the same on the CPU with 1 thread (1024², 2048²) and every core (1024²–4096²).
 
 ``--quick`` (≤ 90 s on an H200): instead of parts 1–4, the solver's GPU path before and after the host
-synchronisations were cut, side by side (``old``: every decision read on the host as it comes and no fused kernels,
+synchronisations were cut, side by side (``old``: every decision read on the host as it comes,
 ``sims.bem_backend.DEVICE_DECISIONS = False``; ``new``: the default), at 1024², 4096² and 8192² (elastic; capped at
 1024² and 4096²): time per iteration of the loop and its ratio to the cuFFT pair, iterations, iterations computed
 (the new path computes up to 3 in vain), host synchronisations per iteration where they can be counted (on the
 CuPy stand-in ``tests/sims/fake_cupy``; not on a real card), CuPy's memory pool after the solves per grid point
-(their peak: ``sims.budget``'s GPU estimate is 160 B), the largest |Δp|/max p between the two paths and, at 1024²,
+(their peak: ``sims.budget``'s GPU estimate is 224 B), the largest |Δp|/max p between the two paths and, at 1024²,
 between the CPU and each GPU path. Each grid and case in its own try/except; the text and the JSON are
 written as they come.
 
@@ -337,7 +337,7 @@ class _Quick:
 
         fft = type("fft", (), {"rfft2": staticmethod(lambda x, **k: sfft.rfft2(x, workers=-1, **k)),
                                "irfft2": staticmethod(lambda x, **k: sfft.irfft2(x, workers=-1, **k))})  # fmt: skip
-        print("\nquick: the GPU path before (old: host decisions, no fused kernels) and after (new)", flush=True)
+        print("\nquick: the GPU path before (old: host decisions) and after (new: iterations in groups)", flush=True)
         for n in sizes:
             cases = ("elastic", "capped") if n <= 4096 // SHRINK[0] else ("elastic",)
             try:

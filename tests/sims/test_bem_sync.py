@@ -3,9 +3,9 @@
 Without a GPU the GPU path runs here over two stand-ins: NumPy itself (``xp=np``: the same code, the speculative
 groups and their roll-backs included, with NumPy's arithmetic, so the fields must be bit-identical to the decisions
 taken one by one) and ``tests/sims/fake_cupy`` (NumPy arrays that behave like CuPy's where it matters here: reductions
-give 0-d arrays, every read on the host is counted, and CuPy's kernels are unavailable, so the fused passes run their
-plain-expression fallbacks). References: the CPU solver (``sims.bem`` on NumPy with ``scipy.fft``), which the
-tests in test_bem.py / test_bem_backend.py check against closed forms and an independent quadratic program.
+give 0-d arrays, every read on the host is counted). References: the CPU solver (``sims.bem`` on NumPy with
+``scipy.fft``), which the tests in test_bem.py / test_bem_backend.py check against closed forms and an independent
+quadratic program.
 """
 
 from __future__ import annotations
@@ -148,43 +148,7 @@ def test_capped_gpu_path_reads_the_host_less_than_before(surface):
     assert _syncs_per_iteration(surface, 0.03) <= 11.0
 
 
-def _failing_kernels() -> types.ModuleType:
-    """The stand-in with CuPy's kernel classes present, but every kernel failing at its first call (as one that does
-    not compile on some card would)."""
-    calls = collections.Counter[str]()
-
-    class Failing:
-        def __init__(self, *args: Any) -> None:
-            self.name = args[-1]
-
-        def __call__(self, *args: Any) -> Any:
-            calls[self.name] += 1
-            raise RuntimeError("nvrtc: compilation failed (test)")
-
-    module = types.ModuleType("contactrig_fake_cupy_failing")
-    module.__getattr__ = lambda name: getattr(fake, name)  # type: ignore[method-assign]
-    module.ElementwiseKernel = Failing  # type: ignore[attr-defined]
-    module.ReductionKernel = Failing  # type: ignore[attr-defined]
-    module.ndarray = fake.ndarray  # type: ignore[attr-defined]
-    module.calls = calls  # type: ignore[attr-defined]
-    return module
-
-
-def test_a_kernel_that_fails_falls_back_to_plain_expressions(surface):
-    failing = _failing_kernels()
-    plain = _solve(surface, None, "pressure", xp=fake)
-    res = _solve(surface, None, "pressure", xp=failing)
-    _assert_same(res, plain)
-    assert set(failing.calls) == {  # type: ignore[attr-defined]
-        "contactrig_bem_minus_scaled", "contactrig_bem_below_unloaded", "contactrig_bem_weighted_squares"
-    }  # fmt: skip
-    assert max(failing.calls.values()) == 1  # type: ignore[attr-defined]  # tried once, then the fallback for good
-
-
-def test_kernels_are_not_used_on_the_cpu_nor_over_numpy():
-    assert bem_backend.get_backend("cpu", 1).kernel(bem._MINUS_SCALED) is None
-    assert bem_backend.get_backend(workers=1, xp=np).kernel(bem._MINUS_SCALED) is None
-    assert bem_backend.get_backend(workers=1, xp=fake).kernel(bem._MINUS_SCALED) is not None
+def test_the_device_decisions_are_taken_on_the_generic_path_only():
     assert not bem_backend.get_backend("cpu", 1).defer and bem_backend.get_backend(workers=1, xp=fake).defer
 
 
