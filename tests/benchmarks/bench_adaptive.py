@@ -244,6 +244,8 @@ def main() -> int:
     p.add_argument("--progress-every", type=int, default=0, help="print the table so far every N sessions per model")
     p.add_argument("--budget-of-fixed", type=float, default=0.0,
                    help="the loop's budget: this fraction of the fixed plan's time (e.g. 0.7)")
+    p.add_argument("--seed-offset", type=int, default=0,
+                   help="first seed of the reported sessions (0; a fresh set to check a rule out of sample)")
     p.add_argument("--json", type=Path, default=None, help="write the rows and every session's outcome to this file")
     args = p.parse_args()
     if args.budget_of_fixed and (args.no_fixed or args.calibrate):
@@ -265,7 +267,7 @@ def main() -> int:
             else:
                 print("calibration: no threshold of the grid keeps the wrong-decisive rate ≤ 5 %", flush=True)
         per_session: list[dict] = []
-        rows = run(args, threshold, 0, pool, per_session)
+        rows = run(args, threshold, args.seed_offset, pool, per_session)
     print(table(rows, threshold))
     if args.json:
         import json
