@@ -10,8 +10,9 @@ suggestion, the evidence behind it and what the operator did, and the stop decis
 (session schema 4) and ``settings()`` into the start record, so that :func:`replay_suggestions` rebuilds the design
 from the file and reproduces every suggestion bit for bit (the suggestion rule is one of the settings, ``rule``:
 new sessions :data:`RULE`, a start record without it rule 1, the rule it was written with). Each suggestion is also
-its block's own record (schema 5: :class:`daq.plan.Measure`'s ``adaptive``, written and flushed with the first block
-it led to), so a killed session keeps the suggestions of all its blocks and replays them too.
+its block's own record (schema 5:
+:class:`daq.plan.Measure`'s ``adaptive``, written and flushed with the first block it led to), so a killed session
+keeps the suggestions of all its blocks and replays them too.
 
 Block numbers: the j-th block (j = 0, 1, …) at the plan's weight i is block i·R + j, R the plan's ``repeats``
 raised to the most seatings the budget allows at one weight (:func:`adaptive_plan`); its ``repeat`` is the number of

@@ -70,8 +70,6 @@ def test_press_iid_ends_decisive_and_says_why(press_session) -> None:
     assert s.summary["block"].size < 200
     batches = [e["suggestion"] for e in entries if e["suggestion"]["seatings"] > 2]
     assert batches and all(b["action"] == "place" and f"({b['seatings']} seatings)" in b["text"] for b in batches)
-    # this session became decisive within its last batch and stopped there (the rest of the batch not measured)
-    assert s.summary["block"].size < entries[-1]["block"] + entries[-1]["suggestion"]["seatings"]
 
 
 def test_a_session_without_the_rule_key_replays_with_rule_1(tmp_path: Path, monkeypatch) -> None:

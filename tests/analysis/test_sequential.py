@@ -10,7 +10,7 @@ import pytest
 
 from analysis.design import ModelCurves
 from analysis.noise_model import NoiseModel
-from analysis.sequential import CostModel, Placement, SequentialDesign, simulate_loop
+from analysis.sequential import CostModel, SequentialDesign, simulate_loop
 
 W = np.geomspace(1.0, 100.0, 6)
 FILM = 2e-9
@@ -336,30 +336,3 @@ def test_rule_1_is_the_first_rule_bit_for_bit() -> None:
 def test_an_unknown_rule_is_refused() -> None:
     with pytest.raises(ValueError, match="rule 3 is not a suggestion rule"):
         SequentialDesign(_curves(), W, CostModel(block_s=3.0), budget_s=60.0, noise=NoiseModel.iid(0.15), rule=3)
-
-
-def test_rule_2_checks_futility_at_every_multiple_of_check_every_within_batches(monkeypatch) -> None:
-    """simulate_loop with batches longer than ``check_every``: the stop rule is asked at every multiple of it once
-    there is evidence, within a batch too, and at no other block count."""
-    d = _design(NoiseModel.iid(0.3), budget_min=30.0, exponent_b=0.8)
-    asked: list[int] = []
-    sizes: list[int] = []
-    stop, suggest = d.stop, d.suggest
-
-    def counted_stop(p_decisive: float | None = None) -> tuple[str, str] | None:
-        asked.append(d.blocks)
-        return stop(p_decisive)
-
-    def counted_suggest() -> Placement:
-        p = suggest()
-        sizes.append(p.seatings)
-        return p
-
-    monkeypatch.setattr(d, "stop", counted_stop)
-    monkeypatch.setattr(d, "suggest", counted_suggest)
-    status, _, _, blocks = simulate_loop(d, "a", np.random.default_rng(4), film_ohm_m2=FILM, series_ohm=0.0,
-                                         noise=NoiseModel.iid(0.3), check_every=4)  # fmt: skip
-    assert max(sizes) > 4, sizes  # batches longer than check_every were taken
-    assert asked and asked == list(range(asked[0], asked[-1] + 1, 4)) and asked[0] % 4 == 0, asked
-    assert asked[0] == 8  # the first multiple after the start design (3 loads × 2 seatings) gives evidence
-    assert blocks - asked[-1] < 4 or status == "decisive" or d.spent_s >= d.budget_s
