@@ -8,9 +8,7 @@ another allowed weight, or stops; unattended (``--yes``) the suggestion is follo
 (decisive, futile) and says why (the engine puts ``stop_reason`` in the stop record); ``record()`` — every
 suggestion, the evidence behind it and what the operator did, and the stop decision — goes into the stop record
 (session schema 4) and ``settings()`` into the start record, so that :func:`replay_suggestions` rebuilds the design
-from the file and reproduces every suggestion bit for bit (the suggestion rule is one of the settings, ``rule``:
-new sessions :data:`RULE`, a start record without it rule 1, the rule it was written with). Each suggestion is also
-its block's own record (schema 5:
+from the file and reproduces every suggestion bit for bit. Each suggestion is also its block's own record (schema 5:
 :class:`daq.plan.Measure`'s ``adaptive``, written and flushed with the first block it led to), so a killed session
 keeps the suggestions of all its blocks and replays them too.
 
