@@ -3,9 +3,8 @@ with the adaptive source exactly as ``contactrig acquire --sim --adaptive --budg
 a question with an id (take it, place another allowed weight, stop); the page gets the design's own state (evidence,
 progress to a decision, the reason it does not move, the stop reason) and the follow page reads it from the file.
 
-The scene: the packaged press with two models and iid re-seating noise, as tests/analysis/test_adaptive_session.py's
-``_scene`` sets it up (with a 30 min budget it ends decisive or futile, as the tests here allow: with suggestion rule 2
-and sim_seed 1, futile after 11 min; the decisive session in a browser: test_console_adaptive_browser.py).
+The scene: the packaged press with two models and iid re-seating noise, as tests/analysis/test_adaptive_session.py
+sets it up (there it ends decisive for Greenwood–Tripp in a few minutes of bench time).
 """
 
 from __future__ import annotations

@@ -8,7 +8,6 @@ Set-up as tests/console/test_console_browser.py: the system's Chromium, headless
 
 from __future__ import annotations
 
-import re
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -17,7 +16,7 @@ from typing import Any
 import pytest
 
 from tests.console.conftest import ConsoleProcess
-from tests.console.test_console_adaptive import PRESS
+from tests.console.test_console_adaptive import press_iid_text
 
 pytest.importorskip("selenium", reason="Selenium is not installed: pip install '.[console]'")
 
@@ -35,14 +34,6 @@ pytestmark = [
 ]
 
 
-def press_iid_text() -> str:
-    """The packaged press scene (its five models) with iid re-seating noise (SD 0.15): the issue's acceptance session.
-    (With two models and a 30 min budget, sim_seed 1, suggestion rule 2 ends futile after 11 min — one draw of the
-    simulated bench; tests/benchmarks/bench_adaptive.py compares the rules over many.)"""
-    text = PRESS.read_text(encoding="utf-8")
-    return re.sub(r'^sim_noise = "tab1"', 'sim_noise = "iid"', text, count=1, flags=re.M)
-
-
 @pytest.fixture(scope="module")
 def console(tmp_path_factory: pytest.TempPathFactory) -> Iterator[ConsoleProcess]:
     folder = tmp_path_factory.mktemp("adaptive") / "sessions"
@@ -58,7 +49,7 @@ def test_adaptive_session_in_the_browser(browser: Any, console: ConsoleProcess, 
     wait(browser, lambda d: d.find_elements(By.CSS_SELECTOR, "#scene option[value='press_iid.toml']"))
     browser.execute_script("const s = document.getElementById('scene'); s.value = arguments[0];"
                            "s.dispatchEvent(new Event('change'));", "press_iid.toml")  # fmt: skip
-    for field, value in (("sim-speed", "inf"), ("output", "adaptive.h5"), ("budget-min", "60")):
+    for field, value in (("sim-speed", "inf"), ("output", "adaptive.h5"), ("budget-min", "30")):
         browser.find_element(By.ID, field).clear()
         browser.find_element(By.ID, field).send_keys(value)
     browser.find_element(By.ID, "adaptive").click()
@@ -73,11 +64,11 @@ def test_adaptive_session_in_the_browser(browser: Any, console: ConsoleProcess, 
     big, detail = text_of(browser, "#suggestion"), text_of(browser, "#suggestion-detail")
     assert big.startswith("place ") and big.endswith(" kg (2 seatings)")  # the start: three loads, two seatings each
     assert detail and f"{big}: {detail}" == suggestion["text"] and detail == suggestion["why"]
-    assert "adaptive, budget 60 min" in text_of(browser, "#phase")
+    assert "adaptive, budget 30 min" in text_of(browser, "#phase")
     # the bar at 0 and the reason it does not move (the analysis's sentence: the limiting noise component)
     bar = browser.find_element(By.ID, "evidence-bar")
     assert float(bar.get_attribute("value") or -1) == 0.0
-    assert "is larger than the difference between Greenwood–Tripp and Jackson–Green" in text_of(
+    assert "is larger than the difference between Greenwood–Tripp and Pasaribu–Schipper" in text_of(
         browser, "#evidence-why"
     )
     browser.find_element(By.ID, "btn-other").click()  # the allowed weights offered; this time the suggestion taken
