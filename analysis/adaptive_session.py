@@ -116,22 +116,15 @@ def settings_of(
         "weights_kg": [float(w) for w in plan.session.weights_kg],
         "seed": int(seed),
         "criterion": "expected gain in Δ(Q)AIC (Box–Hill weighting of model pairs) per minute of bench time",
-        "rule": RULE,
-        "max_blocks": int(plan.session.repeats),
     }
 
-
-#: The suggestion rule of new sessions (:data:`analysis.sequential.RULES`: 2, batches of seatings that amortise a
-#: placement); a start record without ``rule`` was written with rule 1 and replays with it.
-RULE = 2
 
 #: model curves of the scenes seen (``watch`` re-reads a session every few seconds; the rig takes seconds to build)
 _CURVES: dict[str, Any] = {}
 
 
 def build_design(scene: Any, settings: Mapping[str, Any]) -> SequentialDesign:
-    """The :class:`SequentialDesign` of ``settings`` (:func:`settings_of`, or a start record's ``adaptive``: one
-    without ``rule`` was recorded with rule 1, which it gets, no cap of blocks per weight)."""
+    """The :class:`SequentialDesign` of ``settings`` (:func:`settings_of`, or a start record's ``adaptive``)."""
     from analysis.design import model_curves
 
     weights = [float(w) for w in settings["weights_kg"]]
@@ -144,8 +137,6 @@ def build_design(scene: Any, settings: Mapping[str, Any]) -> SequentialDesign:
         _CURVES[key], weights, CostModel(**settings["cost"]),
         budget_s=float(settings["budget_s"]), noise=noise, film_ohm_m2=float(settings["film_ohm_m2"]),
         series_ohm=float(settings["series_ohm"]), threshold=float(settings["threshold"]), seed=int(settings["seed"]),
-        rule=int(settings.get("rule", 1)),
-        max_blocks=None if settings.get("max_blocks") is None else int(settings["max_blocks"]),
     )  # fmt: skip
 
 
@@ -213,14 +204,7 @@ class AdaptiveSteps:
             wi = next(j for j, w in enumerate(weights) if math.isclose(w, chosen, rel_tol=1e-9))
             # a repeat at the present seating: the weight stays where it is (no prompt to place it)
             repeat = took and placement.action == "repeat" and self._at == wi
-            for seating in range(placement.seatings if took else 1):
-                if seating and self.design.rule >= 2:  # within a batch: stop as soon as the design says so
-                    state = self.design.report()
-                    self.last = state
-                    if state["stop"] is not None:
-                        self.decision = state["stop"]
-                        self.stop_reason = str(state["stop"]["reason"])
-                        return
+            for _ in range(placement.seatings if took else 1):
                 if self._taken[wi] >= cap:
                     self.decision = {"status": "futile", "reason": f"no block left at {chosen:g} kg"}
                     self.stop_reason = f"stop — every block the plan numbers at {chosen:g} kg is taken ({cap})"

@@ -33,14 +33,6 @@ mean_i (σ_e² + n_i σ_b²)/(σ_a² + σ_e²) the over-dispersion the noise mod
 (:class:`CostModel`): the block time from the plan's duration estimate (:func:`daq.plan.block_duration_s`), placing
 or removing a weight (the plan's operator allowance, 60 s), re-seating (5 s, an assumption).
 
-**Rule 2** (``SequentialDesign(rule=2)``, the default; rule 1 the first one, kept so that sessions recorded with it
-replay bit for bit): a myopic gain per minute of one seating cannot see that a placement's fixed 60 s is amortised
-over several seatings, so rule 1 moves between weights too often. Rule 2 offers, for every weight that is not the
-present one, batches of k seatings (a new weight k ∈ {2, 4, 8, 16}, a measured one k ∈ {1, 2, 4, 8, 16}; no more
-than the blocks the plan numbers at one weight, ``max_blocks``, nor than the remaining budget allows) with the gain
-value(n + k·e_i) − value(n) and the cost of placing the weight for k seatings; the present weight keeps "re-seat"
-and "repeat"; the largest gain per minute wins, ties to the smaller k.
-
 **Predictive probability** of ending decisive if the session goes on as suggested: the suggestions followed on the
 expected state until the budget is spent, then ``n_forward`` futures simulated from the current data (truth drawn by
 the Akaike weights, its fitted parameters, the lack of fit at weights already measured drawn about its estimate from
@@ -83,11 +75,8 @@ from analysis.noise_model import NoiseModel
 from analysis.resistance_model import FilmFit, bench_resistance_ohm, fit_film_series
 
 __all__ = [
-    "BATCH_MEASURED",
-    "BATCH_NEW",
     "DECISIVE_DELTA",
     "FUTILE_P",
-    "RULES",
     "CostModel",
     "Evidence",
     "Placement",
@@ -101,11 +90,6 @@ __all__ = [
 DECISIVE_DELTA = DELTA_AIC
 #: Futility: stop when the probability of becoming decisive within the remaining budget is below this.
 FUTILE_P = 0.05
-#: Suggestion rules (module docstring): 1 one seating per step, 2 batches of seatings that amortise a placement.
-RULES = (1, 2)
-#: Rule 2's batch sizes [seatings]: a weight not yet measured (the fit needs ≥ 2), one measured, not the present one.
-BATCH_NEW = (2, 4, 8, 16)
-BATCH_MEASURED = (1, 2, 4, 8, 16)
 #: Noise components, in the words a person reads.
 COMPONENT_WORDS = {
     "series_sd": "the per-series offset",
@@ -270,9 +254,7 @@ class SequentialDesign:
     time allowed [s]; ``noise`` the prior noise model (Tab. 1's on a real bench, the simulated bench's with
     ``--sim``, an earlier session's with ``--noise-from``); ``film_ohm_m2``, ``series_ohm`` prior σ_f, R_s (the
     scene's circuit); ``threshold`` the decisive Δ(Q)AIC; ``n_forward`` futures of the predictive probability;
-    ``seed`` its generator (with the block count: a replay gives the same numbers); ``rule`` the suggestion rule
-    (:data:`RULES`, module docstring); ``max_blocks`` the blocks the plan numbers at one weight (rule 2's batches stay
-    within it; None: no cap).
+    ``seed`` its generator (with the block count: a replay gives the same numbers).
     """
 
     def __init__(
@@ -288,13 +270,7 @@ class SequentialDesign:
         threshold: float = DECISIVE_DELTA,
         n_forward: int = 200,
         seed: int = 0,
-        rule: int = 2,
-        max_blocks: int | None = None,
     ) -> None:
-        if rule not in RULES:
-            raise ValueError(f"rule {rule!r} is not a suggestion rule (allowed: {', '.join(map(str, RULES))})")
-        self.rule = int(rule)
-        self.max_blocks = None if max_blocks is None else int(max_blocks)
         self.curves = curves
         self.weights_kg = np.array(sorted({float(w) for w in weights_kg}))
         self.models = list(curves.area_m2)
@@ -500,12 +476,9 @@ class SequentialDesign:
         pi: dict[str, float],
         noise: NoiseModel,
         at_seating: int = 1,
-        left_s: float = math.inf,
-        room: np.ndarray | None = None,
     ) -> Placement:
         """The placement of largest expected gain per minute from ``counts`` (the start design and a pending second
-        seating first); ``at_seating``: blocks taken at the present seating; rule 2's batches: ``left_s`` the budget
-        left [s], ``room`` the blocks left per weight (None: no cap)."""
+        seating first); ``at_seating``: blocks taken at the present seating."""
         crit = "expected gain in Δ(Q)AIC (Box–Hill weighting of model pairs) per minute of bench time"
         w = self.weights_kg
         if pending is not None:
@@ -517,8 +490,6 @@ class SequentialDesign:
                 return Placement(float(w[i]), "place", 2, 0.0, self.cost.of("place", 2), crit,
                                  "start: three loads spanning the range, two seatings each")  # fmt: skip
         m = w.size
-        if self.rule >= 2:
-            return self._best_batch(counts, current, params, pi, noise, at_seating, left_s, room, crit)
         rows = np.vstack([counts, counts + np.diag(np.where(counts == 0, 2, 1))])
         values = self._pair_value(rows, params, pi, noise)
         gains = values[1:] - values[0]
@@ -531,56 +502,16 @@ class SequentialDesign:
             if best is None or cand.gain_per_min > best.gain_per_min:
                 best = cand
         assert best is not None
-        return self._or_repeat(best, current, counts, float(gains[current]) if current is not None else 0.0, params,
-                               pi, noise, at_seating, crit)  # fmt: skip
-
-    def _or_repeat(self, best: Placement, current: int | None, counts: np.ndarray, gain_one: float,
-                   params: dict[str, tuple[float, float]], pi: dict[str, float], noise: NoiseModel, at_seating: int,
-                   crit: str) -> Placement:  # fmt: skip
-        """``best``, or one more block at the present seating when its gain per minute is larger (``gain_one``: the
-        gain of one more seating at the present weight)."""
         if current is not None and counts[current] > 0:
             # one more block at the present seating shrinks only its instrument variance (block noise ≪ re-seating)
             a, cl = self._ac[max(pi, key=pi.__getitem__)]
             rs, sf = params[max(pi, key=pi.__getitem__)]
             mu = rs + sf / a[current] + cl[current]
-            gain = self.repeat_share(mu, noise, at_seating) * gain_one
-            rep = Placement(float(self.weights_kg[current]), "repeat", 1, gain, self.cost.of("repeat"), crit)
+            gain = self.repeat_share(mu, noise, at_seating) * float(gains[current])
+            rep = Placement(float(w[current]), "repeat", 1, gain, self.cost.of("repeat"), crit)
             if rep.gain_per_min > best.gain_per_min:
                 best = rep
         return best
-
-    def _best_batch(self, counts: np.ndarray, current: int | None, params: dict[str, tuple[float, float]],
-                    pi: dict[str, float], noise: NoiseModel, at_seating: int, left_s: float, room: np.ndarray | None,
-                    crit: str) -> Placement:  # fmt: skip
-        """Rule 2 (module docstring): every weight not the present one in batches of k seatings (the smallest k
-        always offered, larger ones within ``room`` and ``left_s``), the present one re-seated; every candidate's
-        value in one vectorised :meth:`_pair_value`; the largest gain per minute, ties to the smaller k."""
-        cands: list[tuple[int, int]] = []
-        for i in range(counts.size):
-            if i == current:
-                cands.append((i, 1))
-                continue
-            sizes = BATCH_NEW if counts[i] == 0 else BATCH_MEASURED
-            cands += [(i, k) for k in sizes if k == sizes[0] or (
-                (room is None or k <= room[i]) and self.cost.of("place", k) <= left_s)]  # fmt: skip
-        rows = np.repeat(counts[None, :], len(cands) + 1, axis=0)
-        for j, (i, k) in enumerate(cands, start=1):
-            rows[j, i] += k
-        values = self._pair_value(rows, params, pi, noise)
-        best: Placement | None = None
-        gain_one = 0.0
-        for (i, k), value in zip(cands, values[1:], strict=True):
-            gain = float(value - values[0])
-            if i == current:
-                gain_one = gain
-                cand = Placement(float(self.weights_kg[i]), "reseat", 1, gain, self.cost.of("reseat"), crit)
-            else:
-                cand = Placement(float(self.weights_kg[i]), "place", k, gain, self.cost.of("place", k), crit)
-            if best is None or cand.gain_per_min > best.gain_per_min:
-                best = cand
-        assert best is not None
-        return self._or_repeat(best, current, counts, gain_one, params, pi, noise, at_seating, crit)
 
     #: variance of one block's mean from the instruments alone [Ω²] (set by the caller when known; 1e-14: the
     #: simulated bench's block SD of 0.1 µΩ)
@@ -603,18 +534,11 @@ class SequentialDesign:
             return 0
         return len(self.seatings[self.current][-1])
 
-    def _room(self) -> np.ndarray | None:
-        """Blocks left per weight within :attr:`max_blocks` (None: no cap)."""
-        if self.max_blocks is None:
-            return None
-        return self.max_blocks - np.array([sum(len(s) for s in seats) for seats in self.seatings], dtype=int)
-
     def suggest(self) -> Placement:
         """The next placement (module docstring)."""
         ev = self.evidence()
         return self._best(self._counts(), self.current, self.pending, self._params(ev), self._weights_pi(ev),
-                          self.noise()[0], self._blocks_at_seating(), self.budget_s - self.spent_s,
-                          self._room())  # fmt: skip
+                          self.noise()[0], self._blocks_at_seating())  # fmt: skip
 
     # -- separability, the forward simulation, the stop rule ----------------------------------------------------
     def _equivalents(self) -> dict[str, frozenset[str]]:
@@ -645,16 +569,13 @@ class SequentialDesign:
         left = self.budget_s - self.spent_s
         out: list[int] = []
         at_seating = self._blocks_at_seating()
-        room = self._room()
         while len(out) < 400:
-            p = self._best(counts, current, pending, params, pi, noise, at_seating, left, room)
+            p = self._best(counts, current, pending, params, pi, noise, at_seating)
             if p.cost_s > left:
                 break
             left -= p.cost_s
             i = self.index_of(p.weight_kg)
             if p.action == "repeat":  # the evidence counts seatings: a repeat adds none
-                if room is not None:
-                    room[i] -= 1
                 out.append(-1 - i)
                 at_seating += 1
                 continue
@@ -665,8 +586,6 @@ class SequentialDesign:
             left -= (times - 1) * p.cost_s
             out.extend([i] * (p.seatings * times))
             counts[i] += p.seatings * times
-            if room is not None:
-                room[i] -= p.seatings * times
             current = i
             pending = i if counts[i] == 1 else None
         return out
@@ -964,8 +883,7 @@ def simulate_loop(
     """One adaptive session on the simulated bench's physics (``design`` fresh): suggestion → block (ln f = a_k + b_i
     + e_ik, k the seating at weight i, as :func:`analysis.simulated_session.session_factors`; a repeat at the present
     seating keeps its f, only the block noise ``block_sd_ohm`` differs) → evidence → stop.
-    Futility is checked every ``check_every`` blocks (the forward simulation is the costly part; rule 2: at every
-    multiple of ``check_every``, within a batch too; rule 1: after the placement that passed one). Returns (status,
+    Futility is checked every ``check_every`` blocks (the forward simulation is the costly part). Returns (status,
     leader, bench time [s], blocks)."""
     w = design.weights_kg
     m = w.size
@@ -990,16 +908,8 @@ def simulate_loop(
                 return "decisive", ev.leader, design.spent_s, design.blocks
             if design.spent_s >= design.budget_s:
                 return "futile", "" if ev is None else ev.leader, design.spent_s, design.blocks
-            if design.rule >= 2 and design.blocks % check_every == 0 and (out := _stopped(design)):  # in a batch too
-                return out
-        # rule 1 (kept as it was): after the placement, when its blocks passed a multiple of ``check_every``
-        if design.rule < 2 and design.blocks % check_every < p.seatings and (out := _stopped(design)):
-            return out
-
-
-def _stopped(design: SequentialDesign) -> tuple[str, str, float, int] | None:
-    """``simulate_loop``'s outcome when the design stops now (:meth:`SequentialDesign.stop`, once there is
-    evidence), else None."""
-    ev = design.evidence()
-    stop = design.stop() if ev is not None else None
-    return None if stop is None or ev is None else (stop[0], ev.leader, design.spent_s, design.blocks)
+        if design.blocks % check_every < p.seatings and design.evidence() is not None:
+            stop = design.stop()
+            if stop is not None:
+                ev = design.evidence()
+                return stop[0], "" if ev is None else ev.leader, design.spent_s, design.blocks

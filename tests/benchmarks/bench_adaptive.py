@@ -63,12 +63,12 @@ def _setup(scene_name: str, noise_name: str) -> dict:
     }
 
 
-def _design(setup: dict, budget_min: float, threshold: float, n_forward: int = 100, rule: int = 2) -> object:
+def _design(setup: dict, budget_min: float, threshold: float, n_forward: int = 100) -> object:
     from analysis.sequential import SequentialDesign
 
     return SequentialDesign(setup["curves"], setup["weights"], setup["cost"], budget_s=60 * budget_min,
                             noise=setup["noise"], film_ohm_m2=setup["film"], series_ohm=setup["series"],
-                            threshold=threshold, n_forward=n_forward, rule=rule)  # fmt: skip
+                            threshold=threshold, n_forward=n_forward)  # fmt: skip
 
 
 _SETUPS: dict[tuple[str, str], dict] = {}
@@ -78,12 +78,12 @@ def _adaptive_one(args: tuple) -> tuple[str, str, float, int, bool]:
     """One adaptive session: (status, leader, bench time [s], blocks, wrong)."""
     from analysis.sequential import simulate_loop
 
-    scene_name, noise_name, truth, seed, budget_min, threshold, n_forward, check_every, rule = args
+    scene_name, noise_name, truth, seed, budget_min, threshold, n_forward, check_every = args
     key = (scene_name, noise_name)
     if key not in _SETUPS:
         _SETUPS[key] = _setup(scene_name, noise_name)
     setup = _SETUPS[key]
-    design = _design(setup, budget_min, threshold, n_forward, rule)
+    design = _design(setup, budget_min, threshold, n_forward)
     rng = np.random.default_rng([seed, 27])
     status, leader, spent, blocks = simulate_loop(
         design,
@@ -147,8 +147,8 @@ def run(args: argparse.Namespace, threshold: float, seed0: int, pool: ProcessPoo
                       "fixed plan's time", file=sys.stderr, flush=True)  # fmt: skip
             # session i of every model before session i + 1 of any: an interim table (--progress-every) has the same
             # sessions for every model, so a run cut short still reports a complete, smaller run
-            jobs = [(scene_name, noise_name, t, seed0 + i, budget_min, threshold, args.forward, args.check_every,
-                     args.rule) for i in range(args.sessions) for t in models]  # fmt: skip
+            jobs = [(scene_name, noise_name, t, seed0 + i, budget_min, threshold, args.forward, args.check_every)
+                    for i in range(args.sessions) for t in models]  # fmt: skip
             results = []
             for k, r in enumerate(pool.map(_adaptive_one, jobs, chunksize=4)):  # in order, as they come
                 results.append(r)
@@ -238,8 +238,6 @@ def main() -> int:
     p.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     p.add_argument("--forward", type=int, default=100, help="futures of the predictive probability (100)")
     p.add_argument("--check-every", type=int, default=4, help="blocks between futility checks (4)")
-    p.add_argument("--rule", type=int, choices=(1, 2), default=2,
-                   help="the design's suggestion rule (analysis.sequential.RULES: 1 one seating a step, 2 batches; 2)")
     p.add_argument("--no-fixed", action="store_true", help="leave out the fixed plan (faster)")
     p.add_argument("--progress-every", type=int, default=0, help="print the table so far every N sessions per model")
     p.add_argument("--budget-of-fixed", type=float, default=0.0,
