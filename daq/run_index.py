@@ -58,6 +58,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DETAIL_KEYS",
+    "FIELD_HELP",
     "FITS_NAME",
     "FIT_VERDICTS",
     "INDEX_NAME",
@@ -102,9 +103,18 @@ WHERE_KEYS: dict[str, tuple[str, str]] = {
     "text": ("~", "words in the notes or remarks (full text, all words)"),
     "start": ("<>", "start date or instant, UTC (start>=2026-01-01, start<=2026-01-31)"),
 }
+#: A record's detail, kept apart from its listing in the index (``query(detail=False)`` leaves it out).
+DETAIL_KEYS = ("overrides", "instruments", "settings", "software")
+FIELD_HELP = (
+    "any value recorded at the start, by its dotted name as `contactrig sessions diff` shows it, under "
+    + ", ".join(DETAIL_KEYS)
+    + " (settings.delta.nplc=2, settings.delta.nplc>=1, instruments.voltmeter~2182A, software.h5py=3.16.0): "
+    "= equal (a number as a number, text case-insensitive, true/false, null), ~ contains, >=/<= numbers"
+)
 _VERDICT_VALUES = (*FIT_VERDICTS, "stale", "none")
 _STATUSES = ("success", "aborted", "failed", "running", "incomplete", "corrupt", "newer", "other")
 _WHERE = re.compile(r"^\s*([a-z]+)\s*(>=|<=|=|~)\s*(.*?)\s*$", re.S)
+_FIELD = re.compile(r"^\s*((?:" + "|".join(DETAIL_KEYS) + r")(?:\.[^.=~<>\"]+)*)\s*(>=|<=|=|~)\s*(.*?)\s*$", re.S)
 
 _SCHEMA_V1 = """
 CREATE TABLE sessions (
@@ -258,8 +268,6 @@ def _mapping(value: Any) -> dict[str, Any]:
     return value if isinstance(value, dict) else {}
 
 
-#: A record's detail, kept apart from its listing in the index (``query(detail=False)`` leaves it out).
-DETAIL_KEYS = ("overrides", "instruments", "settings", "software")
 
 #: Files read by one bounded child in a row (the fork is paid once per batch, not once per file).
 BATCH = 48
@@ -713,7 +721,16 @@ def parse_where(text: str) -> Condition:
     """``KEY=VALUE``, ``KEY~VALUE``, ``start>=DATE`` or ``start<=DATE``; SettingError naming ``--where`` otherwise."""
     from contactrig.core.validation import SettingError
 
-    allowed = "KEY=VALUE, KEY~TEXT or start>=/<=DATE with KEY one of " + ", ".join(WHERE_KEYS)
+    allowed = (
+        "KEY=VALUE, KEY~TEXT or start>=/<=DATE with KEY one of " + ", ".join(WHERE_KEYS)
+        + ", or a recorded value's dotted name under " + ", ".join(DETAIL_KEYS) + " (settings.delta.nplc=2)"
+    )  # fmt: skip
+    f = _FIELD.match(text)
+    if f is not None and f.group(3):
+        name, op, value = f.groups()
+        if op in (">=", "<=") and _number(value) is None:
+            raise SettingError("--where", text, f"{name}{op}NUMBER (>= and <= compare numbers)")
+        return Condition(name.strip(), op, value)
     m = _WHERE.match(text)
     if m is None or m.group(1) not in WHERE_KEYS or not m.group(3):
         raise SettingError("--where", text, allowed)
@@ -745,6 +762,43 @@ def _instant(value: str, op: str, text: str) -> str:
         return bound
     t = datetime(day.year, day.month, day.day, tzinfo=UTC) + (timedelta(days=1) if op == "<=" else timedelta())
     return t.isoformat(timespec="milliseconds")
+
+
+def _number(text: str) -> float | None:
+    """``text`` as a finite number, or None."""
+    try:
+        x = float(text)
+    except ValueError:
+        return None
+    return x if x == x and abs(x) != float("inf") else None
+
+
+def _json_path(name: str) -> str:
+    return "$" + "".join(f'."{part.strip()}"' for part in name.split("."))
+
+
+def _recorded(con: sqlite3.Connection, name: str) -> bool:
+    """Whether any session of the index records the value ``name`` (dotted, under :data:`DETAIL_KEYS`)."""
+    row = con.execute("SELECT 1 FROM sessions WHERE json_type(detail, ?) IS NOT NULL LIMIT 1", [_json_path(name)])
+    return row.fetchone() is not None
+
+
+def _field_sql(c: Condition) -> tuple[str, list[Any]]:
+    """A condition on a recorded value (:data:`DETAIL_KEYS`): SQLite's JSON functions on the row's detail."""
+    path = _json_path(c.key)
+    value, kind = "json_extract(s.detail, ?)", "json_type(s.detail, ?)"
+    x = _number(c.value)
+    if c.op in (">=", "<="):
+        return f"({kind} IN ('integer', 'real') AND {value} {c.op} ?)", [path, path, x]
+    if c.op == "~":
+        return f"instr(lower(CAST({value} AS TEXT)), lower(?)) > 0", [path, c.value]
+    low = c.value.lower()
+    if low in ("true", "false", "null"):
+        return f"{kind} = ?", [path, low]
+    if x is not None:  # a number equal as a number (1 = 1.0), or text recorded as that very text (SCPI's "1")
+        return (f"(({kind} IN ('integer', 'real') AND {value} = ?) OR ({kind} = 'text' AND {value} = ?))",
+                [path, path, x, path, path, c.value])  # fmt: skip
+    return f"({kind} = 'text' AND {value} = ? COLLATE NOCASE)", [path, path, c.value]
 
 
 def _words(text: str) -> list[str]:
@@ -807,7 +861,7 @@ def _select(
 ) -> tuple[list[dict[str, Any]], int]:
     clauses, params = ["1"], []
     for c in conditions:
-        sql, p = _sql(c)
+        sql, p = _field_sql(c) if c.key.split(".")[0] in DETAIL_KEYS else _sql(c)
         clauses.append(sql)
         params += p
     if not include_other:
@@ -878,6 +932,10 @@ def query(
         if refresh or where_ is None:
             _refresh(con, root, result, jobs, timeout)
         rows, result.matched = _select(con, root, conditions, sort, include_other, limit, descending, detail, offset)
+        if not result.matched:  # a misspelt name matches nothing: say so rather than list nothing silently
+            for c in conditions:
+                if c.key.split(".")[0] in DETAIL_KEYS and not _recorded(con, c.key):
+                    notes.append(f"no session here records {c.key} (names as `contactrig sessions diff` shows them)")
         return rows, result
 
 

@@ -11,9 +11,9 @@ from pathlib import Path
 
 def add_index_options(parser: argparse.ArgumentParser) -> None:
     """``--where``, ``--tag``, ``--remark`` and ``--diff`` on ``contactrig sessions``."""
-    from daq.run_index import WHERE_KEYS
+    from daq.run_index import FIELD_HELP, WHERE_KEYS
 
-    keys = "; ".join(f"{k}: {what}" for k, (_, what) in WHERE_KEYS.items())
+    keys = "; ".join(f"{k}: {what}" for k, (_, what) in WHERE_KEYS.items()) + f"; or {FIELD_HELP}"
     parser.add_argument(
         "--where", action="append", default=None, metavar="COND",
         help=f"only sessions meeting COND (repeat: all must hold): KEY=VALUE, KEY~TEXT, start>=DATE, start<=DATE; "

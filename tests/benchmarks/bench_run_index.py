@@ -82,6 +82,8 @@ def main(argv: list[str] | None = None) -> int:
             ["text~re-honed"],
             ["status=corrupt"],
             ["operator=bob", "start>=2026-01-20"],
+            ["settings.delta.nplc>=2"],
+            ["settings.delta.nplc=2", "sample=sample-3"],
         ):
             listing = _best(lambda w=where: run_index.query(folder, w, refresh=False, detail=False))
             full = _best(lambda w=where: run_index.query(folder, w, refresh=False))

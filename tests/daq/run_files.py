@@ -54,8 +54,8 @@ def build_lab(folder: Path, n: int, distinct: int) -> None:
     """``n`` session files under ``folder`` (100 a sub-folder ``dayNNN/runNNNNN.h5``; 1 % damaged: ``k % 100 == 37``
     a truncated copy, ``k % 100 == 73`` garbage), hard links of ``distinct`` real sessions kept in ``folder/.sources``
     (sample ``sample-{i % 7}``, operator ann/bob/chen, notes "liner re-honed" for every fifth, start days 1–28 with
-    UTC offsets +00:00, -05:00, +09:00), all settled. The run-index benchmark's folder and the console's 10 000-file
-    browser test."""
+    UTC offsets +00:00, -05:00, +09:00, NPLC 2 for every fourth, 1 otherwise), all settled. The run-index
+    benchmark's folder and the console's 10 000-file browser test."""
     src = folder / ".sources"
     src.mkdir()
     sources = []
@@ -64,6 +64,7 @@ def build_lab(folder: Path, n: int, distinct: int) -> None:
         sources.append(write_run(
             src / f"s{i}.h5", sample=f"sample-{i % 7}", operator=("ann", "bob", "chen")[i % 3],
             notes="liner re-honed" if i % 5 == 0 else "", started=f"2026-01-{1 + i % 28:02d}T10:00:00.000{offset}",
+            nplc="2.0" if i % 4 == 3 else "1.0",
         ))  # fmt: skip
     data = sources[0].read_bytes()
     for k in range(n):

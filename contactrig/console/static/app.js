@@ -45,7 +45,8 @@ const chosen = []; // the sessions picked to compare (two at most; the oldest pi
 // the filters: [element id, label, --where key and operator, input type]
 const FILTERS = [["f-text", "notes and remarks contain", "text~", "search"], ["f-sample", "sample", "sample~", "text"],
   ["f-operator", "operator", "operator~", "text"], ["f-scene", "scene", "scene~", "text"], ["f-serial", "instrument serial", "serial=", "text"],
-  ["f-tag", "tag", "tag=", "text"], ["f-from", "started from (UTC day)", "start>=", "date"], ["f-to", "started until (UTC day)", "start<=", "date"]];
+  ["f-tag", "tag", "tag=", "text"], ["f-from", "started from (UTC day)", "start>=", "date"], ["f-to", "started until (UTC day)", "start<=", "date"],
+  ["f-value", "recorded value", "", "text"]]; // f-value: a whole condition on any value recorded at the start, e.g. settings.delta.nplc=2
 const STATUSES = ["", "success", "aborted", "failed", "running", "incomplete", "corrupt", "newer"];
 const VERDICTS = ["", "discriminates", "undecided", "stale", "none"]; // the last fit's (--where verdict=)
 
@@ -54,7 +55,7 @@ function markText(m) { return `${m.text} — ${m.who}, ${m.at}`; }
 async function showSessions() {
   const inputs = {};
   const boxes = FILTERS.map(([id, label, , type]) => {
-    inputs[id] = el("input", { id, type, placeholder: type === "search" ? "search: words in notes and remarks" : "" });
+    inputs[id] = el("input", { id, type, placeholder: type === "search" ? "search: words in notes and remarks" : id === "f-value" ? "settings.delta.nplc=2" : "" });
     return el("label", { class: type === "search" ? "search" : "filter" }, `${label} `, inputs[id]);
   });
   const status = el("select", { id: "f-status" }, ...STATUSES.map((s) => el("option", { value: s, text: s || "any" })));

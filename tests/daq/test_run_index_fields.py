@@ -1,0 +1,102 @@
+"""``--where`` on any value recorded at a session's start, by the dotted name ``contactrig sessions diff`` shows.
+
+QCoDeS users ask to filter runs by any snapshot value (qcodes #901); here every setting read back at the start, the
+instruments' ``*IDN?`` replies, the scene's overrides and the software versions can be searched. The expected sets
+come from what each test session was written with (``write_run``'s arguments) and, for random thresholds, from a
+comparison written out in Python over the rows' recorded values — not from the index's own earlier output.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from contactrig.cli.main import main
+from daq import run_index as ri
+
+from .run_files import write_run
+
+
+@pytest.fixture(scope="module")
+def lab(tmp_path_factory):
+    """Four sessions that differ in NPLC (1, 2, 0.5, 10) and sample; settled (back-dated) so the index trusts them."""
+    base = tmp_path_factory.mktemp("fields")
+    for name, nplc, sample in (("a", "1.0", "ring"), ("b", "2.0", "ring"), ("c", "0.5", "steel"), ("d", "10", "x")):
+        p = write_run(base / f"{name}.h5", sample=sample, nplc=nplc)
+        t = p.stat().st_mtime - 60
+        os.utime(p, (t, t))
+    ri.refresh(base)
+    return base
+
+
+def names(folder, *where):
+    return sorted(os.path.basename(r["path"])[0] for r in ri.query(folder, list(where))[0])
+
+
+def test_a_setting_by_its_dotted_name(lab):
+    assert names(lab, "settings.delta.nplc=2") == ["b"]
+    assert names(lab, "settings.delta.nplc=2.0") == ["b"]  # a number equals as a number
+    assert names(lab, "settings.delta.nplc>=2") == ["b", "d"]
+    assert names(lab, "settings.delta.nplc <= 1") == ["a", "c"]
+    assert names(lab, "settings.delta.nplc>=1", "sample=ring") == ["a", "b"]
+    assert names(lab, "settings.delta.nplc=3") == []
+
+
+def test_text_booleans_nulls_and_contains(lab):
+    idn = ri.query(lab, ["settings.delta.nplc=1"])[0][0]["instruments"]["voltmeter"]
+    model = idn.split(",")[1].strip()  # IEEE 488.2 *IDN?: maker, model, serial, firmware
+    assert names(lab, f"instruments.voltmeter~{model.lower()}") == ["a", "b", "c", "d"]
+    assert names(lab, f"instruments.voltmeter={idn.upper()}") == ["a", "b", "c", "d"]  # text: case-insensitive
+    assert names(lab, "settings.delta.unit=v") == ["a", "b", "c", "d"]
+    assert names(lab, "settings.delta.compliance_abort=true") == ["a", "b", "c", "d"]
+    assert names(lab, "settings.delta.compliance_abort=false") == []
+    # SCPI's read-back state is text ("1"): "=1" finds the text too
+    assert names(lab, "settings.pinned_state.2182A.:SYST:AZER ON=1") == ["a", "b", "c", "d"]
+    assert names(lab, "settings~nplc") == ["a", "b", "c", "d"]  # a whole branch searched as its JSON text
+
+
+def test_a_name_nobody_records_is_said(lab, capsys):
+    rows, result = ri.query(lab, ["settings.delta.nplcc=2"])
+    assert rows == [] and any("settings.delta.nplcc" in n and "sessions diff" in n for n in result.notes)
+    rows, result = ri.query(lab, ["settings.delta.nplc=3"])  # recorded, no match: nothing to say
+    assert rows == [] and result.notes == []
+
+
+@pytest.mark.parametrize("bad", ["settings.delta.nplc>=fast", "settings.delta.nplc<1", "settings.delta.nplc=",
+                                 "setting.delta.nplc=1", "settingsx=1"])  # fmt: skip
+def test_a_bad_field_condition_is_one_line_exit_2(lab, tmp_path, bad, capsys):
+    folder = tmp_path / "copy"
+    shutil.copytree(lab, folder)
+    assert main(["sessions", str(folder), "--where", bad]) == 2
+    err = capsys.readouterr().err
+    assert "--where" in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_the_cli_and_its_help(lab, tmp_path, capsys):
+    folder = tmp_path / "copy"
+    shutil.copytree(lab, folder)
+    assert main(["sessions", str(folder), "--where", "settings.delta.nplc>=2"]) == 0
+    out = capsys.readouterr().out
+    assert "b.h5" in out and "d.h5" in out and "a.h5" not in out and "c.h5" not in out
+    assert main(["sessions", "--help"]) == 0
+    assert "settings.delta.nplc" in " ".join(capsys.readouterr().out.split())
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    threshold=st.floats(min_value=-1, max_value=20, allow_nan=False),
+    op=st.sampled_from([">=", "<=", "="]),
+)
+def test_numeric_conditions_agree_with_python(lab, threshold, op):
+    """Any threshold: the index's answer equals the comparison written out in Python over the recorded NPLC."""
+    rows = ri.query(lab, refresh=False)[0]
+    values = {os.path.basename(r["path"])[0]: r["settings"]["delta"]["nplc"] for r in rows}
+    compare = {">=": lambda v: v >= threshold, "<=": lambda v: v <= threshold, "=": lambda v: v == threshold}[op]
+    expected = sorted(k for k, v in values.items() if compare(v))
+    got = sorted(os.path.basename(r["path"])[0] for r in ri.query(lab, [f"settings.delta.nplc{op}{threshold!r}"],
+                                                                   refresh=False)[0])  # fmt: skip
+    assert got == expected
