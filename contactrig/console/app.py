@@ -271,7 +271,7 @@ async def sessions(request: Request) -> Response:
     where = [w for w in request.query_params.getlist("where") if w.strip()]
     if request.query_params.get("kick") != "0":
         catalog.kick()
-    generation = catalog.generation
+    generation, indexing = catalog.state()  # before the rows: the rows are at least as new as these say
     offset = request.query_params.get("offset", "0")
     if not offset.isascii() or not offset.isdigit() or len(offset) > 15:
         return JSONResponse({"error": f"offset {offset!r}: a whole number of rows, 0 or more"}, status_code=400)
@@ -282,7 +282,7 @@ async def sessions(request: Request) -> Response:
         return JSONResponse({"error": _one_line(exc)}, status_code=400)
     more = int(offset) + len(rows) < matched
     return IndexJSON({"sessions": rows, "more": more, "matched": matched, "offset": int(offset), "page": PAGE_ROWS,
-                      "indexing": catalog.indexing, "generation": generation, "notes": catalog.notes})  # fmt: skip
+                      "indexing": indexing, "generation": generation, "notes": catalog.notes})  # fmt: skip
 
 
 async def add_mark(request: Request) -> Response:

@@ -44,6 +44,13 @@ class Catalog:
         """A refresh is under way or wanted."""
         return self._busy or self._wanted.is_set()
 
+    def state(self) -> tuple[int, bool]:
+        """``(generation, indexing)`` read together, under the lock: a page that reads them *before* its rows gets
+        rows at least as new as what they claim (read after the rows, a refresh that ended meanwhile would claim its
+        rows for rows read before it had written them, and the page would stop polling on a stale table)."""
+        with self._lock:
+            return self.generation, self._busy or self._wanted.is_set()
+
     def kick(self) -> None:
         """Ask for a refresh: now, or after the one under way (which may have missed a change made meanwhile)."""
         with self._lock:

@@ -186,3 +186,32 @@ def test_the_last_fit_is_shown_stale_and_searched(client: Client, lab: Path, mon
     monkeypatch.setattr(provenance, "software_version", lambda: "99.0")
     [row] = indexed(client, where=["verdict=stale"])["sessions"]
     assert row["path"] == "b.h5" and row["fit"]["stale"] is True
+
+
+def test_a_refresh_that_ends_while_the_rows_are_read_is_still_said_to_be_running(client: Client, folder: Path,
+                                                                                 monkeypatch: pytest.MonkeyPatch):
+    """A CI run (27 Nov 2026) once found no session in the first index page after a console run had ended. The
+    answer read ``indexing`` *after* the rows: a refresh that ended while the rows were read was claimed for rows
+    read before it had written them, and the page (or a test) stopped polling on a stale table. ``generation`` and
+    ``indexing`` are now read together, before the rows."""
+    from contactrig.console.catalog import Catalog
+
+    indexed(client)  # the console's first refresh has ended; nothing else runs
+    catalog = client.console.catalog
+    with catalog._lock:
+        catalog._busy = True  # a refresh under way, as the refresh thread marks it
+    before = catalog.generation
+    real_rows = Catalog.rows
+
+    def rows_then_the_refresh_ends(self: Catalog, *args: Any, **kwargs: Any) -> Any:
+        out = real_rows(self, *args, **kwargs)  # the index as it is: the refresh has not written its rows yet
+        with self._lock:  # ... and it ends before the page is answered
+            self._busy = False
+            self.generation += 1
+        return out
+
+    monkeypatch.setattr(Catalog, "rows", rows_then_the_refresh_ends)
+    data = client.get("/api/sessions", params={"kick": "0"}).json()
+    assert data["generation"] == before and data["indexing"], "rows read during a refresh claimed as after it"
+    data = client.get("/api/sessions", params={"kick": "0"}).json()  # the next poll: after it, and said so
+    assert data["generation"] == before + 1 and not data["indexing"]
