@@ -176,7 +176,7 @@ def test_the_override_keeps_every_index_in_its_folder(sessions, tmp_path, monkey
     assert _sqlite_in(folder) == []
 
 
-@pytest.mark.parametrize("bad", ["link", "under a file", "relative"])
+@pytest.mark.parametrize("bad", ["link", "under a file", "relative", "default is a link"])
 def test_an_index_folder_that_cannot_be_used_falls_back_to_a_scan(share, tmp_path, monkeypatch, capsys, bad):
     real = tmp_path / "real"
     real.mkdir()
@@ -188,17 +188,26 @@ def test_an_index_folder_that_cannot_be_used_falls_back_to_a_scan(share, tmp_pat
         (tmp_path / "file").write_text("x")
         cache = tmp_path / "file" / "index"
         why = f"the index folder {cache} cannot be created (Not a directory)"
-    else:
+    elif bad == "relative":
         cache = "indexes"
         why = "the index folder indexes is not an absolute path"
-    monkeypatch.setenv(ri.INDEX_DIR_ENV, str(cache))
+    else:  # no override: the folder is shared because the mount table says so; the user's cache is a link
+        cache = tmp_path / "cache" / "contactrig" / "index"
+        cache.parent.mkdir(parents=True)
+        os.symlink(real, cache)
+        why = f"the index folder {cache} is a symbolic link: not followed"
+    if bad != "default is a link":
+        monkeypatch.setenv(ri.INDEX_DIR_ENV, str(cache))
+    reason = (
+        f"{share} is on a network share (nfs4)"
+        if bad == "default is a link"
+        else f"{share} is treated as shared ({ri.INDEX_DIR_ENV} is set)"
+    )
     before = sorted(p.name for p in share.iterdir())
     assert main(["sessions", str(share)]) == 0
     out, err = capsys.readouterr()
     assert "a.h5" in out and "c.h5" in out
-    assert err.splitlines() == [
-        f"note: {share} is treated as shared ({ri.INDEX_DIR_ENV} is set): {why}; the folder was scanned instead"
-    ]
+    assert err.splitlines() == [f"note: {reason}: {why}; the folder was scanned instead"]
     assert sorted(p.name for p in share.iterdir()) == before and list(real.iterdir()) == []
     assert not os.path.exists("indexes") and not (ROOT / "indexes").exists()
 
