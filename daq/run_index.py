@@ -21,9 +21,19 @@ and the reader's reason, never dropped, never fatal. A running session is read a
 
 Concurrency: reads happen outside any transaction; the changes are written in one ``BEGIN IMMEDIATE`` transaction
 (SQLite serialises writers; ``busy_timeout`` 30 s), and a row is written only when the file still has the stamp it
-was read with. SQLite's WAL needs shared memory: on a network share the index may not be safe (SQLite's own advice);
-the sessions themselves are never written by the index. A read-only folder, an index path that is a symbolic link,
-or an index from a newer contactrig: the folder is scanned into memory instead, and the result says so.
+was read with; the sessions themselves are never written by the index. A read-only folder, an index path that is a
+symbolic link, or an index from a newer contactrig: the folder is scanned into memory instead, and the result says so.
+
+Network shares: SQLite's WAL needs memory shared on one computer and its locks are unreliable over NFS and SMB, and
+``O_APPEND`` is not atomic between NFS clients. So on a folder on a network share
+(:func:`daq.filesystem.network_share`), or on any folder when :data:`INDEX_DIR_ENV` is set, nothing SQLite is kept
+on the share: the index lives on this computer (:func:`index_location`: ``<cache>/<16 hex digits of the SHA-256 of
+host and resolved folder>.sqlite``, cache ``$CONTACTRIG_INDEX_DIR`` or ``$XDG_CACHE_HOME/contactrig/index``,
+created 0700; a note says where and why), each computer its own, rebuilt from the files like any index; and each
+computer appends tags, remarks and fit verdicts to a sidecar of its own (``.contactrig-notes.<host>.jsonl``,
+``.contactrig-fits.<host>.jsonl``). Every reader reads the plain sidecar and every computer's, merged in time order,
+on every folder (a folder copied from a share keeps its marks). On a local folder nothing changes: the index beside
+the sessions, the plain sidecars.
 
 Fit verdicts: ``contactrig fit`` appends the verdict of each fit of a session (whether the data discriminate
 between the models, the best model, the verdict sentence, who, when, and the analysis version: contactrig's) to
@@ -43,7 +53,7 @@ import re
 import sqlite3
 import stat
 import time
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from datetime import UTC, date, datetime, timedelta
@@ -51,6 +61,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from contactrig.core.text import shown
+from daq.filesystem import network_share
 from daq.index import SESSION_SUFFIXES, SORT_KEYS, SessionEntry, session_and_entry
 
 if TYPE_CHECKING:
@@ -61,6 +72,7 @@ __all__ = [
     "FIELD_HELP",
     "FITS_NAME",
     "FIT_VERDICTS",
+    "INDEX_DIR_ENV",
     "INDEX_NAME",
     "SCHEMA_VERSION",
     "SIDECAR_NAME",
@@ -69,7 +81,10 @@ __all__ = [
     "add_mark",
     "content_id",
     "entry_of",
+    "fits_in",
+    "index_location",
     "last_fit",
+    "marks_in",
     "parse_where",
     "query",
     "read_fits",
@@ -85,6 +100,11 @@ INDEX_NAME = ".contactrig-index.sqlite"
 SIDECAR_NAME = ".contactrig-notes.jsonl"
 #: The append-only file of fit verdicts inside each folder (hidden), written by ``contactrig fit``.
 FITS_NAME = ".contactrig-fits.jsonl"
+#: Environment variable: a folder on this computer where the index of every folder is kept (set: every folder is
+#: treated as one on a network share, sidecars included; unset: only those on a share, in the user's cache).
+INDEX_DIR_ENV = "CONTACTRIG_INDEX_DIR"
+#: A sidecar's name: the plain one, or a computer's own on a network share (``.contactrig-notes.<host>.jsonl``).
+_SIDECAR = re.compile(r"\.contactrig-(notes|fits)(?:\.([A-Za-z0-9._-]+))?\.jsonl")
 #: A fit's verdict: the data discriminate between the models, or they do not (``contactrig fit``'s statement).
 FIT_VERDICTS = ("discriminates", "undecided")
 #: ``PRAGMA user_version`` of the index this contactrig writes; :data:`_UPGRADES` takes an older one there.
@@ -333,16 +353,65 @@ def _is_link(path: Path) -> bool:
     return path.is_symlink()
 
 
+def _shared(folder: Path) -> str:
+    """Why ``folder`` is treated as one on a network share ("": it is not; see the module's "Network shares")."""
+    if os.environ.get(INDEX_DIR_ENV):
+        return f"{folder} is treated as shared ({INDEX_DIR_ENV} is set)"
+    kind = network_share(folder)
+    return f"{folder} is on a network share ({kind})" if kind else ""
+
+
+def _cache_dir() -> Path:
+    """Where this computer keeps the indexes of shared folders: ``$CONTACTRIG_INDEX_DIR``, else
+    ``$XDG_CACHE_HOME/contactrig/index`` (default ``~/.cache``; on Windows ``%LOCALAPPDATA%``)."""
+    chosen = os.environ.get(INDEX_DIR_ENV)
+    if chosen:
+        return Path(chosen)
+    base = os.environ.get("LOCALAPPDATA" if os.name == "nt" else "XDG_CACHE_HOME", "")
+    return (Path(base) if os.path.isabs(base) else Path.home() / ".cache") / "contactrig" / "index"
+
+
+def index_location(folder: str | Path) -> tuple[Path, str]:
+    """Where the index of ``folder`` is kept, and why when it is not ``folder/`` :data:`INDEX_NAME` (a folder on a
+    network share, or :data:`INDEX_DIR_ENV` set: a file of this computer's cache named by the SHA-256 of the host
+    name and the resolved folder, so computers sharing a home folder do not share a file)."""
+    from contactrig.core.provenance import host_name
+
+    root = Path(folder)
+    why = _shared(root)
+    if not why:
+        return root / INDEX_NAME, ""
+    key = f"{host_name()}\n{os.path.realpath(root)}".encode("utf-8", "surrogateescape")
+    return _cache_dir() / f"{hashlib.sha256(key).hexdigest()[:16]}.sqlite", why
+
+
+def _cache_problem(cache: Path) -> str:
+    """Why the cache folder cannot hold an index ("": it can; created, 0700, if absent)."""
+    if not cache.is_absolute():
+        return f"the index folder {cache} is not an absolute path"
+    if cache.is_symlink():
+        return f"the index folder {cache} is a symbolic link: not followed"
+    try:
+        os.makedirs(cache, mode=0o700, exist_ok=True)
+    except OSError as exc:
+        return f"the index folder {cache} cannot be created ({exc.strerror or exc})"
+    if cache.is_symlink() or not cache.is_dir() or not os.access(cache, os.W_OK):
+        return f"the index folder {cache} is not a writable folder"
+    return ""
+
+
 @contextlib.contextmanager
 def _connect(root: Path, notes: list[str]) -> Iterator[tuple[sqlite3.Connection, Path | None]]:
     """The index of ``root`` (created or upgraded), or an in-memory one with a note saying why."""
-    index = root / INDEX_NAME
+    index, shared = index_location(root)
     con = None
     where: Path | None = None
-    why = ""
-    if any(_is_link(Path(f"{index}{s}")) for s in ("", "-wal", "-shm", "-journal")):
+    why = _cache_problem(index.parent) if shared else ""
+    if why:
+        why = f"{shared}: {why}"
+    elif any(_is_link(Path(f"{index}{s}")) for s in ("", "-wal", "-shm", "-journal")):
         why = f"{index} (or its -wal/-shm) is a symbolic link: not followed"
-    elif not os.access(root, os.W_OK):
+    elif not shared and not os.access(root, os.W_OK):
         why = f"{root} is read-only: the index cannot be kept there"
     else:
         try:
@@ -364,6 +433,8 @@ def _connect(root: Path, notes: list[str]) -> Iterator[tuple[sqlite3.Connection,
     if con is None:
         notes.append(f"{why}; the folder was scanned instead")
         con = _open(":memory:")
+    elif shared:
+        notes.insert(0, f"{shared}: its index is kept on this computer, {index}")
     try:
         yield con, where
     finally:
@@ -420,7 +491,7 @@ def _walk(root: Path) -> tuple[list[Path], list[Path]]:
         for f in sorted(files):
             if f.lower().endswith(SESSION_SUFFIXES):
                 sessions.append(Path(top) / f)
-            elif f in (SIDECAR_NAME, FITS_NAME):
+            elif _SIDECAR.fullmatch(f):
                 sidecars.append(Path(top) / f)
     return sessions, sidecars
 
@@ -545,7 +616,7 @@ def _refresh_sidecars(con: sqlite3.Connection, root: Path, sidecars: Sequence[Pa
         changed.add(p)
         con.execute("INSERT OR REPLACE INTO sidecars VALUES (?,?,?)", (p, s[0], s[1]))
     for p in changed:
-        if os.path.basename(p) == FITS_NAME:
+        if _kind(os.path.basename(p)) == "fits":
             con.execute("DELETE FROM fits WHERE sidecar = ?", (p,))
             con.executemany(
                 "INSERT INTO fits VALUES (?,?,?,?,?,?,?,?,?,?)",
@@ -609,6 +680,34 @@ def _read_lines(sidecar: Path, keys: Sequence[str]) -> list[dict[str, str]]:
     return out
 
 
+def _kind(name: str) -> str:
+    """``notes`` or ``fits`` for a sidecar's file name ("" for any other name)."""
+    m = _SIDECAR.fullmatch(name)
+    return m.group(1) if m else ""
+
+
+def _own_sidecar(folder: Path, name: str) -> Path:
+    """The sidecar ``name`` (:data:`SIDECAR_NAME`, :data:`FITS_NAME`) this computer appends to in ``folder``: the
+    plain one, or on a network share its own, ``.contactrig-notes.<host>.jsonl`` (host name as [A-Za-z0-9._-])."""
+    if not _shared(folder):
+        return folder / name
+    from contactrig.core.provenance import host_name
+
+    host = re.sub(r"[^A-Za-z0-9._-]", "_", host_name())[:64].strip(".") or "unknown"
+    return folder / f"{name.removesuffix('.jsonl')}.{host}.jsonl"
+
+
+def _merged(folder: Path, kind: str, read: Callable[[Path], list[dict[str, str]]]) -> list[dict[str, str]]:
+    """What ``read`` finds in the plain sidecar of ``kind`` and every computer's own in ``folder``, in time order
+    (as the index orders them: by ``at``, then by file name and line)."""
+    try:
+        names = sorted(n for n in os.listdir(folder) if _kind(n) == kind)
+    except OSError:
+        return []
+    lines = [(m["at"], n, i, m) for n in names for i, m in enumerate(read(folder / n))]
+    return [m for *_, m in sorted(lines, key=lambda t: t[:3])]
+
+
 def _append_line(sidecar: Path, obj: dict[str, str]) -> None:
     """One line appended to a sidecar (created if absent; a symbolic link is refused, never followed): one write
     of one line with O_APPEND, so the lines of concurrent writers never interleave; synced to disk."""
@@ -626,6 +725,11 @@ def read_marks(sidecar: Path) -> list[dict[str, str]]:
     edit by hand) is skipped."""
     keys = ("content_id", "kind", "text", "who", "at", "file")
     return [m for m in _read_lines(sidecar, keys) if m["kind"] in _MARK_KINDS]
+
+
+def marks_in(folder: str | Path) -> list[dict[str, str]]:
+    """The tags and remarks of ``folder``'s sidecars (the plain one and every computer's), in time order."""
+    return _merged(Path(folder), "notes", read_marks)
 
 
 def add_mark(file: str | Path, kind: str, text: str, *, who: str | None = None) -> dict[str, str]:
@@ -648,7 +752,7 @@ def add_mark(file: str | Path, kind: str, text: str, *, who: str | None = None) 
         raise SettingError("FILE", str(p), "a contactrig session file (this HDF5 file is not one)")
     mark = {"content_id": rec["content_id"], "kind": kind, "text": clean, "who": who or login_name(),
             "at": now_iso(), "file": p.name}  # fmt: skip
-    _append_line(p.parent / SIDECAR_NAME, mark)
+    _append_line(_own_sidecar(p.parent, SIDECAR_NAME), mark)
     return mark
 
 
@@ -679,15 +783,20 @@ def record_fit(
     fit = {"content_id": rec["content_id"], "verdict": FIT_VERDICTS[0] if discriminates else FIT_VERDICTS[1],
            "best": best, "statement": statement, "analysis_version": software_version(), "who": who or login_name(),
            "at": now_iso(), "file": p.name}  # fmt: skip
-    _append_line(p.parent / FITS_NAME, fit)
+    _append_line(_own_sidecar(p.parent, FITS_NAME), fit)
     return fit
 
 
+def fits_in(folder: str | Path) -> list[dict[str, str]]:
+    """The fit verdicts of ``folder``'s fits sidecars (the plain one and every computer's), in time order."""
+    return _merged(Path(folder), "fits", read_fits)
+
+
 def last_fit(file: str | Path, cid: str) -> dict[str, str] | None:
-    """The last fit of the session of content id ``cid`` recorded in the fits file of ``file``'s folder (None:
-    never fitted there)."""
-    fits = [f for f in read_fits(Path(file).parent / FITS_NAME) if f["content_id"] == cid]
-    return max(enumerate(fits), key=lambda f: (f[1]["at"], f[0]))[1] if fits else None  # a tie: the later line
+    """The last fit of the session of content id ``cid`` recorded in the fits files of ``file``'s folder (None:
+    never fitted there; a tie in time: the later file name, then line, as the index)."""
+    fits = [f for f in fits_in(Path(file).parent) if f["content_id"] == cid]
+    return fits[-1] if fits else None
 
 
 def _last_fits(con: sqlite3.Connection) -> dict[str, dict[str, Any]]:
@@ -947,7 +1056,7 @@ _Row = tuple[str, str, str, bool, tuple[str, ...], str]
 def indexed_rows(folder: str | Path) -> list[_Row]:
     """(path, content id, status, has a reason, tags, last fit) of every row of ``folder``'s index as it is,
     unrefreshed (for checks that the index equals a fresh scan)."""
-    index = Path(folder) / INDEX_NAME
+    index = index_location(folder)[0]
     with contextlib.closing(sqlite3.connect(f"file:{index}?mode=ro", uri=True)) as con:
         return _rows_of(con)
 

@@ -85,7 +85,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "List every session file (.h5, .hdf5, .nxs) under DIR (default: the current folder), sorted by start "
             "time. A file that cannot be read is listed as CORRUPT with the reason; nothing stops the listing. The "
             "listing is kept in DIR/.contactrig-index.sqlite (a cache: only new or changed files are read again; "
-            "deleting it loses nothing); tags and remarks in .contactrig-notes.jsonl beside the sessions."
+            "deleting it loses nothing; for a folder on a network share, or with CONTACTRIG_INDEX_DIR set, in a "
+            "cache on this computer); tags and remarks in .contactrig-notes.jsonl beside the sessions "
+            "(.contactrig-notes.HOST.jsonl on a share)."
         ),
     )
     s.add_argument("folder", nargs="?", default=".", metavar="DIR", help="folder to search (recursively)")

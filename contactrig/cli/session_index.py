@@ -21,8 +21,8 @@ def add_index_options(parser: argparse.ArgumentParser) -> None:
     )  # fmt: skip
     parser.add_argument(
         "--tag", default=None, metavar="TAG",
-        help="add TAG to the session file given as DIR (in the folder's .contactrig-notes.jsonl, with who and when; "
-        "the session file is not touched)",
+        help="add TAG to the session file given as DIR (in the folder's .contactrig-notes.jsonl, on a network share "
+        ".contactrig-notes.HOST.jsonl, with who and when; the session file is not touched)",
     )  # fmt: skip
     parser.add_argument("--remark", default=None, metavar="TEXT", help="add a remark (one line) like --tag")
     parser.add_argument(

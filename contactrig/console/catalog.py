@@ -5,8 +5,8 @@ A page asks :meth:`Catalog.rows` (the index as it is, ``query(refresh=False)``, 
 (a refresh wanted); the refresh thread runs :func:`daq.run_index.refresh` one at a time (kicks while one runs ask for
 one more after it, never for several) and counts ``generation`` up after each, so a page polls until the generation
 changes and draws again. Tags and remarks are added with
-:func:`daq.run_index.add_mark`; a session's own marks are read back from its folder's sidecar by its content id
-(:func:`daq.run_index.read_marks`), so the session page shows a new mark at once; two sessions are compared with
+:func:`daq.run_index.add_mark`; a session's own marks are read back from its folder's sidecars by its content id
+(:func:`daq.run_index.marks_in`), so the session page shows a new mark at once; two sessions are compared with
 :func:`daq.session_diff.session_diff`. Nothing here indexes, searches or compares on its own.
 """
 
@@ -123,11 +123,11 @@ class Catalog:
 
     @staticmethod
     def marks_of(path: Path, start: dict[str, Any]) -> list[dict[str, str]]:
-        """The tags and remarks of one session (first run's start record ``start``) in its folder's sidecar."""
-        from daq.run_index import SIDECAR_NAME, content_id, read_marks
+        """The tags and remarks of one session (first run's start record ``start``) in its folder's sidecars."""
+        from daq.run_index import content_id, marks_in
 
         cid = content_id(start)
-        return [{k: m[k] for k in ("kind", "text", "who", "at")} for m in read_marks(path.parent / SIDECAR_NAME)
+        return [{k: m[k] for k in ("kind", "text", "who", "at")} for m in marks_in(path.parent)
                 if m["content_id"] == cid]  # fmt: skip
 
     def diff(self, a: Path, b: Path) -> dict[str, Any]:

@@ -9,6 +9,7 @@ import sqlite3
 import subprocess
 import sys
 import time
+from unittest import mock
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -76,6 +77,14 @@ _OPS = st.lists(
 )  # fmt: skip
 
 
+def _computer(k):
+    """Marks written as computer ``pc<k % 3>`` on a network share (odd ``k``: each computer its own sidecar) or in
+    the plain sidecar (even ``k``)."""
+    share = mock.patch.object(ri, "network_share", return_value="nfs4" if k % 2 else "")
+    host = mock.patch("socket.gethostname", return_value=f"pc{k % 3}")
+    return share, host
+
+
 @settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(ops=_OPS)
 def test_random_changes_leave_the_index_equal_to_a_fresh_scan(templates, tmp_path_factory, ops):
@@ -84,6 +93,7 @@ def test_random_changes_leave_the_index_equal_to_a_fresh_scan(templates, tmp_pat
     names = [folder / f"f{i}.h5" for i in range(4)] + [folder / "sub" / f"g{i}.h5" for i in range(4)]
     shutil.copy(templates[0], names[0])
     ri.refresh(folder)
+    tagged: dict[str, set[str]] = {}
     for op, k in ops:
         present = [p for p in names if p.exists()]
         target = present[k % len(present)] if present else None
@@ -102,10 +112,17 @@ def test_random_changes_leave_the_index_equal_to_a_fresh_scan(templates, tmp_pat
                 f.seek(target.stat().st_size // 2)
                 f.write(os.urandom(512))
         elif op == "tag" and target is not None:
-            ri.add_mark(target, "tag", f"t{k}", who="test")
+            share, host = _computer(k)
+            with share, host:
+                mark = ri.add_mark(target, "tag", f"t{k}", who="test")
+            tagged.setdefault(mark["content_id"], set()).add(mark["text"])
         elif op == "fit" and target is not None and ri.session_record(target)["status"] not in ri.UNREADABLE:
-            ri.record_fit(target, discriminates=k % 2 == 0, best=f"m{k}", statement="Verdict: test", who="test")
+            share, host = _computer(k)
+            with share, host:
+                ri.record_fit(target, discriminates=k % 2 == 0, best=f"m{k}", statement="Verdict: test", who="test")
         else:
             ri.refresh(folder)
     ri.refresh(folder)
-    assert ri.indexed_rows(folder) == ri.fresh_scan(folder)
+    rows = ri.indexed_rows(folder)
+    assert rows == ri.fresh_scan(folder)
+    assert all(set(tags) == tagged.get(cid, set()) for _, cid, _, _, tags, _ in rows)  # every computer's tags
