@@ -227,6 +227,16 @@ def _utc(text: str) -> str:
     return t.astimezone(UTC).isoformat(timespec="microseconds")
 
 
+def _instant_key(text: str) -> str:
+    """A sort key of an ISO-8601 instant as SQLite's ``julianday`` orders it (the instant in UTC; no offset: UTC;
+    unparsable: first): the index's order of marks and fits, kept by :func:`marks_in` and :func:`fits_in` too."""
+    try:
+        t = datetime.fromisoformat(text)
+    except (TypeError, ValueError):
+        return ""
+    return (t if t.tzinfo is not None else t.replace(tzinfo=UTC)).astimezone(UTC).isoformat(timespec="microseconds")
+
+
 def _serial(idn: str) -> str:
     """The serial number in an ``*IDN?`` reply (maker, model, serial, firmware)."""
     parts = [p.strip() for p in idn.split(",")]
@@ -699,12 +709,12 @@ def _own_sidecar(folder: Path, name: str) -> Path:
 
 def _merged(folder: Path, kind: str, read: Callable[[Path], list[dict[str, str]]]) -> list[dict[str, str]]:
     """What ``read`` finds in the plain sidecar of ``kind`` and every computer's own in ``folder``, in time order
-    (as the index orders them: by ``at``, then by file name and line)."""
+    (as the index orders them: by the instant ``at`` in UTC, whatever its offset, then by file name and line)."""
     try:
         names = sorted(n for n in os.listdir(folder) if _kind(n) == kind)
     except OSError:
         return []
-    lines = [(m["at"], n, i, m) for n in names for i, m in enumerate(read(folder / n))]
+    lines = [(_instant_key(m["at"]), n, i, m) for n in names for i, m in enumerate(read(folder / n))]
     return [m for *_, m in sorted(lines, key=lambda t: t[:3])]
 
 
@@ -800,13 +810,14 @@ def last_fit(file: str | Path, cid: str) -> dict[str, str] | None:
 
 
 def _last_fits(con: sqlite3.Connection) -> dict[str, dict[str, Any]]:
-    """The last fit of each content id (by time, then by file and line), ``stale`` when made with another analysis
-    version than this contactrig's."""
+    """The last fit of each content id (by the instant, UTC: a later fit written at another UTC offset, e.g. after a
+    change to daylight saving time, is the later one; then by file and line), ``stale`` when made with another
+    analysis version than this contactrig's."""
     from contactrig.core.provenance import software_version
 
     now = ""  # read from the package's metadata when there is a fit (a few ms: not for every listing)
     out: dict[str, dict[str, Any]] = {}
-    for row in con.execute(f"SELECT {', '.join(_FIT_KEYS)} FROM fits ORDER BY at, sidecar, line"):
+    for row in con.execute(f"SELECT {', '.join(_FIT_KEYS)} FROM fits ORDER BY julianday(at), sidecar, line"):
         fit = dict(zip(_FIT_KEYS, row, strict=True))
         now = now or software_version()
         fit["stale"] = fit["analysis_version"] != now
@@ -924,8 +935,8 @@ def _sql(c: Condition) -> tuple[str, list[Any]]:
     if c.key == "serial":
         return "(' ' || s.serials || ' ') LIKE ?", [f"% {c.value} %"]
     if c.key == "verdict":
-        last = ("(SELECT f.{} FROM fits f WHERE f.content_id = s.content_id ORDER BY f.at DESC, f.sidecar DESC, "
-                "f.line DESC LIMIT 1)")  # fmt: skip
+        last = ("(SELECT f.{} FROM fits f WHERE f.content_id = s.content_id "
+                "ORDER BY julianday(f.at) DESC, f.sidecar DESC, f.line DESC LIMIT 1)")  # fmt: skip
         if c.value == "none":
             return "NOT EXISTS (SELECT 1 FROM fits f WHERE f.content_id = s.content_id)", []
         if c.value == "stale":
@@ -990,7 +1001,8 @@ def _select(
     if (limit is not None and len(rows) >= limit) or (offset and not rows):  # cut: count them
         matched = con.execute(f"SELECT count(*) FROM sessions s WHERE {' AND '.join(clauses)}", params).fetchone()[0]
     marks: dict[str, dict[str, list[dict[str, str]]]] = {}
-    for cid, kind, text, who, at in con.execute("SELECT content_id, kind, text, who, at FROM marks ORDER BY at"):
+    order = "ORDER BY julianday(at), sidecar, line"  # the instant, UTC, as _merged
+    for cid, kind, text, who, at in con.execute(f"SELECT content_id, kind, text, who, at FROM marks {order}"):
         marks.setdefault(cid, {"tag": [], "remark": []})[kind].append({"text": text, "who": who, "at": at})
     fits = _last_fits(con)
     base = "" if str(root) == "." else str(root) + os.sep  # as str(root / path), without a Path per row

@@ -100,3 +100,23 @@ def test_numeric_conditions_agree_with_python(lab, threshold, op):
     got = sorted(os.path.basename(r["path"])[0] for r in ri.query(lab, [f"settings.delta.nplc{op}{threshold!r}"],
                                                                    refresh=False)[0])  # fmt: skip
     assert got == expected
+
+
+def test_the_last_fit_is_the_latest_instant_whatever_its_utc_offset(tmp_path, monkeypatch):
+    """Fits are stamped in local time with the UTC offset. Across the end of daylight saving time a later fit can have
+    an earlier-looking text: 02:50+02:00 is 00:50 UTC, 02:10+01:00 (written after it) 01:10 UTC. The last fit is the
+    later instant — for the index's verdict column and filter, for ``last_fit`` (the diff) and for the merged
+    sidecars — not the larger text."""
+    import contactrig.core.provenance as provenance
+
+    folder = tmp_path / "dst"
+    folder.mkdir()
+    p = write_run(folder / "s.h5", sample="dst")
+    for at, discriminates in (("2026-10-25T02:50:00.000+02:00", True), ("2026-10-25T02:10:00.000+01:00", False)):
+        monkeypatch.setattr(provenance, "now_iso", lambda at=at: at)
+        ri.record_fit(p, discriminates=discriminates, best="hertz", statement="…")
+    cid = ri.query(folder)[0][0]["content_id"]
+    assert ri.last_fit(p, cid)["at"] == "2026-10-25T02:10:00.000+01:00"
+    assert ri.query(folder)[0][0]["fit"]["verdict"] == "undecided"
+    assert names(folder, "verdict=undecided") == ["s"] and names(folder, "verdict=discriminates") == []
+    assert [f["at"][11:16] for f in ri.fits_in(folder)] == ["02:50", "02:10"]  # in time order, not text order
