@@ -86,7 +86,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     f.add_argument("--json", action="store_true", help="print the fits as JSON")
     f.add_argument(
         "--no-record", dest="record", action="store_false",
-        help="do not record the verdict beside the session (.contactrig-fits.jsonl, read by `contactrig sessions`)",
+        help="do not record the verdict beside the session (.contactrig-fits.jsonl; on a network share this "
+        "computer's .contactrig-fits.HOST.jsonl; read by `contactrig sessions`)",
     )  # fmt: skip
     f.set_defaults(handler=_fit)
 
