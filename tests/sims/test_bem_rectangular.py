@@ -240,3 +240,14 @@ def test_rectangular_fields_do_not_depend_on_the_thread_count():
     three = bem.solve_contact(z, PIX, E_W, 1e6, tol=1e-8, workers=3)
     assert one.success and one.nit == three.nit
     assert np.array_equal(one.pressure, three.pressure) and np.array_equal(one.gap, three.gap)
+
+
+def test_the_bem_database_curve_of_a_rectangle_records_its_cell():
+    from sims.bem_database import BemCurveSettings, bem_curve
+
+    z = rough(32, 64, seed=8)
+    curve = bem_curve(z, PIX, E_W, settings=BemCurveSettings(n_points=4, workers=1))
+    params = curve.parameters
+    assert params["all_converged"] and params["shape"] == [32, 64] and params["n"] == 64
+    assert params["area_m2"] == pytest.approx(32 * PIX * 64 * PIX, rel=1e-15)  # the cell, ny·Δ × nx·Δ
+    assert np.all(np.diff(curve.pressure_pa) < 0.0) and np.all(np.isfinite(curve.area_fraction))
