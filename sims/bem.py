@@ -284,15 +284,15 @@ class _Kernel:
 
     def __init__(self, shape: tuple[int, int], xp: ModuleType = np) -> None:
         ny, nx = shape
-        qx = 2.0 * np.pi * xp.fft.fftfreq(ny)  # axis 0 (rows): the full spectrum
-        qy = 2.0 * np.pi * xp.fft.rfftfreq(nx)  # axis 1 (columns): the half spectrum
-        q = xp.hypot(qx[:, None], qy[None, :])
+        q_y = 2.0 * np.pi * xp.fft.fftfreq(ny)  # axis 0 (rows): the full spectrum
+        q_x = 2.0 * np.pi * xp.fft.rfftfreq(nx)  # axis 1 (columns): the half spectrum
+        q = xp.hypot(q_y[:, None], q_x[None, :])
         q[0, 0] = 1.0
         compliance = 2.0 / q
         compliance[0, 0] = 0.0
         q *= 0.5
         q[0, 0] = 0.0
-        weight = xp.full(qy.size, 2.0)  # columns of the half spectrum that stand for two modes
+        weight = xp.full(q_x.size, 2.0)  # columns of the half spectrum that stand for two modes
         weight[0] = 1.0
         if nx % 2 == 0:
             weight[-1] = 1.0
