@@ -1,7 +1,8 @@
 """Periodic FFT boundary elements (BEM): normal contact of a rough surface with an elastic half-space.
 
-The problem: a rigid-equivalent rough surface with composite heights ``z`` (m, n×n, periodic, pitch ``pixel_m``)
-is pressed onto a flat elastic half-space of composite modulus ``E_star`` (Pa, 1/E* = (1−ν₁²)/E₁ + (1−ν₂²)/E₂).
+The problem: a rigid-equivalent rough surface with composite heights ``z`` (m, ny×nx: rows along y × columns along
+x, both even, not necessarily equal; periodic; square pixels of pitch ``pixel_m`` on both axes) is pressed onto a
+flat elastic half-space of composite modulus ``E_star`` (Pa, 1/E* = (1−ν₁²)/E₁ + (1−ν₂²)/E₂).
 Heights point *towards* the half-space: the highest points of ``z`` touch first. With u the elastic surface
 displacement (m, positive into the half-space, zero mean) and h₀ the rigid-body separation of the mean planes
 (m), the gap is
@@ -13,6 +14,10 @@ Elasticity, periodic (one tile of an infinite periodic array; Westergaard 1939, 
     p_q = (E*·|q|/2)·u_q      for every wave vector q ≠ 0 (rad/m);  the q = 0 mode is the mean pressure, with u
                               of zero mean, so that the mean gap is ū = mean(g) = h₀ (all lengths in m).
 
+On the ny×nx cell the wave vectors are q = 2π·(rfftfreq(nx, Δ), fftfreq(ny, Δ)), |q| = 2π·sqrt(fx² + fy²): the
+periodic cell is nx·Δ by ny·Δ, so a rectangular map (a profilometer's, after its edges are mirrored) needs no
+cropping.
+
 This is checked against Westergaard's solution (full contact of z = Δ cos(2πx/λ) at p* = πE*Δ/λ) in the tests.
 
 Solver: Polonsky & Keer, Wear 231 (1999) 206, constrained conjugate gradients on the pressure, either for a
@@ -22,7 +27,7 @@ elastic–perfectly-plastic surface layer caps the local pressure at the hardnes
 points with 0 < p < H; points at p = H may penetrate (plastic flattening) and are released when their gap opens,
 as in Almqvist, Sahlin, Larsson & Lundberg, Tribol. Int. 40 (2007) 574 and ContactMechanics' hardness option.
 All arithmetic is dimensionless inside: lengths in ℓ = rms(z − mean z), pressures in E*ℓ/Δ (Δ = pixel), so the
-kernel 2/(|q|Δ) depends on n only and is computed once per grid (cached).
+kernel 2/(|q|Δ) depends on the grid's shape only and is computed once per grid (cached).
 
 Preconditioner (issue 28): the search direction is the gap on the free points filtered by the stiffness |q|Δ/2 (the
 inverse of the compliance on the whole grid) and restricted to them again — the FFT preconditioner of Vollebregt,
@@ -40,7 +45,7 @@ On the CPU the element-wise passes over the whole grid (the products with the sy
 displacement update, the overlap search) run in cache-sized blocks of rows on the same ``workers`` threads, in
 place, several operations per block (:meth:`sims.bem_backend.Backend.rows`); the work on the contact points alone
 (≈ 6 % of the grid) stays serial.
-The fields do not depend on the thread count (the blocks depend on n only).
+The fields do not depend on the thread count (the blocks depend on the grid's shape only).
 On the GPU every value read on the host (a dot product as a float, a branch on it, a count) waits for the card; the
 iterations there run in groups of up to ``_CHECK_EVERY`` (4) with their scalars kept on the card. A branch that the
 iteration almost never takes (a non-descent direction, zero curvature, no step, a breakdown, a load that cannot be
@@ -158,7 +163,9 @@ class ContactSummary:
         status: 0 converged (including exact full/no-contact solutions), 1 iteration limit, 2 numerical breakdown.
         message: what happened, in words.
         mode: ``"pressure"`` (mean pressure prescribed) or ``"gap"`` (mean gap or approach prescribed).
-        n, pixel_m, E_star, hardness: the grid (points per side, m), composite modulus (Pa), hardness (Pa) or None.
+        n, shape, pixel_m, E_star, hardness: the grid (n: points along x, the columns, i.e. the side of a square grid;
+            shape: (ny, nx), rows × columns; pixel_m: the pitch on both axes, m), composite modulus (Pa), hardness
+            (Pa) or None.
         workers: FFT threads used.
         device: ``"cpu"`` or ``"gpu"``: where the arrays lived (:mod:`sims.bem_backend`).
     """
@@ -180,6 +187,7 @@ class ContactSummary:
     message: str
     mode: str
     n: int
+    shape: tuple[int, int]
     pixel_m: float
     E_star: float
     hardness: float | None
@@ -187,14 +195,14 @@ class ContactSummary:
     device: str
 
     def summary(self) -> ContactSummary:
-        """The scalars alone (drops the n×n fields of a :class:`ContactResult`)."""
+        """The scalars alone (drops the ny×nx fields of a :class:`ContactResult`)."""
         names = ContactSummary.__dataclass_fields__
         return ContactSummary(**{k: getattr(self, k) for k in names})
 
 
 @dataclass(frozen=True, eq=False)
 class ContactResult(ContactSummary):
-    """One contact solution: the scalars of :class:`ContactSummary` and the n×n fields (read-only arrays).
+    """One contact solution: the scalars of :class:`ContactSummary` and the ny×nx fields (read-only arrays).
 
     Attributes:
         pressure: contact pressure p, Pa, in [0, H].
@@ -258,39 +266,44 @@ class ConvergenceCheck:
 
 
 class _Kernel:
-    """The symbols of the periodic half-space for an n×n grid, as arrays of the namespace ``xp`` (made where they are
-    used: on the GPU, on the card, nothing copied), made once per grid and namespace (:func:`_kernel`).
+    """The symbols of the periodic half-space for an ny×nx grid (``shape``, square pixels), as arrays of the
+    namespace ``xp`` (made where they are used: on the GPU, on the card, nothing copied), made once per grid and
+    namespace (:func:`_kernel`).
 
     Compliance 2/(|q|Δ) and stiffness |q|Δ/2 in ``rfft2`` layout (0 at q = 0), a float32 stiffness (the
-    preconditioner filters float32 spectra) and the Parseval weights, all *interleaved*, n × (n + 2): each value
+    preconditioner filters float32 spectra) and the Parseval weights, all *interleaved*, ny × (nx + 2): each value
     twice, for the real and the imaginary part of a half spectrum viewed as real numbers, so that a product with a
     symbol is a real, contiguous multiply (no complex cast: 2–3× faster than complex × real in NumPy). The weights are
-    such that their sum against the squared parts is Σₓ t·(C t) (Parseval's theorem): C(q)/n², twice for the columns
-    that stand for two modes. ``self_compliance``: the compliance of one point, the mean of the kernel over the full
-    (not half) spectrum.
+    such that their sum against the squared parts is Σₓ t·(C t) (Parseval's theorem): C(q)/(ny·nx), twice for the
+    columns that stand for two modes. ``self_compliance``: the compliance of one point, the mean of the kernel over the
+    full (not half) spectrum.
+
+    Wave vectors in units of 1/Δ: along the rows (axis 0, y, full spectrum) q_y Δ = 2π·fftfreq(ny), along the columns
+    (axis 1, x, half spectrum) q_x Δ = 2π·rfftfreq(nx); |q|Δ = hypot(q_y Δ, q_x Δ). The cell is ny·Δ by nx·Δ.
     """
 
-    def __init__(self, n: int, xp: ModuleType = np) -> None:
-        qx = 2.0 * np.pi * xp.fft.fftfreq(n)
-        qy = 2.0 * np.pi * xp.fft.rfftfreq(n)
-        q = xp.hypot(qx[:, None], qy[None, :])
+    def __init__(self, shape: tuple[int, int], xp: ModuleType = np) -> None:
+        ny, nx = shape
+        q_y = 2.0 * np.pi * xp.fft.fftfreq(ny)  # axis 0 (rows): the full spectrum
+        q_x = 2.0 * np.pi * xp.fft.rfftfreq(nx)  # axis 1 (columns): the half spectrum
+        q = xp.hypot(q_y[:, None], q_x[None, :])
         q[0, 0] = 1.0
         compliance = 2.0 / q
         compliance[0, 0] = 0.0
         q *= 0.5
         q[0, 0] = 0.0
-        weight = xp.full(qy.size, 2.0)  # columns of the half spectrum that stand for two modes
+        weight = xp.full(q_x.size, 2.0)  # columns of the half spectrum that stand for two modes
         weight[0] = 1.0
-        if n % 2 == 0:
+        if nx % 2 == 0:
             weight[-1] = 1.0
         weighted = compliance * weight[None, :]
-        self.self_compliance = float(weighted.sum()) / (n * n)
-        weighted /= n * n
+        self.self_compliance = float(weighted.sum()) / (ny * nx)
+        weighted /= ny * nx
         symbols = [xp.repeat(a, 2, axis=1) for a in (compliance, q, q.astype(xp.float32), weighted)]
         if xp is np:
             for arr in symbols:
                 arr.setflags(write=False)
-        self.n = n
+        self.shape = (ny, nx)
         self.compliance: Any = symbols[0]
         self.stiffness: Any = symbols[1]
         self.stiffness32: Any = symbols[2]
@@ -298,8 +311,8 @@ class _Kernel:
 
 
 @lru_cache(maxsize=4)
-def _kernel(n: int, xp: ModuleType = np) -> _Kernel:
-    return _Kernel(n, xp)
+def _kernel(shape: tuple[int, int], xp: ModuleType = np) -> _Kernel:
+    return _Kernel(shape, xp)
 
 
 def _dot(xp: ModuleType, a: Any, b: Any, keep: bool = False) -> Any:
@@ -329,17 +342,18 @@ def _below_unloaded(w: Any, p: Any, level: Any) -> Any:
 
 
 class _Operator:
-    """The periodic half-space on one backend: convolutions with the compliance or the stiffness, flat n² arrays.
+    """The periodic half-space on one backend: convolutions with the compliance or the stiffness, flat ny·nx arrays.
 
-    Every element-wise pass over an n×n field or its half spectrum goes through :meth:`Backend.rows` (cache-sized
+    Every element-wise pass over an ny×nx field or its half spectrum goes through :meth:`Backend.rows` (cache-sized
     blocks on the ``workers`` threads; the operations on one block fused), in place where the result allows.
     """
 
-    def __init__(self, n: int, backend: Backend) -> None:
-        self.n = n
+    def __init__(self, shape: tuple[int, int], backend: Backend) -> None:
+        self.shape = shape
+        self.nx = shape[1]
         self.be = backend
         self.xp = backend.xp
-        self.kernel = _kernel(n, backend.xp)
+        self.kernel = _kernel(shape, backend.xp)
         k = self.kernel
         self.compliance, self.stiffness, self.stiffness32, self.parseval = (
             k.compliance,
@@ -350,20 +364,20 @@ class _Operator:
 
     def rows(self, fn: Any) -> list[Any]:
         """``fn(rows)`` over the blocks of rows (:meth:`Backend.rows`)."""
-        return self.be.rows(fn, self.n)
+        return self.be.rows(fn, self.shape[0], self.nx)
 
     def apply(self, x: Any, symbol: Any) -> Any:
-        """irfft2(symbol · rfft2(x)) for a flat n² array (float64, or float32 with a float32 symbol); a new flat
+        """irfft2(symbol · rfft2(x)) for a flat ny·nx array (float64, or float32 with a float32 symbol); a new flat
         array of the same precision."""
-        spectrum = self.be.rfft2(x.reshape(self.n, self.n))
+        spectrum = self.be.rfft2(x.reshape(self.shape))
         parts = spectrum.view(symbol.dtype)
         self.rows(lambda r: self.xp.multiply(parts[r], symbol[r], out=parts[r]))
-        return self.be.irfft2(spectrum, self.n).reshape(-1)
+        return self.be.irfft2(spectrum, self.shape).reshape(-1)
 
     def displacement_minus(self, p: Any, z: Any) -> Any:
-        """u − z with u = C p (flat n² arrays): one FFT pair, the subtraction in place; a new flat array."""
+        """u − z with u = C p (flat ny·nx arrays): one FFT pair, the subtraction in place; a new flat array."""
         w = self.apply(p, self.compliance)
-        w2, z2 = w.reshape(self.n, self.n), z.reshape(self.n, self.n)
+        w2, z2 = w.reshape(self.shape), z.reshape(self.shape)
         self.rows(lambda r: self.xp.subtract(w2[r], z2[r], out=w2[r]))
         return w
 
@@ -373,7 +387,7 @@ class _Operator:
         One pass over the half spectrum: each block's share of the curvature, then the block multiplied by C. A float,
         or with ``keep`` the value as it comes (see _dot)."""
         xp = self.xp
-        spectrum = self.be.rfft2(t.reshape(self.n, self.n))
+        spectrum = self.be.rfft2(t.reshape(self.shape))
         parts = spectrum.view(xp.float64)
 
         def block(r: slice) -> Any:
@@ -388,8 +402,8 @@ class _Operator:
         """w − τ·C t from C·T (:meth:`curvature`): one inverse FFT and one fused pass; ``w`` itself, updated in
         place."""
         xp = self.xp
-        ct = self.be.irfft2(spectrum, self.n)
-        w2 = w.reshape(self.n, self.n)
+        ct = self.be.irfft2(spectrum, self.shape)
+        w2 = w.reshape(self.shape)
 
         def block(r: slice) -> None:
             xp.multiply(ct[r], -tau, out=ct[r])
@@ -404,8 +418,8 @@ class _Operator:
         xp = self.xp
         if p is not None:
             return xp.flatnonzero(_below_unloaded(w, p, level))
-        w2 = w.reshape(self.n, self.n)
-        parts = self.rows(lambda r: xp.flatnonzero(w2[r] < level) + (r.start or 0) * self.n)
+        w2 = w.reshape(self.shape)
+        parts = self.rows(lambda r: xp.flatnonzero(w2[r] < level) + (r.start or 0) * self.nx)
         return parts[0] if len(parts) == 1 else xp.concatenate(parts)
 
 
@@ -418,11 +432,10 @@ def _check_surface(z: ArrayLike) -> NDArray[np.float64]:
         arr = np.asarray(z, dtype=np.float64)
     except (TypeError, ValueError):
         raise SettingError("z", type(z).__name__, "expected a 2-D array of heights in m") from None
-    if arr.ndim != 2 or arr.shape[0] != arr.shape[1]:
-        raise SettingError("z", f"array of shape {arr.shape}", "expected a square n×n array of heights in m")
-    n = arr.shape[0]
-    if n < 4 or n > _MAX_N or n % 2:
-        raise SettingError("z", f"array of shape {arr.shape}", f"expected an even n in [4, {_MAX_N}] (FFT layout)")
+    if arr.ndim != 2:
+        raise SettingError("z", f"array of shape {arr.shape}", "expected a 2-D ny×nx array of heights in m")
+    if any(k < 4 or k > _MAX_N or k % 2 for k in arr.shape):
+        raise SettingError("z", f"array of shape {arr.shape}", f"expected even ny and nx in [4, {_MAX_N}] (FFT layout)")
     if not np.all(np.isfinite(arr)):
         raise SettingError("z", "array with NaN or inf", "expected finite heights in m")
     return arr
@@ -518,9 +531,9 @@ class _Mark:
 
 
 class _Solver:
-    """Constrained CG of Polonsky & Keer (1999) with an optional pressure cap, dimensionless, flat n² arrays.
+    """Constrained CG of Polonsky & Keer (1999) with an optional pressure cap, dimensionless, flat ny·nx arrays.
 
-    ``load`` (sum of the pressures, i.e. n²·p̄) prescribes the mean pressure; otherwise ``offset`` (h₀ − mean z in
+    ``load`` (sum of the pressures, i.e. ny·nx·p̄) prescribes the mean pressure; otherwise ``offset`` (h₀ − mean z in
     units of ℓ) prescribes the rigid-body position. ``w`` holds u − z; the gap is w + h₀. ``precondition``: the
     search direction comes from the gap filtered by the stiffness E*|q|/2 (see :func:`solve_contact`).
     """
@@ -541,7 +554,6 @@ class _Solver:
         self.xp = xp
         self.op = op
         self.z = z
-        self.n = op.n
         self.kernel = op.kernel
         self.workers = op.be.workers
         self.load = load
@@ -989,7 +1001,7 @@ def _solve_by_offset(solver: _Solver, load_total: float) -> int:
     """Load control with a cap by bracketing the separation h₀: the fallback when the load-controlled CG stalls.
 
     Under displacement control the capped problem is a well-posed convex one for every h₀, and the mean pressure
-    p̄(h₀) is continuous and non-increasing: n²·H for h₀ ≤ min z (every point penetrates, all at H) and 0 for
+    p̄(h₀) is continuous and non-increasing: ny·nx·H for h₀ ≤ min z (every point penetrates, all at H) and 0 for
     h₀ ≥ max z. Brent's method on p̄(h₀) − p̄_target over that bracket, each evaluation a warm-started
     displacement-controlled solve (at 10⁻³·tol so that p̄(h₀) is smooth to the root), then the free pressures are
     rescaled to the exact load, which moves the contact conditions by about 10⁻³·tol. Iterations of every inner
@@ -1067,7 +1079,7 @@ def _spot_cells(mask: Any, xp: ModuleType, label: Any) -> tuple[int, _Array]:
     edges = xp.concatenate(
         [xp.stack([labels[:, 0], labels[:, -1]], axis=1), xp.stack([labels[0, :], labels[-1, :]], axis=1)]
     )
-    edges = np.asarray(edges if xp is np else xp.asnumpy(edges))  # 4n labels: the box edges only
+    edges = np.asarray(edges if xp is np else xp.asnumpy(edges))  # 2(ny + nx) labels: the box edges only
     edges = edges[(edges[:, 0] > 0) & (edges[:, 1] > 0)]
     for a, b in np.unique(edges, axis=0):
         ra, rb = root(int(a)), root(int(b))
@@ -1100,7 +1112,7 @@ def _perimeter_edges(mask: Any, xp: ModuleType = np) -> int:
 
 @dataclass(frozen=True)
 class _Scales:
-    n: int
+    shape: tuple[int, int]  # (ny, nx)
     pixel_m: float
     E_star: float
     length: float  # ℓ, m
@@ -1113,13 +1125,13 @@ def _build_result(
     solver: _Solver, sc: _Scales, *, status: int, message: str, mode: str, hardness: float | None, p_full: float
 ) -> ContactResult:
     """The result in SI units; the fields and counts are made where the solver's arrays are (on the GPU, on the
-    card) and only the finished fields (and 4n boundary labels) are copied to the host."""
-    n = sc.n
+    card) and only the finished fields (and the 2(ny + nx) boundary labels) are copied to the host."""
+    shape = sc.shape
     xp = solver.xp
     to_host = solver.op.be.to_host
     p, w = solver.p, solver.w
     touching = p > 0.0
-    contact = touching.reshape(n, n)
+    contact = touching.reshape(shape)
     n_spots, spot_cells = _spot_cells(contact, xp, _label_function(xp))
     edges = _perimeter_edges(contact, xp)
     n_contact = int(xp.count_nonzero(touching))
@@ -1128,17 +1140,17 @@ def _build_result(
     n_saturated = int(xp.count_nonzero(saturated))
     plastic = None
     if hardness is not None:
-        plastic = to_host(xp.where(saturated, xp.maximum(-gap, 0.0), 0.0).reshape(n, n) * sc.length)
+        plastic = to_host(xp.where(saturated, xp.maximum(-gap, 0.0), 0.0).reshape(shape) * sc.length)
         plastic.setflags(write=False)
     gap[touching] = 0.0
     xp.maximum(gap, 0.0, out=gap)
-    mean_pressure = float(p.sum()) / (n * n) * sc.pressure
-    pressure = to_host((p * sc.pressure).reshape(n, n))
-    displacement = to_host(((w + solver.z) * sc.length).reshape(n, n))
-    gap_m = to_host((gap * sc.length).reshape(n, n))
+    size = shape[0] * shape[1]
+    mean_pressure = float(p.sum()) / size * sc.pressure
+    pressure = to_host((p * sc.pressure).reshape(shape))
+    displacement = to_host(((w + solver.z) * sc.length).reshape(shape))
+    gap_m = to_host((gap * sc.length).reshape(shape))
     for arr in (pressure, displacement, gap_m):
         arr.setflags(write=False)
-    size = n * n
     return ContactResult(
         mean_pressure=mean_pressure,
         mean_gap=float(gap_m.mean()),
@@ -1156,7 +1168,8 @@ def _build_result(
         status=status,
         message=message,
         mode=mode,
-        n=n,
+        n=shape[1],
+        shape=shape,
         pixel_m=sc.pixel_m,
         E_star=sc.E_star,
         hardness=hardness,
@@ -1183,7 +1196,7 @@ _MESSAGES = {
 def _scales(arr: NDArray[np.float64], pixel_m: float, E_star: float, be: Backend | None = None) -> tuple[Any, _Scales]:
     """The dimensionless heights (flat, mean-free, in units of ℓ = rms) as an array of ``be`` (default NumPy), and
     the scales; on the GPU the heights are copied to the card first and scaled there."""
-    n = arr.shape[0]
+    shape = (int(arr.shape[0]), int(arr.shape[1]))
     xp = np if be is None else be.xp
     a = arr if be is None else be.asarray(arr)
     mean = float(a.mean())
@@ -1194,7 +1207,7 @@ def _scales(arr: NDArray[np.float64], pixel_m: float, E_star: float, be: Backend
         length = pixel_m
     z /= length
     pressure = E_star * length / pixel_m
-    return z, _Scales(n, pixel_m, E_star, length, pressure, mean, float(z.max()))
+    return z, _Scales(shape, pixel_m, E_star, length, pressure, mean, float(z.max()))
 
 
 def _full_contact_field(z: Any, op: _Operator) -> Any:
@@ -1211,7 +1224,7 @@ def full_contact_pressure(z: ArrayLike, pixel_m: float, E_star: float, *, worker
     pixel_m = check_range("pixel_m", pixel_m, 0.0, None, lo_open=True, unit="m")
     E_star = check_range("E_star", E_star, 0.0, None, lo_open=True, unit="Pa")
     zn, sc = _scales(arr, pixel_m, E_star)
-    field = _full_contact_field(zn, _Operator(sc.n, get_backend("cpu", _check_workers(workers))))
+    field = _full_contact_field(zn, _Operator(sc.shape, get_backend("cpu", _check_workers(workers))))
     return max(0.0, -float(field.min())) * sc.pressure
 
 
@@ -1244,11 +1257,11 @@ def _target(
 
 
 def _check_initial(initial: ArrayLike | None, sc: _Scales) -> _Array | None:
-    """A warm-start pressure field (Pa, n×n, finite, ≥ 0) as a flat dimensionless array, or None."""
+    """A warm-start pressure field (Pa, the shape of z, finite, ≥ 0) as a flat dimensionless array, or None."""
     if initial is None:
         return None
     p0 = np.asarray(initial, dtype=np.float64)
-    if p0.shape != (sc.n, sc.n) or not np.all(np.isfinite(p0)) or np.any(p0 < 0.0):
+    if p0.shape != sc.shape or not np.all(np.isfinite(p0)) or np.any(p0 < 0.0):
         raise SettingError(
             "initial_pressure", f"array of shape {p0.shape}", "expected finite pressures >= 0 in Pa, the shape of z"
         )
@@ -1261,7 +1274,7 @@ def _initial_pressure(solver: _Solver, sc: _Scales, load: float | None, initial:
     if load is not None:
         if initial is not None and float(initial.sum()) > 0.0:
             return initial
-        return solver.xp.full(sc.n * sc.n, load)
+        return solver.xp.full(sc.shape[0] * sc.shape[1], load)
     return solver.xp.clip((solver.z - solver.h0) / solver.kernel.self_compliance, 0.0, solver.cap)
 
 
@@ -1285,8 +1298,8 @@ def solve_contact(
     """Periodic normal contact of the rough surface ``z`` on an elastic half-space (Polonsky & Keer 1999).
 
     Args:
-        z: composite heights, m, n×n (n even), periodic, pointing towards the half-space.
-        pixel_m: grid pitch Δ, m.
+        z: composite heights, m, ny×nx (rows × columns, both even), periodic, pointing towards the half-space.
+        pixel_m: grid pitch Δ, m, the same along both axes (square pixels).
         E_star: composite modulus E*, Pa.
         mean_pressure: prescribed mean pressure p̄ = F/A₀, Pa (> 0, < hardness). Full contact (p̄ at or above
             :func:`full_contact_pressure`, elastic) is returned exactly.
@@ -1299,7 +1312,8 @@ def solve_contact(
         tol: convergence tolerance on the contact residual, in units of rms(z) (see module doc).
         max_iter: iteration limit (status 1 when reached; the last state is returned with ``success`` False).
         workers: FFT threads, default ``os.cpu_count()``.
-        initial_pressure: warm start, Pa, n×n (scaled to ``mean_pressure``), e.g. a neighbouring load step.
+        initial_pressure: warm start, Pa, the shape of ``z`` (scaled to ``mean_pressure``), e.g. a neighbouring load
+            step.
         precondition: filter the search direction by the stiffness E*|q|/2 (Fourier preconditioner, Vollebregt
             2014): 2.4× fewer iterations at 1024², and a count that grows far slower with the grid, for one more
             FFT pair per iteration. False: the plain Polonsky–Keer directions (the solver before issue 28).
@@ -1323,13 +1337,13 @@ def solve_contact(
     if be.name == "gpu":
         from sims.budget import check_bem_gpu
 
-        check_bem_gpu(arr.shape[0])
+        check_bem_gpu((int(arr.shape[0]), int(arr.shape[1])))
     zd, sc = _scales(arr, pixel_m, E_star, be)
     mode, load, offset = _target(sc, hardness, mean_pressure, mean_gap, approach)
     initial = _check_initial(initial_pressure, sc)
     cap = math.inf if hardness is None else hardness / sc.pressure
-    op = _Operator(sc.n, be)
-    size = sc.n * sc.n
+    op = _Operator(sc.shape, be)
+    size = sc.shape[0] * sc.shape[1]
     solver = _Solver(
         zd,
         op,
@@ -1441,7 +1455,7 @@ def solve_load_path(
         pressures: mean pressures, Pa, strictly increasing, each > 0 (and below the hardness).
         stiffness: the finite-difference scheme above.
         step: relative pressure step of the ``"centred"``/``"forward"`` schemes, in (0, 0.5].
-        keep_fields: keep every n×n field (:class:`ContactResult`); else keep the scalars only.
+        keep_fields: keep every ny×nx field (:class:`ContactResult`); else keep the scalars only.
 
     Returns:
         :class:`LoadPathResult`.
@@ -1559,7 +1573,7 @@ def _pad_axis(spec: NDArray[np.complex128], axis: int, m: int, half: bool) -> ND
 
 
 def refine(z: ArrayLike, factor: int) -> _Array:
-    """Fourier interpolation of a periodic n×n surface onto (factor·n)² points (pixel / factor), m.
+    """Fourier interpolation of a periodic ny×nx surface onto factor·ny × factor·nx points (pixel / factor), m.
 
     The spectrum is zero-padded (the Nyquist mode split evenly between ±n/2 so the result stays real), so the refined
     surface passes exactly (to rounding) through the original samples, ``refine(z, f)[::f, ::f] == z``, and equals the
@@ -1567,16 +1581,15 @@ def refine(z: ArrayLike, factor: int) -> _Array:
     """
     arr = _check_surface(z)
     factor = check_int("factor", factor, 1, 64)
-    n = arr.shape[0]
-    m = n * factor
-    if m > _MAX_N:
-        raise SettingError("factor", factor, f"expected factor·n <= {_MAX_N}")
+    my, mx = (k * factor for k in arr.shape)
+    if max(my, mx) > _MAX_N:
+        raise SettingError("factor", factor, f"expected factor·max(ny, nx) <= {_MAX_N}")
     if factor == 1:
         return arr.copy()
     spec = sfft.rfft2(arr)
-    spec = _pad_axis(spec, 1, m, half=True)
-    spec = _pad_axis(spec, 0, m, half=False)
-    return sfft.irfft2(spec, s=(m, m)) * float(factor * factor)
+    spec = _pad_axis(spec, 1, mx, half=True)
+    spec = _pad_axis(spec, 0, my, half=False)
+    return sfft.irfft2(spec, s=(my, mx)) * float(factor * factor)
 
 
 def convergence_check(

@@ -8,7 +8,7 @@ One solver (:mod:`sims.bem`) runs over an *array namespace* ``xp`` (NumPy or CuP
   axis, faster with several workers); on the GPU cuFFT through ``cupyx.scipy.fft`` with plans made once per grid
   (the inverse overwriting its input spectrum, as on the CPU);
 * the copies between host and device (``asarray``, ``to_host``);
-* the element-wise passes over the n×n fields and their half spectra (:meth:`Backend.rows`): on the CPU in
+* the element-wise passes over the ny×nx fields and their half spectra (:meth:`Backend.rows`): on the CPU in
   cache-sized blocks of rows, spread over the ``workers`` threads (NumPy's ufuncs release the GIL), so that several
   operations on one block read memory once and every core takes part; on the GPU one call over the whole array
   (CuPy's element-wise operations are device kernels already), and a few passes of several operations fused into
@@ -145,7 +145,7 @@ class Backend:
         self.defer = not fast and DEVICE_DECISIONS
 
     def rfft2(self, x: Any) -> Any:
-        """The half spectrum of a real n×n array (a new complex array)."""
+        """The half spectrum of a real ny×nx array (a new complex array)."""
         if self.fast:
             return sfft.rfft2(x, workers=self.workers)
         if self.cufft is not None:
@@ -154,33 +154,34 @@ class Backend:
                 return self.cufft.rfft2(x, plan=plan)
         return self.xp.fft.rfft2(x)
 
-    def irfft2(self, spectrum: Any, n: int) -> Any:
-        """The real n×n array of a half spectrum; ``spectrum`` may be overwritten.
+    def irfft2(self, spectrum: Any, shape: tuple[int, int]) -> Any:
+        """The real ny×nx array (``shape``) of a half spectrum; ``spectrum`` may be overwritten.
 
         On the CPU the inverse is done axis by axis (complex ``ifft`` in place along axis 0, then ``irfft`` along
         axis 1): with several workers markedly faster than ``irfft2`` in SciPy 1.11–1.17 (1.7× at 1024², 2 threads).
         """
         if self.fast:
             spectrum = sfft.ifft(spectrum, axis=0, workers=self.workers, overwrite_x=True)
-            return sfft.irfft(spectrum, n=n, axis=1, workers=self.workers)
+            return sfft.irfft(spectrum, n=shape[1], axis=1, workers=self.workers)
         if self.cufft is not None:
-            plan = _cufft_plan(self.cufft, spectrum, "C2R", (n, n))
+            plan = _cufft_plan(self.cufft, spectrum, "C2R", shape)
             if plan is not None:
-                return self.cufft.irfft2(spectrum, s=(n, n), plan=plan, overwrite_x=True)
-        return self.xp.fft.irfft2(spectrum, s=(n, n))
+                return self.cufft.irfft2(spectrum, s=shape, plan=plan, overwrite_x=True)
+        return self.xp.fft.irfft2(spectrum, s=shape)
 
-    def rows(self, fn: Callable[[slice], _T], n: int) -> list[_T]:
-        """``fn(rows)`` over blocks of the ``n`` rows of the solver's n×n arrays and half spectra; results in row order.
+    def rows(self, fn: Callable[[slice], _T], n: int, width: int | None = None) -> list[_T]:
+        """``fn(rows)`` over blocks of the ``n`` rows of the solver's n × ``width`` arrays (default ``width`` = n)
+        and their half spectra; results in row order.
 
         On the CPU the blocks are cache-sized (256 KiB of a half spectrum), so the operations ``fn`` does on one block
         (in place, ``out=``) read and write memory once, as one fused pass would; consecutive blocks are split into
         ``workers`` equal groups, the first run by the calling thread, the others by a pool of ``workers − 1`` threads
-        (an exception in ``fn`` is raised here). The blocks depend on ``n`` only, so results summed over them
+        (an exception in ``fn`` is raised here). The blocks depend on the shape only, so results summed over them
         do not depend on the thread count. Generic namespace path: one call, ``fn(slice(None))``.
         """
         if not self.fast:
             return [fn(slice(None))]
-        step = max(1, _BLOCK_BYTES // (8 * (n + 2)))
+        step = max(1, _BLOCK_BYTES // (8 * ((n if width is None else width) + 2)))
         blocks = [slice(i, min(i + step, n)) for i in range(0, n, step)]
         k = min(self.workers, len(blocks))
         if k == 1:

@@ -105,7 +105,8 @@ def composite_surface(ctx: BuildContext) -> tuple[NDArray[np.float64], float]:
 
 def composite_from_config(config: SimConfig) -> tuple[NDArray[np.float64], float]:
     """(z_liner + z_piston in m, pixel in m) of a configuration's surface pair, as :func:`sims.database.build_database`
-    generates them (same seeds, same grid). Both surfaces must share one square grid."""
+    generates them (same seeds, same grid). Both surfaces must share one grid (ny×nx, square pixels), with even ny and
+    nx (a measured map's mirrored edges always give that; a windowed map of an odd size is refused naming ``edges``)."""
     liner, piston = config.liner, config.piston
     z1, z2 = liner.heights(), piston.heights()
     if z1.shape != z2.shape or not math.isclose(liner.pixel_m, piston.pixel_m, rel_tol=1e-9):
@@ -113,6 +114,14 @@ def composite_from_config(config: SimConfig) -> tuple[NDArray[np.float64], float
             "surfaces.piston",
             f"{z2.shape} at {piston.pixel_m:g} m",
             f"the BEM reference needs both surfaces on one grid: liner is {z1.shape} at {liner.pixel_m:g} m",
+        )
+    if any(k % 2 for k in z1.shape):
+        edges = (liner.conditioning or {}).get("edges")
+        raise SettingError(
+            f"{liner.section}.edges" if edges is not None else f"{liner.section}.n",
+            edges if edges is not None else z1.shape[0],
+            f"the periodic BEM needs even numbers of rows and columns, this map has {z1.shape[0]} × {z1.shape[1]}: "
+            "edges = 'mirror' doubles each side (every height kept)",
         )
     return z1 + z2, float(liner.pixel_m)
 
@@ -191,12 +200,12 @@ def bem_curve(
     settings: BemCurveSettings | None = None,
     key: str = BEM_KEY,
 ) -> ContactCurve:
-    """The BEM reference p(h) and A(h)/A₀ of the composite surface ``z`` (m, periodic, square, even n) on a
+    """The BEM reference p(h) and A(h)/A₀ of the composite surface ``z`` (m, periodic, ny×nx, both even) on a
     half-space of modulus ``E_star`` (Pa), capped at ``hardness`` (Pa) if given and ``settings.plastic``.
 
     h is the separation of the mean planes (m, module doc); pressures in Pa. ``parameters`` holds the solver record:
     pressures, approach, mean gap ū, counted and corrected areas, contact spots, iterations, residuals, plastic
-    fraction, grid, and the Fourier refinement factor.
+    fraction, grid (``n`` points along x, ``shape`` (ny, nx)), and the Fourier refinement factor.
     """
     from sims import bem
     from sims.database import ContactCurve
@@ -213,7 +222,8 @@ def bem_curve(
     params: dict[str, Any] = {
         "E_star_pa": E_star,
         "H_pa": cap,
-        "n": int(zz.shape[0]),
+        "n": int(zz.shape[1]),
+        "shape": [int(k) for k in zz.shape],
         "pixel_m": pix,
         "refine": st.refine,
         "area": st.area,
@@ -228,7 +238,7 @@ def bem_curve(
         "max_residual": float(max(s.residual for s in sols)),
         "all_converged": bool(all(s.success for s in sols)),
         "area_monotone_fixes": fixes,
-        "area_m2": float((zz.shape[0] * pix) ** 2),
+        "area_m2": float((zz.shape[0] * pix) * (zz.shape[1] * pix)),
     }
     return ContactCurve(key, h, p, a, params)
 

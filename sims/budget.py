@@ -54,20 +54,34 @@ _NODE_WEIGHT_S = 1.0e-6  # rig: seconds per node and weight (all Newton steps)
 _BEM_POINT_S = 2.0e-6  # BEM: seconds per refined point and pressure (order of magnitude)
 
 
-def _grid(spec: SurfaceSpec) -> tuple[int, str]:
-    """Points of a surface's grid and the scene key that sets it."""
+def _grid_shape(spec: SurfaceSpec) -> tuple[tuple[int, int], str]:
+    """(ny, nx) of a surface's grid (rows × columns; a measured map's mirrored edges double each side) and the scene
+    key that sets it."""
     if spec.kind == "file" and spec.measured is not None:
         mirrored = (spec.conditioning or {}).get("edges") == "mirror"  # 2× each side
-        shape = tuple(2 * k for k in spec.measured.shape) if mirrored else spec.measured.shape
-        return math.prod(shape), f"[{spec.section}] path = {spec.path!r} ({' × '.join(map(str, shape))})"
+        ny, nx = (1, *spec.measured.shape) if spec.measured.ndim == 1 else spec.measured.shape  # a profile: 1 row
+        shape = (2 * ny, 2 * nx) if mirrored else (int(ny), int(nx))
+        return shape, f"[{spec.section}] path = {spec.path!r} ({' × '.join(map(str, shape))})"
     n = int(spec.n or 0)
-    return n * n, f"[{spec.section}] n = {n}"
+    return (n, n), f"[{spec.section}] n = {n}"
+
+
+def _grid(spec: SurfaceSpec) -> tuple[int, str]:
+    """Points of a surface's grid and the scene key that sets it."""
+    shape, key = _grid_shape(spec)
+    return math.prod(shape), key
 
 
 def _grids(config: SimConfig) -> tuple[int, str]:
     """The larger grid of the two surfaces [points] and the keys of both."""
     (a, ka), (b, kb) = _grid(config.liner), _grid(config.piston)
     return max(a, b), f"{ka}, {kb}"
+
+
+def _largest_shape(config: SimConfig) -> tuple[tuple[int, int], str]:
+    """(ny, nx) of the larger of the two surfaces' grids and the keys of both."""
+    (a, ka), (b, kb) = _grid_shape(config.liner), _grid_shape(config.piston)
+    return max(a, b, key=math.prod), f"{ka}, {kb}"
 
 
 def surfaces(config: SimConfig) -> Estimate:
@@ -151,8 +165,8 @@ def check_database(config: SimConfig, models: Sequence[str] | None = None, n_sep
 
     names = list(models) if models is not None else list(config.database.models)
     if "bem" in names and default_device() == "gpu":
-        points, keys = _grids(config)
-        check_bem_gpu(math.isqrt(points), keys)
+        shape, keys = _largest_shape(config)
+        check_bem_gpu(shape, keys)
 
 
 def check_specimen(
@@ -171,8 +185,8 @@ def check_comparison(
     """Refuse a boundary-element comparison that cannot fit: ``jobs`` tasks at once, each a BEM solve or a model's
     database on one realisation; on the GPU also one solve's device memory (:func:`check_bem_gpu`)."""
     if device == "gpu":
-        points, keys = _grids(config)
-        check_bem_gpu(math.isqrt(points) * refine, f"{keys}, --refine {refine}")
+        (ny, nx), keys = _largest_shape(config)
+        check_bem_gpu((ny * refine, nx * refine), f"{keys}, --refine {refine}")
     tasks = [bem(config, refine, jobs, pressures)]
     if models:
         db = database(config, models)
@@ -193,14 +207,17 @@ def check_comparison(
 _BEM_GPU_B = 224.0
 
 
-def bem_gpu(n: int, key: str = "[surfaces.*] n") -> Estimate:
-    """One boundary-element solve of an n×n grid on the GPU (device memory)."""
-    return Estimate("boundary-element solve on the GPU", f"{key} (grid {n}×{n})", _BEM_GPU_B * n * n)
+def bem_gpu(n: int | tuple[int, int], key: str = "[surfaces.*] n") -> Estimate:
+    """One boundary-element solve of an ny×nx grid (``n``: the shape, or one int for n×n) on the GPU (device
+    memory, proportional to ny·nx)."""
+    ny, nx = (n, n) if isinstance(n, int) else n
+    return Estimate("boundary-element solve on the GPU", f"{key} (grid {ny}×{nx})", _BEM_GPU_B * ny * nx)
 
 
-def check_bem_gpu(n: int, key: str = "[surfaces.*] n", free_bytes: float | None = None) -> Estimate:
-    """Refuse (:class:`~contactrig.core.budget.BudgetError`) an n×n solve that cannot fit the GPU's free memory
-    (``free_bytes``, default :func:`sims.bem_backend.gpu_memory_bytes`; nothing is refused when unknown)."""
+def check_bem_gpu(n: int | tuple[int, int], key: str = "[surfaces.*] n", free_bytes: float | None = None) -> Estimate:
+    """Refuse (:class:`~contactrig.core.budget.BudgetError`) an ny×nx solve (``n``: the shape, or one int for n×n)
+    that cannot fit the GPU's free memory (``free_bytes``, default :func:`sims.bem_backend.gpu_memory_bytes`; nothing
+    is refused when unknown)."""
     from contactrig.core.budget import BudgetError
     from sims.bem_backend import gpu_memory_bytes
 

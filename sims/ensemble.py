@@ -224,7 +224,8 @@ def _bem_task(config: SimConfig, st: CompareSettings, task: Task, workers: int) 
         "mean_spot_area_m2": [float(s.spot_areas.mean()) if s.n_spots else 0.0 for s in res],
         "plastic_fraction": [s.plastic_fraction for s in res],
         "residual": [s.residual for s in res],
-        "n": int(z.shape[0]),
+        "n": int(z.shape[1]),
+        "shape": [int(k) for k in z.shape],
         "pixel_m": pixel,
     }
     return TaskResult(

@@ -57,12 +57,12 @@ def test_the_element_wise_work_of_a_solve_runs_on_every_worker(monkeypatch):
     threads: set[int] = set()
     original = bem_backend.Backend.rows
 
-    def rows(self, fn, n):
+    def rows(self, fn, *shape):  # the rows and the row width
         def traced(r):
             threads.add(threading.get_ident())
             return fn(r)
 
-        return original(self, traced, n)
+        return original(self, traced, *shape)
 
     monkeypatch.setattr(bem_backend.Backend, "rows", rows)
     n = 256  # three blocks of rows

@@ -316,3 +316,31 @@ def test_real_nms_file(capsys):
 def test_real_flat_map_is_not_a_cylinder(capsys):
     err = refused(capsys, str(real("frt-2.frt")), "--max-missing-fraction", "0.3", "--form", "cylinder")
     assert "does not resolve a cylinder" in err
+
+
+def test_real_sur_map_is_compared_by_the_bem_at_full_resolution(tmp_path, capsys):
+    """Issue 28, target 3: the 484 × 563 Digital Surf map, both bodies, mirrored to a 968 × 1126 periodic cell (not
+    square, not cropped), through ``compare-models``: the BEM reference at every pressure, finite, the area rising."""
+    from importlib import resources
+
+    from contactrig.core.scene import load_scene
+    from sims.bem_database import composite_from_config
+    from sims.config import SimConfig
+
+    path = real("sur-2.sur")
+    h, _, _ = library_heights_m(path)
+    text = resources.files("contactrig").joinpath("scenes/measured.toml").read_text(encoding="utf-8")
+    for name in ("liner", "piston"):
+        text = text.replace(f'"measured/{name}.x3p"', json.dumps(path.as_posix()))
+    scene = tmp_path / "sur2.toml"
+    scene.write_text(text.replace('form = "cylinder"', 'form = "plane"'), encoding="utf-8")
+    z, _ = composite_from_config(SimConfig.from_scene(load_scene(scene)))
+    assert z.shape == (2 * h.shape[0], 2 * h.shape[1]) and z.shape[0] != z.shape[1]
+    code = main(["compare-models", str(scene), "--models", "greenwood_tripp", "--pressures", "1e5,1e6,1e7",
+                 "--jobs", "1", "--json", "--quiet"])  # fmt: skip
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    ref = json.loads(captured.out)["reference"]
+    area = ref["area_fraction"]
+    assert len(area) == 3 and 0.0 < area[0] < area[1] < area[2] <= 1.0
+    assert all(math.isfinite(v) and v > 0.0 for v in ref["mean_gap_m"] + ref["stiffness_pa_per_m"])
