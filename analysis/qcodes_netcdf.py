@@ -130,9 +130,10 @@ def _snapshot(attrs: dict[str, Any], start_s: float | None) -> str:
 
 
 def qcodes_attributes(ds: xr.Dataset) -> dict[str, Any]:
-    """The attributes QCoDeS's ``load_from_netcdf`` needs, from the Dataset :func:`analysis.session_dataset.
-    session_dataset` builds (its variables, coordinates and the session attributes ``content_id``, ``start_time``,
-    ``end_time``, ``sample``, ``scene_name``, ``session_file``, the ``*IDN?`` replies and ``instrument_settings``)."""
+    """The attributes QCoDeS's ``load_from_netcdf`` needs, from the Dataset that
+    :func:`analysis.session_dataset.session_dataset` builds: its variables, coordinates and the session attributes
+    ``content_id``, ``start_time``, ``end_time``, ``sample``, ``scene_name``, ``session_file``, the ``*IDN?``
+    replies, ``instrument_settings``, ``overrides`` and ``software``."""
     attrs = dict(ds.attrs)
     start_s = epoch_seconds(str(attrs.get("start_time", "")))
     end_s = epoch_seconds(str(attrs.get("end_time", "")))

@@ -391,3 +391,26 @@ def test_qcodes_loads_the_export(flagged, tmp_path):
     with pytest.warns(UserWarning, match="setpoints are not equal"):  # one frame for both dimensions: QCoDeS
         one = q.to_pandas_dataframe()  # joins block and reading numbers on one index, and says so
     assert set(one.index) == set(s.summary["block"].to_numpy() + 1) | set(range(len(s.readings)))
+
+
+def test_qcodes_unfinished_session_has_no_completed_timestamp(tmp_path):
+    """A session without a stop record (killed or still running): completed_timestamp_raw is QCoDeS's sentinel
+    for none, -1 (export_to_xarray.py writes it, _load_from_netcdf reads it back as None); loaded by QCoDeS where
+    installed, its completed timestamp is None."""
+    from tests.analysis.sessions import model_resistance
+    from tests.analysis.sessions import write_session as write_rows
+
+    rng = np.random.default_rng(0)
+    path = write_rows(tmp_path / "inc.h5", ((w, 1, model_resistance(w, rng, 0.01)) for w in (5.0, 10.0, 20.0)))
+    s = load_quietly(path)
+    assert not s.complete
+    nc = _export(path, tmp_path / "inc.nc")
+    a = xr.open_dataset(nc, engine="h5netcdf").attrs
+    assert a["completed_timestamp_raw"] == -1
+    assert a["run_timestamp_raw"] == pytest.approx(_epoch(s.start["started"]), abs=1e-6)
+    try:
+        from qcodes.dataset import load_from_netcdf
+    except ImportError:
+        return  # QCoDeS is not a dependency
+    q = load_from_netcdf(nc, path_to_db=tmp_path / "qcodes.db")
+    assert q.completed_timestamp_raw is None and q.run_timestamp_raw == pytest.approx(a["run_timestamp_raw"])
