@@ -26,7 +26,8 @@ version 3, ``qcodes/dataset/descriptions/versioning/rundescribertypes.py``): con
   setpoints are its dimensions' coordinates (``paramtype`` ``text`` for strings, ``numeric`` otherwise; ``label``
   its ``long_name``, ``unit`` its ``units``), with the shapes.
 - ``snapshot`` — a QCoDeS station snapshot: the source and the voltmeter as instruments with their ``IDN``
-  parameter (vendor, model, serial, firmware) and the address, and a ``contactrig`` section with the scene, the
+  parameter (vendor, model, serial, firmware) and the address (none where no ``*IDN?`` reply is recorded, as in
+  an imported table), and a ``contactrig`` section with the scene, the
   overrides, every setting read back at the start, and the software versions.
 """
 
@@ -113,6 +114,8 @@ def _snapshot(attrs: dict[str, Any], start_s: float | None) -> str:
     for role, key, what in (("source", "instrument_source_idn", "Keithley 6221 current source"),
                             ("voltmeter", "instrument_voltmeter_idn", "Keithley 2182A nanovoltmeter")):  # fmt: skip
         reply = str(attrs.get(key, ""))
+        if not reply:
+            continue  # not recorded (an imported table): no instrument
         instruments[role] = {
             "__class__": f"contactrig: {what}", "name": role, "functions": {}, "submodules": {},
             "parameters": {"IDN": {"__class__": "qcodes.parameters.Parameter", "full_name": f"{role}_IDN",

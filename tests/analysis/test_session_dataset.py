@@ -414,3 +414,14 @@ def test_qcodes_unfinished_session_has_no_completed_timestamp(tmp_path):
         return  # QCoDeS is not a dependency
     q = load_from_netcdf(nc, path_to_db=tmp_path / "qcodes.db")
     assert q.completed_timestamp_raw is None and q.run_timestamp_raw == pytest.approx(a["run_timestamp_raw"])
+
+
+def test_qcodes_imported_table_has_no_instruments(tmp_path):
+    """An imported table (``contactrig import --tab1``) records no *IDN? reply: its snapshot's station holds no
+    instrument (none is invented), and its run description still names every variable."""
+    path = tmp_path / "tab1.h5"
+    assert main(["import", "--tab1", "-o", str(path)]) == 0
+    ds = xr.open_dataset(_export(path, tmp_path / "tab1.nc"), engine="h5netcdf")
+    assert json.loads(ds.attrs["snapshot"])["station"]["instruments"] == {}
+    assert set(json.loads(ds.attrs["run_description"])["interdependencies_"]["dependencies"]) == set(ds.data_vars)
+    assert QCODES_GUID.match(ds.attrs["guid"]) and ds.sizes["reading"] == 8 * 6  # Tab. 1: 8 weights × 6 repeats
