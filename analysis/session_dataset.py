@@ -12,7 +12,7 @@ an :class:`xarray.Dataset` with two dimensions:
   ``V``, or ``ohm`` for an imported table; NaN where it sent +9.9E37, an overflow or no reading),
   ``resistance`` [ohm], ``valid`` (1 = averaged into its block's mean) and ``reading_flag``, a CF flag variable
   (``flag_masks`` 1 ``invalid``, 2 ``no_value`` — overflow or no reading —, 4 ``compliance`` — its block was in
-  compliance).
+  compliance); its coordinate ``reading`` numbers the readings 0, 1, … in the order of the readings table.
 
 Every numeric variable has a CF ``units`` string (UDUNITS: ``kg``, ``ohm``, ``s``, ``V``, ``1`` for counts and
 flags) and a ``long_name``. The global attributes hold the session's metadata as the run index reads it
@@ -21,7 +21,8 @@ flags) and a ``long_name``. The global attributes hold the session's metadata as
 software versions, start and end time with their UTC offset, status, completeness, seal, schema, blocks done and
 planned, the run records, the operator's pauses (schema 5, :mod:`daq.pause`) and (schema 4) the adaptive
 records; nested values are JSON text (netCDF attributes are flat). The recorded instrument exchanges (the replay
-log) are not part of the Dataset.
+log) are not part of the Dataset. The attributes QCoDeS's ``qcodes.dataset.load_from_netcdf`` needs (``guid``,
+``run_description``, ``snapshot``, ``sample_name`` …) are added by :mod:`analysis.qcodes_netcdf`, without QCoDeS.
 
 The file is written with h5netcdf through xarray (the ``netcdf`` extra: ``pip install 'contactrig[netcdf]'``), so
 xarray, netCDF-4 libraries and plain HDF5 readers (dimension scales) all read it. As every output: an existing file
@@ -156,6 +157,7 @@ def session_dataset(source: str | Path | Session) -> xr.Dataset:
     """The session at ``source`` (a path, or a :class:`~daq.session_file.Session` already read) as an
     :class:`xarray.Dataset`: dimensions ``block`` and ``reading``, CF ``units`` on every numeric variable, flagged
     readings kept with their flags, the session's metadata as global attributes (see the module docstring)."""
+    from analysis.qcodes_netcdf import qcodes_attributes
     from daq.records import block_number
 
     (xr,) = _require("xarray")
@@ -207,10 +209,16 @@ def session_dataset(source: str | Path | Session) -> xr.Dataset:
                              flag_masks=np.asarray([FLAG_INVALID, FLAG_NO_VALUE, FLAG_COMPLIANCE], dtype=np.uint8),
                              flag_meanings=_FLAG_MEANINGS),
     }  # fmt: skip
-    coords = {"block": ("block", blocks, {"long_name": "block number (1-based)", "units": "1"})}
+    coords = {
+        "block": ("block", blocks, {"long_name": "block number (1-based)", "units": "1"}),
+        "reading": ("reading", np.arange(len(r), dtype=np.int32),
+                    {"long_name": "reading number in the session (0-based, in the order of the readings table)",
+                     "units": "1"}),
+    }  # fmt: skip
     ds = xr.Dataset(data, coords=coords, attrs=_metadata(session))
     ds["mean_resistance"].attrs["ancillary_variables"] = "sd_resistance sem_resistance n_valid compliance"
     ds["resistance"].attrs["ancillary_variables"] = "valid reading_flag"
+    ds.attrs.update(qcodes_attributes(ds))  # loadable by QCoDeS's load_from_netcdf (analysis.qcodes_netcdf)
     return ds
 
 

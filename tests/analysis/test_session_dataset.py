@@ -9,10 +9,12 @@ with overrides, an adaptive one (schema 4) and an old one (schema 1)."""
 from __future__ import annotations
 
 import dataclasses
+import datetime
 import hashlib
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 import warnings
@@ -266,3 +268,160 @@ def test_paused_session_keeps_its_pauses(tmp_path):
         recorded = json.loads(h5["entry/runs/run_0/record"][()])["pauses"]
     assert json.loads(ds.attrs["pauses"]) == [{**p, "run": 0} for p in recorded]
     assert recorded[0]["reason"] == "check the liner" and recorded[0]["resumed_by"] == "bob"
+
+
+# --- QCoDeS (issue 29: "readable by xarray and the QCoDeS/xarray tool chain") ---------------------------------------
+# What QCoDeS 0.58.0 needs, read from its source (written out here: QCoDeS is not a dependency):
+# - qcodes/dataset/data_set_in_memory.py, DataSetInMem._load_from_netcdf: the global attributes guid,
+#   captured_run_id, captured_counter (int()), ds_name, exp_name, sample_name, run_description, snapshot,
+#   run_timestamp_raw and completed_timestamp_raw (float(); -1 for none), parent_dataset_links and export_info (JSON);
+#   _from_xarray_dataset_to_qcodes_raw_data: every dimension of every data variable has an index (a coordinate);
+# - qcodes/dataset/descriptions/versioning/rundescribertypes.py and rundescriber.py (RunDescriber._from_dict):
+#   run_description of version >= 3 is read from "interdependencies_" (parameters, dependencies, inferences,
+#   standalones) and "shapes"; versions 2 and 3 carry "interdependencies" (the ParamSpec list) too;
+# - qcodes/parameters/_paramspec.py, ParamSpecBase: paramtype one of array, numeric, text, complex; the name a
+#   Python identifier;
+# - qcodes/dataset/guids.py, _guid_pattern (validate_guid_format) and parse_guid (sample 8, location 2, work station
+#   6, time 16 hex digits: ms since the epoch);
+# - qcodes/dataset/exporters/export_to_xarray.py, _add_metadata_to_xarray: the format QCoDeS writes these in.
+QCODES_GUID = re.compile(r"^[\da-f]{8}-([\da-f]{4}-){3}[\da-f]{12}$")
+QCODES_PARAMTYPES = ("array", "numeric", "text", "complex")
+
+
+def _epoch(iso: str) -> float:
+    """Seconds since 1970-01-01T00:00:00Z of an ISO-8601 instant with its offset, counted here from its parts."""
+    t = datetime.datetime.fromisoformat(iso)
+    epoch = datetime.datetime(1970, 1, 1, tzinfo=datetime.UTC)
+    return (t - epoch) / datetime.timedelta(seconds=1)
+
+
+def test_qcodes_netcdf_attributes_as_its_loader_reads_them(flagged, tmp_path):
+    """The attributes QCoDeS's load_from_netcdf reads (QCoDeS 0.58.0, see above), checked without QCoDeS: present
+    with their types, the guid in its format and derived from the session (the same for a copy under another
+    name, another for another session), the timestamps the session's start and end, the run description naming
+    every variable with its dimensions as setpoints, the snapshot's instruments the session's *IDN? replies."""
+    ds = xr.open_dataset(_export(flagged, tmp_path / "f.nc"), engine="h5netcdf")
+    s = load_quietly(flagged)
+    a = ds.attrs
+    for key in ("ds_name", "exp_name", "sample_name", "guid", "run_description", "snapshot", "parent_dataset_links",
+                "export_info"):  # fmt: skip
+        assert isinstance(a[key], str), key
+    assert int(a["captured_run_id"]) == a["captured_run_id"] and int(a["captured_counter"]) == a["captured_counter"]
+    assert (a["sample_name"], a["exp_name"], a["ds_name"]) == ("test sample", "daq-test", "flagged")
+    assert json.loads(a["parent_dataset_links"]) == [] and isinstance(json.loads(a["export_info"])["export_paths"],
+                                                                       dict)  # fmt: skip
+    # timestamps: the session's start and end, counted independently
+    assert a["run_timestamp_raw"] == pytest.approx(_epoch(s.start["started"]), abs=1e-6)
+    assert a["completed_timestamp_raw"] == pytest.approx(_epoch(s.stop["stopped"]), abs=1e-6)
+    # guid: QCoDeS's format; time field = the start in ms; the rest from the content id; stable, per session
+    guid = a["guid"]
+    assert QCODES_GUID.match(guid), guid
+    digits = guid.replace("-", "")
+    assert int(digits[16:], 16) == round(_epoch(s.start["started"]) * 1000)
+    assert digits[:16] == a["content_id"].removeprefix("sha256:")[:16]
+    copy = tmp_path / "renamed.h5"
+    copy.write_bytes(flagged.read_bytes())
+    assert xr.open_dataset(_export(copy, tmp_path / "c.nc"), engine="h5netcdf").attrs["guid"] == guid
+    other = tmp_path / "other.h5"
+    write_session(SessionPlan.from_scene(small_scene()), other)
+    assert xr.open_dataset(_export(other, tmp_path / "o.nc"), engine="h5netcdf").attrs["guid"] != guid
+    # run description: every variable a parameter; every data variable depends on its dimensions' coordinates
+    rd = json.loads(a["run_description"])
+    assert rd["version"] == 3
+    new = rd["interdependencies_"]
+    assert set(new["parameters"]) == {str(v) for v in ds.variables} and new["inferences"] == {}
+    assert new["standalones"] == []
+    assert new["dependencies"] == {str(v): list(ds[v].dims) for v in ds.data_vars}
+    assert all(dim in ds.indexes for v in ds.data_vars for dim in ds[v].dims)  # an index per dimension
+    for name, spec in new["parameters"].items():
+        assert spec["name"] == name and name.isidentifier() and spec["paramtype"] in QCODES_PARAMTYPES
+        assert (spec["label"], spec["unit"]) == (ds[name].attrs["long_name"], ds[name].attrs.get("units", ""))
+    assert new["parameters"]["block_started"]["paramtype"] == "text"
+    assert new["parameters"]["resistance"]["paramtype"] == "numeric"
+    old = {p["name"]: p for p in rd["interdependencies"]["paramspecs"]}
+    assert {n: p["depends_on"] for n, p in old.items()} == {n: new["dependencies"].get(n, []) for n in old}
+    assert rd["shapes"] == {str(v): list(ds[v].shape) for v in ds.data_vars}
+    # snapshot: a station snapshot whose instruments carry the recorded *IDN? replies (QCoDeS's IDN value)
+    instruments = json.loads(a["snapshot"])["station"]["instruments"]
+    for role in ("source", "voltmeter"):
+        reply = s.start["instrument"][role]
+        idn = instruments[role]["parameters"]["IDN"]
+        assert idn["raw_value"] == reply
+        assert [idn["value"][k] for k in ("vendor", "model", "serial", "firmware")] == [p.strip() for p in
+                                                                                        reply.split(",")]  # fmt: skip
+    # the reading dimension's coordinate (QCoDeS needs one): 0, 1, … in the order of the readings table
+    assert _same(ds["reading"], np.arange(len(s.readings)))
+
+
+def test_qcodes_loads_the_export(flagged, tmp_path):
+    """The round trip through QCoDeS itself, where it is installed (it is not a dependency; CI skips this):
+    load_from_netcdf, the guid and sample, to_xarray_dataset with the reader's values, the pandas frames.
+
+    Checked once here (2026-11-27) with QCoDeS 0.58.0 in a venv of its own that also sees the project's packages:
+      python3 -m venv /tmp/qcvenv && /tmp/qcvenv/bin/pip install qcodes h5netcdf
+      echo /work/main/.venv/lib/python3.11/site-packages > /tmp/qcvenv/lib/python3.11/site-packages/zz_main.pth
+      PYTHONPATH=$PWD /tmp/qcvenv/bin/python -m pytest -q tests/analysis/test_session_dataset.py -k qcodes"""
+    pytest.importorskip("qcodes", reason="QCoDeS is not installed (not a dependency: the round trip is optional)")
+    from qcodes.dataset import load_from_netcdf
+    from qcodes.dataset.guids import parse_guid, validate_guid_format
+
+    nc = _export(flagged, tmp_path / "f.nc")
+    guid = xr.open_dataset(nc, engine="h5netcdf").attrs["guid"]
+    s = load_quietly(flagged)
+    q = load_from_netcdf(nc, path_to_db=tmp_path / "qcodes.db")
+    validate_guid_format(q.guid)
+    assert q.guid == guid and parse_guid(q.guid)["time"] == round(_epoch(s.start["started"]) * 1000)
+    assert q.sample_name == "test sample" and q.exp_name == "daq-test" and q.name == "flagged"
+    assert q.run_timestamp_raw == pytest.approx(_epoch(s.start["started"]))
+    assert q.completed_timestamp_raw == pytest.approx(_epoch(s.stop["stopped"]))
+    assert q.snapshot["station"]["instruments"]["voltmeter"]["parameters"]["IDN"]["value"]["model"] == "MODEL 2182A"
+    assert q.metadata["operator"] == "tester" and q.metadata["scene_sha256"] == hashlib.sha256(
+        s.scene_text.encode()).hexdigest()  # fmt: skip
+    x = q.to_xarray_dataset()
+    for var, col in (("weight", "weight_kg"), ("mean_resistance", "mean_ohm"), ("sem_resistance", "sem_ohm"),
+                     ("n_valid", "n")):  # fmt: skip
+        assert _same(x[var], s.summary[col].to_numpy()), var
+    assert _same(x["resistance"], s.readings["resistance_ohm"].to_numpy())
+    assert _same(x["raw_reading"], s.readings["reading"].to_numpy())  # NaN where the 2182A overflowed
+    assert x["weight"].attrs["units"] == "kg"
+    frames = q.to_pandas_dataframe_dict()
+    assert set(frames) == {str(v) for v in x.data_vars}
+    assert list(frames["mean_resistance"].index) == list(s.summary["block"].to_numpy() + 1)
+    assert _same(frames["resistance"]["resistance"].to_numpy(), s.readings["resistance_ohm"].to_numpy())
+    with pytest.warns(UserWarning, match="setpoints are not equal"):  # one frame for both dimensions: QCoDeS
+        one = q.to_pandas_dataframe()  # joins block and reading numbers on one index, and says so
+    assert set(one.index) == set(s.summary["block"].to_numpy() + 1) | set(range(len(s.readings)))
+
+
+def test_qcodes_unfinished_session_has_no_completed_timestamp(tmp_path):
+    """A session without a stop record (killed or still running): completed_timestamp_raw is QCoDeS's sentinel
+    for none, -1 (export_to_xarray.py writes it, _load_from_netcdf reads it back as None); loaded by QCoDeS where
+    installed, its completed timestamp is None."""
+    from tests.analysis.sessions import model_resistance
+    from tests.analysis.sessions import write_session as write_rows
+
+    rng = np.random.default_rng(0)
+    path = write_rows(tmp_path / "inc.h5", ((w, 1, model_resistance(w, rng, 0.01)) for w in (5.0, 10.0, 20.0)))
+    s = load_quietly(path)
+    assert not s.complete
+    nc = _export(path, tmp_path / "inc.nc")
+    a = xr.open_dataset(nc, engine="h5netcdf").attrs
+    assert a["completed_timestamp_raw"] == -1
+    assert a["run_timestamp_raw"] == pytest.approx(_epoch(s.start["started"]), abs=1e-6)
+    try:
+        from qcodes.dataset import load_from_netcdf
+    except ImportError:
+        return  # QCoDeS is not a dependency
+    q = load_from_netcdf(nc, path_to_db=tmp_path / "qcodes.db")
+    assert q.completed_timestamp_raw is None and q.run_timestamp_raw == pytest.approx(a["run_timestamp_raw"])
+
+
+def test_qcodes_imported_table_has_no_instruments(tmp_path):
+    """An imported table (``contactrig import --tab1``) records no *IDN? reply: its snapshot's station holds no
+    instrument (none is invented), and its run description still names every variable."""
+    path = tmp_path / "tab1.h5"
+    assert main(["import", "--tab1", "-o", str(path)]) == 0
+    ds = xr.open_dataset(_export(path, tmp_path / "tab1.nc"), engine="h5netcdf")
+    assert json.loads(ds.attrs["snapshot"])["station"]["instruments"] == {}
+    assert set(json.loads(ds.attrs["run_description"])["interdependencies_"]["dependencies"]) == set(ds.data_vars)
+    assert QCODES_GUID.match(ds.attrs["guid"]) and ds.sizes["reading"] == 8 * 6  # Tab. 1: 8 weights × 6 repeats
