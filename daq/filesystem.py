@@ -24,7 +24,7 @@ __all__ = ["MOUNTINFO", "NETWORK_TYPES", "mount_of", "network_share"]
 NETWORK_TYPES = frozenset({
     "nfs", "nfs4", "cifs", "smb3", "smb2", "smbfs", "9p", "afs", "coda", "ncpfs", "ceph", "fuse.ceph-fuse",
     "glusterfs", "fuse.glusterfs", "lustre", "gpfs", "beegfs", "orangefs", "vboxsf", "davfs", "fuse.davfs2",
-    "fuse.sshfs", "fuse.rclone", "fuse.s3fs", "fuse.vmhgfs-fuse",
+    "fuse.sshfs", "fuse.rclone", "fuse.s3fs", "fuse.vmhgfs-fuse", "fuse.gvfsd-fuse", "fuse.smbnetfs",
 })  # fmt: skip
 
 #: The mount table read on Linux (the mounts this process sees).

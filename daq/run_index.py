@@ -48,6 +48,7 @@ import contextlib
 import dataclasses
 import hashlib
 import json
+import math
 import os
 import re
 import sqlite3
@@ -228,13 +229,14 @@ def _utc(text: str) -> str:
 
 
 def _instant_key(text: str) -> str:
-    """A sort key of an ISO-8601 instant as SQLite's ``julianday`` orders it (the instant in UTC; no offset: UTC;
-    unparsable: first): the index's order of marks and fits, kept by :func:`marks_in` and :func:`fits_in` too."""
+    """A sort key of an ISO-8601 instant: the instant in UTC (no offset: taken as UTC; unparsable or out of range:
+    "", first). The one order of marks and fits: in SQL as ``instant(at)`` (:func:`_functions`) and in
+    :func:`marks_in`, :func:`fits_in` and :func:`last_fit`."""
     try:
         t = datetime.fromisoformat(text)
-    except (TypeError, ValueError):
+        return (t if t.tzinfo is not None else t.replace(tzinfo=UTC)).astimezone(UTC).isoformat(timespec="microseconds")
+    except (TypeError, ValueError, OverflowError):  # OverflowError: 9999-12-31T23:00-05:00 is past year 9999 in UTC
         return ""
-    return (t if t.tzinfo is not None else t.replace(tzinfo=UTC)).astimezone(UTC).isoformat(timespec="microseconds")
 
 
 def _serial(idn: str) -> str:
@@ -463,8 +465,15 @@ def _version_of(index: Path) -> int:
         return -1
 
 
+def _functions(con: sqlite3.Connection) -> sqlite3.Connection:
+    """``instant(at)``: :func:`_instant_key` in SQL, so that SQLite orders marks and fits exactly as Python does
+    (SQLite's own ``julianday`` reads fewer ISO-8601 forms and only milliseconds)."""
+    con.create_function("instant", 1, _instant_key, deterministic=True)
+    return con
+
+
 def _open(name: str) -> sqlite3.Connection:
-    con = sqlite3.connect(name, timeout=30.0, isolation_level=None)
+    con = _functions(sqlite3.connect(name, timeout=30.0, isolation_level=None))
     con.execute("PRAGMA busy_timeout = 30000")
     if name != ":memory:":
         con.execute("PRAGMA journal_mode = WAL")
@@ -520,6 +529,18 @@ _Stamp = tuple[int, int, int, int]
 _SETTLE_NS = 2_000_000_000
 
 
+def _finite(value: Any) -> Any:
+    """``value`` with every NaN or infinite number as null: the detail must be JSON that SQLite's JSON functions
+    (``--where`` on a recorded value) accept, and RFC 8259 has no NaN (the listing's record keeps them)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_finite(v) for v in value]
+    return value
+
+
 def _row(path: str, stamp: _Stamp | None, rec: dict[str, Any], settled_ns: int) -> tuple[Any, ...]:
     trusted = stamp is not None and stamp[1] < settled_ns and rec["status"] != "running"
     size, mtime, ctime, ino = stamp if stamp is not None and trusted else (None,) * 4
@@ -527,7 +548,7 @@ def _row(path: str, stamp: _Stamp | None, rec: dict[str, Any], settled_ns: int) 
         path, size, mtime, ctime, ino, rec["content_id"], rec["status"], rec["start_utc"], rec["sample"],
         rec["operator"], rec["scene"], " ".join(rec["serials"]),
         json.dumps({k: v for k, v in rec.items() if k not in DETAIL_KEYS}),
-        json.dumps({k: rec[k] for k in DETAIL_KEYS if k in rec}),
+        json.dumps(_finite({k: rec[k] for k in DETAIL_KEYS if k in rec}), allow_nan=False),
     )  # fmt: skip
 
 
@@ -817,7 +838,7 @@ def _last_fits(con: sqlite3.Connection) -> dict[str, dict[str, Any]]:
 
     now = ""  # read from the package's metadata when there is a fit (a few ms: not for every listing)
     out: dict[str, dict[str, Any]] = {}
-    for row in con.execute(f"SELECT {', '.join(_FIT_KEYS)} FROM fits ORDER BY julianday(at), sidecar, line"):
+    for row in con.execute(f"SELECT {', '.join(_FIT_KEYS)} FROM fits ORDER BY instant(at), sidecar, line"):
         fit = dict(zip(_FIT_KEYS, row, strict=True))
         now = now or software_version()
         fit["stale"] = fit["analysis_version"] != now
@@ -894,17 +915,31 @@ def _number(text: str) -> float | None:
 
 
 def _json_path(name: str) -> str:
-    return "$" + "".join(f'."{part.strip()}"' for part in name.split("."))
+    """The SQLite JSON path of a recorded value's dotted name. The overrides are one flat table whose keys hold
+    dots themselves (``session.notes``, as a scene's dotted keys): ``overrides.session.notes`` is
+    ``$."overrides"."session.notes"``; the other roots nest one level a dot."""
+    root, _, rest = name.partition(".")
+    parts = [root.strip()] + ([rest.strip()] if root.strip() == "overrides" and rest else
+                              [part.strip() for part in rest.split(".")] if rest else [])  # fmt: skip
+    return "$" + "".join(f'."{part}"' for part in parts)
 
 
 def _recorded(con: sqlite3.Connection, name: str) -> bool:
     """Whether any session of the index records the value ``name`` (dotted, under :data:`DETAIL_KEYS`)."""
-    row = con.execute("SELECT 1 FROM sessions WHERE json_type(detail, ?) IS NOT NULL LIMIT 1", [_json_path(name)])
+    row = con.execute("SELECT 1 FROM sessions WHERE (CASE WHEN json_valid(detail) THEN json_type(detail, ?) END) "
+                      "IS NOT NULL LIMIT 1", [_json_path(name)])  # fmt: skip
     return row.fetchone() is not None
 
 
 def _field_sql(c: Condition) -> tuple[str, list[Any]]:
-    """A condition on a recorded value (:data:`DETAIL_KEYS`): SQLite's JSON functions on the row's detail."""
+    """A condition on a recorded value (:data:`DETAIL_KEYS`): SQLite's JSON functions on the row's detail (a
+    detail that is not strict JSON, as an index written before non-finite numbers were made null, matches nothing
+    rather than failing the search)."""
+    sql, params = _field_test(c)
+    return f"(CASE WHEN json_valid(s.detail) THEN {sql} END)", params
+
+
+def _field_test(c: Condition) -> tuple[str, list[Any]]:
     path = _json_path(c.key)
     value, kind = "json_extract(s.detail, ?)", "json_type(s.detail, ?)"
     x = _number(c.value)
@@ -936,7 +971,7 @@ def _sql(c: Condition) -> tuple[str, list[Any]]:
         return "(' ' || s.serials || ' ') LIKE ?", [f"% {c.value} %"]
     if c.key == "verdict":
         last = ("(SELECT f.{} FROM fits f WHERE f.content_id = s.content_id "
-                "ORDER BY julianday(f.at) DESC, f.sidecar DESC, f.line DESC LIMIT 1)")  # fmt: skip
+                "ORDER BY instant(f.at) DESC, f.sidecar DESC, f.line DESC LIMIT 1)")  # fmt: skip
         if c.value == "none":
             return "NOT EXISTS (SELECT 1 FROM fits f WHERE f.content_id = s.content_id)", []
         if c.value == "stale":
@@ -1001,7 +1036,7 @@ def _select(
     if (limit is not None and len(rows) >= limit) or (offset and not rows):  # cut: count them
         matched = con.execute(f"SELECT count(*) FROM sessions s WHERE {' AND '.join(clauses)}", params).fetchone()[0]
     marks: dict[str, dict[str, list[dict[str, str]]]] = {}
-    order = "ORDER BY julianday(at), sidecar, line"  # the instant, UTC, as _merged
+    order = "ORDER BY instant(at), sidecar, line"  # the instant, UTC, as _merged
     for cid, kind, text, who, at in con.execute(f"SELECT content_id, kind, text, who, at FROM marks {order}"):
         marks.setdefault(cid, {"tag": [], "remark": []})[kind].append({"text": text, "who": who, "at": at})
     fits = _last_fits(con)
@@ -1069,7 +1104,7 @@ def indexed_rows(folder: str | Path) -> list[_Row]:
     """(path, content id, status, has a reason, tags, last fit) of every row of ``folder``'s index as it is,
     unrefreshed (for checks that the index equals a fresh scan)."""
     index = index_location(folder)[0]
-    with contextlib.closing(sqlite3.connect(f"file:{index}?mode=ro", uri=True)) as con:
+    with contextlib.closing(_functions(sqlite3.connect(f"file:{index}?mode=ro", uri=True))) as con:
         return _rows_of(con)
 
 

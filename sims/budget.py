@@ -29,6 +29,7 @@ stage           memory                                                          
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -210,7 +211,7 @@ _BEM_GPU_B = 224.0
 def bem_gpu(n: int | tuple[int, int], key: str = "[surfaces.*] n") -> Estimate:
     """One boundary-element solve of an ny×nx grid (``n``: the shape, or one int for n×n) on the GPU (device
     memory, proportional to ny·nx)."""
-    ny, nx = (n, n) if isinstance(n, int) else n
+    ny, nx = (int(n), int(n)) if isinstance(n, numbers.Integral) else tuple(n)  # type: ignore[arg-type]
     return Estimate("boundary-element solve on the GPU", f"{key} (grid {ny}×{nx})", _BEM_GPU_B * ny * nx)
 
 

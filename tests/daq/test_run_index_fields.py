@@ -120,3 +120,67 @@ def test_the_last_fit_is_the_latest_instant_whatever_its_utc_offset(tmp_path, mo
     assert ri.query(folder)[0][0]["fit"]["verdict"] == "undecided"
     assert names(folder, "verdict=undecided") == ["s"] and names(folder, "verdict=discriminates") == []
     assert [f["at"][11:16] for f in ri.fits_in(folder)] == ["02:50", "02:10"]  # in time order, not text order
+
+
+def test_every_field_the_diff_names_finds_its_session(tmp_path):
+    """The names `sessions diff` gives, values as it shows them: each, as a --where condition, finds the session
+    that has that value and not the other. The overrides are one flat table with dotted keys (session.notes)."""
+    from daq.session_diff import session_diff
+
+    folder = tmp_path / "two"
+    folder.mkdir()
+    a = write_run(folder / "a.h5", sample="x", overrides={"session.notes": "hello", "instrument.timeout_ms": 5000})
+    b = write_run(folder / "b.h5", sample="y", nplc="2.0")
+    diff = session_diff(a, b)["differences"]
+    fields = [d for d in diff if d["field"].split(".")[0] in ri.DETAIL_KEYS]
+    assert {"overrides.session.notes", "settings.delta.nplc"} <= {d["field"] for d in fields}
+    for d in fields:
+        for side, other in (("a", "b"), ("b", "a")):
+            value = d[side]
+            if value is None or isinstance(value, (dict, list)):
+                continue  # a side without the value (null: nothing recorded there), or an empty table ({})
+            text = {True: "true", False: "false"}.get(value, value) if isinstance(value, bool) else str(value)
+            found = names(folder, f"{d['field']}={text}")
+            assert side in found and other not in found, (d, found)
+
+
+def test_instants_in_other_iso_forms_and_out_of_range_dates(tmp_path):
+    """A hand-edited sidecar line: the index, ``last_fit`` and the merged sidecars agree on which fit is the last
+    whatever ISO-8601 form its time takes (+0000, microseconds), and a date past year 9999 in UTC is read, not
+    fatal."""
+    import json
+
+    folder = tmp_path / "forms"
+    folder.mkdir()
+    p = write_run(folder / "s.h5", sample="forms")
+    cid = ri.query(folder)[0][0]["content_id"]
+    base = {"content_id": cid, "best": "hertz", "statement": "…", "analysis_version": "0", "who": "x", "file": "s.h5"}
+    lines = [dict(base, verdict="discriminates", at="2026-01-01T10:00:00.000+00:00"),
+             dict(base, verdict="undecided", at="2026-01-01T12:00:00+0000"),  # later, another form
+             dict(base, verdict="discriminates", at="2026-01-01T11:59:59.999900+00:00")]  # fmt: skip
+    (folder / ri.FITS_NAME).write_text("".join(json.dumps(x) + "\n" for x in lines), encoding="utf-8")
+    mark = dict(content_id=cid, kind="tag", text="far", who="x", at="9999-12-31T23:00:00-05:00", file="s.h5")
+    (folder / ri.SIDECAR_NAME).write_text(json.dumps(mark) + "\n", encoding="utf-8")
+    assert ri.last_fit(p, cid)["verdict"] == "undecided"
+    row = ri.query(folder)[0][0]
+    assert row["fit"]["verdict"] == "undecided" and [t["text"] for t in row["tags"]] == ["far"]
+    assert names(folder, "verdict=undecided") == ["s"]
+    assert [m["text"] for m in ri.marks_in(folder)] == ["far"]
+
+
+def test_a_detail_that_is_not_strict_json_does_not_fail_a_search(lab, tmp_path):
+    """An index row written before non-finite numbers were made null holds NaN, which SQLite's JSON functions refuse:
+    a search on a recorded value passes over that row instead of failing for the whole folder."""
+    import sqlite3
+
+    folder = tmp_path / "nan"
+    shutil.copytree(lab, folder)
+    ri.refresh(folder)
+    index = ri.index_location(folder)[0]
+    with sqlite3.connect(index) as con:
+        (path, detail), = con.execute("SELECT path, detail FROM sessions WHERE path LIKE 'a.h5'").fetchall()
+        con.execute("UPDATE sessions SET detail = ? WHERE path = ?",
+                    (detail.replace('"compliance_v": 10.0', '"compliance_v": NaN'), path))  # fmt: skip
+    assert names(folder, "settings.delta.nplc>=1") == ["b", "d"]  # a: passed over; b, d: found
+    rows = ri.query(folder, refresh=False)[0]
+    assert len(rows) == 4

@@ -117,6 +117,22 @@ def test_a_rectangular_surface_refines_exactly():
     np.testing.assert_allclose(fine[::2, ::2], z, rtol=0, atol=1e-12 * np.abs(z).max())
 
 
+@pytest.mark.parametrize("shape", [(12, 20), (20, 12)])
+def test_refinement_of_a_band_limited_rectangle_is_the_continuous_surface(shape):
+    """A trigonometric polynomial below the grid's Nyquist wavenumber on both axes, different along each: the refined
+    grid equals the function itself at every fine point (not only at the old samples)."""
+    ny, nx = shape
+
+    def f(y, x):  # y, x in pixels of the coarse grid; periods ny and nx pixels
+        return (np.cos(2 * np.pi * 3 * x / nx + 0.3) + 0.5 * np.sin(2 * np.pi * 2 * y / ny)
+                + 0.25 * np.cos(2 * np.pi * (x / nx + 4 * y / ny)))  # fmt: skip
+
+    coarse = f(*np.meshgrid(np.arange(ny), np.arange(nx), indexing="ij"))
+    fine = bem.refine(coarse, 3)
+    expected = f(*np.meshgrid(np.arange(3 * ny) / 3, np.arange(3 * nx) / 3, indexing="ij"))
+    np.testing.assert_allclose(fine, expected, rtol=0, atol=1e-12)
+
+
 @pytest.mark.parametrize("shape", [(16, 9), (9, 16), (2, 16), (16, 16386), (3, 5)])
 def test_odd_or_out_of_range_sizes_are_refused_in_one_line(shape):
     with pytest.raises(SettingError) as err:
@@ -178,6 +194,7 @@ def test_the_gpu_memory_estimate_counts_ny_times_nx():
 
     assert bem_gpu((1024, 4096)).peak_bytes == bem_gpu(2048).peak_bytes == 4 * bem_gpu((512, 2048)).peak_bytes
     assert "grid 968×1126" in bem_gpu((968, 1126)).keys
+    assert bem_gpu(np.int64(2048)).peak_bytes == bem_gpu(2048).peak_bytes  # a NumPy integer is a side too
     fits = 1.5 * bem_gpu((1024, 1024)).peak_bytes
     assert check_bem_gpu((1024, 1024), free_bytes=fits).peak_bytes < fits
     with pytest.raises(BudgetError):
