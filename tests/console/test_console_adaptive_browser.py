@@ -23,15 +23,9 @@ pytest.importorskip("selenium", reason="Selenium is not installed: pip install '
 from selenium.common.exceptions import StaleElementReferenceException
 from selenium.webdriver.common.by import By
 
-from tests.console.test_console_browser import CHROMIUM, DRIVER, no_dialog, open_console, shot, text_of, wait
+from tests.console.test_console_browser import BROWSER_MARKS, no_dialog, open_console, shot, text_of, wait
 
-pytestmark = [
-    pytest.mark.slow,
-    pytest.mark.skipif(
-        CHROMIUM is None or DRIVER is None,
-        reason="Chromium not found: apt-get install -y chromium chromium-driver (.ci/run does it)",
-    ),
-]
+pytestmark = BROWSER_MARKS
 
 
 @pytest.fixture(scope="module")

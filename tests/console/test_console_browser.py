@@ -31,7 +31,8 @@ from selenium.webdriver.support.ui import WebDriverWait
 CHROMIUM = next((p for p in ("/usr/bin/chromium", shutil.which("chromium") or "") if p and os.path.exists(p)), None)
 DRIVER = next((p for p in ("/usr/bin/chromedriver", shutil.which("chromedriver") or "") if p and os.path.exists(p)),
               None)  # fmt: skip
-pytestmark = [
+#: every browser test module's ``pytestmark``: slow, and skipped with the reason where Chromium is missing
+BROWSER_MARKS = [
     pytest.mark.slow,
     pytest.mark.skipif(
         CHROMIUM is None or DRIVER is None,
@@ -39,6 +40,7 @@ pytestmark = [
         "chromium-driver (.ci/run does it)",
     ),
 ]
+pytestmark = BROWSER_MARKS
 HOSTILE_TEXT = "".join(HOSTILE.values())
 
 

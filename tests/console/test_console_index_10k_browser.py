@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.console.test_console_browser import CHROMIUM, DRIVER, open_console, shot, text_of, wait
+from tests.console.test_console_browser import BROWSER_MARKS, open_console, shot, text_of, wait
 from tests.console.test_console_index_browser import fill, rows
 from tests.daq.run_files import build_lab
 
@@ -28,10 +28,7 @@ pytest.importorskip("selenium", reason="Selenium is not installed: pip install '
 from selenium import webdriver
 from selenium.webdriver.common.by import By
 
-pytestmark = [
-    pytest.mark.slow,
-    pytest.mark.skipif(CHROMIUM is None or DRIVER is None, reason="Chromium not found (see test_console_browser.py)"),
-]
+pytestmark = BROWSER_MARKS
 N_FILES = 10_000
 DISTINCT = 20
 #: rows on one page of the console's index (contactrig.console.catalog.PAGE_ROWS)

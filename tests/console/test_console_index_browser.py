@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from tests.console.conftest import scene_text
-from tests.console.test_console_browser import CHROMIUM, DRIVER, continue_all, open_console, shot, text_of, wait
+from tests.console.test_console_browser import BROWSER_MARKS, continue_all, open_console, shot, text_of, wait
 from tests.daq.run_files import write_run
 
 pytest.importorskip("selenium", reason="Selenium is not installed: pip install '.[console]'")
@@ -20,10 +20,7 @@ pytest.importorskip("selenium", reason="Selenium is not installed: pip install '
 from selenium import webdriver
 from selenium.webdriver.common.by import By
 
-pytestmark = [
-    pytest.mark.slow,
-    pytest.mark.skipif(CHROMIUM is None or DRIVER is None, reason="Chromium not found (see test_console_browser.py)"),
-]
+pytestmark = BROWSER_MARKS
 #: generated session files (hard links), 1 in 50 damaged
 N_FILES = 300
 

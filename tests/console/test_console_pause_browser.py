@@ -19,8 +19,7 @@ pytest.importorskip("selenium", reason="Selenium is not installed: pip install '
 from selenium.webdriver.common.by import By
 
 from tests.console.test_console_browser import (
-    CHROMIUM,
-    DRIVER,
+    BROWSER_MARKS,
     continue_all,
     open_console,
     start_from_form,
@@ -28,13 +27,7 @@ from tests.console.test_console_browser import (
     wait,
 )
 
-pytestmark = [
-    pytest.mark.slow,
-    pytest.mark.skipif(
-        CHROMIUM is None or DRIVER is None,
-        reason="Chromium not found: apt-get install -y chromium chromium-driver (.ci/run does it)",
-    ),
-]
+pytestmark = BROWSER_MARKS
 
 
 @pytest.fixture(scope="module")

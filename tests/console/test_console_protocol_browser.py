@@ -24,15 +24,9 @@ from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
 from selenium.webdriver.common.keys import Keys
 
-from tests.console.test_console_browser import CHROMIUM, DRIVER, chrome, text_of, wait
+from tests.console.test_console_browser import BROWSER_MARKS, chrome, text_of, wait
 
-pytestmark = [
-    pytest.mark.slow,
-    pytest.mark.skipif(
-        CHROMIUM is None or DRIVER is None,
-        reason="Chromium not found: apt-get install -y chromium chromium-driver (.ci/run does it)",
-    ),
-]
+pytestmark = BROWSER_MARKS
 
 #: the page's network made slow for its answers: each reaches the console ``arguments[0]`` ms after the click
 DELAY_ANSWERS = """
