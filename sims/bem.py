@@ -724,6 +724,10 @@ class _Solver:
         supp = self.xp.flatnonzero(p0 > 0.0)
         self._set_support(supp, p0[supp])
         if self.load is not None and not self._rescale():
+            # the reset orders the points by their displacement: that of the initial pressures (before, w was
+            # still the uninitialised buffer here, so a warm start that could not carry the load depended on
+            # whatever memory it got: different iterations and fields, within tol, from run to run)
+            self._recompute()
             self._plastic_reset()
         self._recompute()
 

@@ -8,7 +8,8 @@
 #                                times 1024²–8192²; the CPU table with 1 and every core)
 #   bench_bem_gpu.results.json  every figure
 # Usage: tests/benchmarks/bench_bem_gpu.sh [--budget SECONDS]   (default 270: parts left over are skipped, named)
-#        [--parts 1,2,3,4]  (1 fields CPU = GPU, 2 FFT limits, 3 GPU solver, 4 CPU table)
+#        [--parts 1,2,3,4,5]  (1 fields CPU = GPU, 2 FFT limits, 3 GPU solver, 4 CPU table, 5 compare-models' BEM
+#                              work on a profilometer-sized rectangle, 968 × 1126 and 1024 × 2048)
 #        --quick [--shrink K]  ≤ 90 s: the GPU path before and after cutting its host synchronisations, side by side
 #                              (1024², 4096², 8192²; grids divided by K); kept as bench_bem_gpu.quick.{txt,json}.
 #                              On the CPU, with the CuPy stand-in: PYTHONPATH=tests/sims/fake_cupy ... --quick --shrink 16
