@@ -48,7 +48,6 @@ import contextlib
 import dataclasses
 import hashlib
 import json
-import math
 import os
 import re
 import sqlite3
@@ -216,27 +215,24 @@ def _bytes_id(path: Path) -> str:
     return "bytes:" + h.hexdigest()
 
 
-def _utc(text: str) -> str:
-    """An ISO-8601 instant with its UTC offset, as UTC (``2026-01-01T10:00:00.000000+00:00``); "" when unparsable or
-    without an offset (an instant without one cannot be ordered against others)."""
+def _utc(text: str, assume_utc: bool = False) -> str:
+    """An ISO-8601 instant with its UTC offset, as UTC (``2026-01-01T10:00:00.000000+00:00``); "" when unparsable,
+    out of range (9999-12-31T23:00-05:00 is past year 9999 in UTC) or without an offset (an instant without one
+    cannot be ordered against others; ``assume_utc``: taken as UTC)."""
     try:
         t = datetime.fromisoformat(text)
-    except (TypeError, ValueError):
+        if t.tzinfo is None and not assume_utc:
+            return ""
+        return (t if t.tzinfo is not None else t.replace(tzinfo=UTC)).astimezone(UTC).isoformat(timespec="microseconds")
+    except (TypeError, ValueError, OverflowError):
         return ""
-    if t.tzinfo is None:
-        return ""
-    return t.astimezone(UTC).isoformat(timespec="microseconds")
 
 
 def _instant_key(text: str) -> str:
     """A sort key of an ISO-8601 instant: the instant in UTC (no offset: taken as UTC; unparsable or out of range:
     "", first). The one order of marks and fits: in SQL as ``instant(at)`` (:func:`_functions`) and in
     :func:`marks_in`, :func:`fits_in` and :func:`last_fit`."""
-    try:
-        t = datetime.fromisoformat(text)
-        return (t if t.tzinfo is not None else t.replace(tzinfo=UTC)).astimezone(UTC).isoformat(timespec="microseconds")
-    except (TypeError, ValueError, OverflowError):  # OverflowError: 9999-12-31T23:00-05:00 is past year 9999 in UTC
-        return ""
+    return _utc(text, assume_utc=True)
 
 
 def _serial(idn: str) -> str:
@@ -529,26 +525,17 @@ _Stamp = tuple[int, int, int, int]
 _SETTLE_NS = 2_000_000_000
 
 
-def _finite(value: Any) -> Any:
-    """``value`` with every NaN or infinite number as null: the detail must be JSON that SQLite's JSON functions
-    (``--where`` on a recorded value) accept, and RFC 8259 has no NaN (the listing's record keeps them)."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_finite(v) for v in value]
-    return value
-
-
 def _row(path: str, stamp: _Stamp | None, rec: dict[str, Any], settled_ns: int) -> tuple[Any, ...]:
+    from contactrig.core.provenance import json_finite
+
     trusted = stamp is not None and stamp[1] < settled_ns and rec["status"] != "running"
     size, mtime, ctime, ino = stamp if stamp is not None and trusted else (None,) * 4
     return (
         path, size, mtime, ctime, ino, rec["content_id"], rec["status"], rec["start_utc"], rec["sample"],
         rec["operator"], rec["scene"], " ".join(rec["serials"]),
         json.dumps({k: v for k, v in rec.items() if k not in DETAIL_KEYS}),
-        json.dumps(_finite({k: rec[k] for k in DETAIL_KEYS if k in rec}), allow_nan=False),
+        # the detail strict JSON (no NaN): SQLite's JSON functions read it for --where on a recorded value
+        json.dumps(json_finite({k: rec[k] for k in DETAIL_KEYS if k in rec}), allow_nan=False),
     )  # fmt: skip
 
 
@@ -901,7 +888,10 @@ def _instant(value: str, op: str, text: str) -> str:
         if not bound:
             raise SettingError("--where", text, "a date (2026-01-31) or an instant with its offset") from None
         return bound
-    t = datetime(day.year, day.month, day.day, tzinfo=UTC) + (timedelta(days=1) if op == "<=" else timedelta())
+    try:
+        t = datetime(day.year, day.month, day.day, tzinfo=UTC) + (timedelta(days=1) if op == "<=" else timedelta())
+    except OverflowError:  # start<=9999-12-31: before the day after, which no datetime holds; sorts after any instant
+        return "9999-12-32"
     return t.isoformat(timespec="milliseconds")
 
 

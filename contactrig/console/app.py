@@ -242,17 +242,9 @@ class IndexJSON(JSONResponse):
     surrogates (kept by the index as the file holds it) is still sent; a non-finite number is null (JSON has none)."""
 
     def render(self, content: Any) -> bytes:
-        return json.dumps(_finite(content), ensure_ascii=True, allow_nan=False, separators=(",", ":")).encode()
+        from contactrig.core.provenance import json_finite
 
-
-def _finite(value: Any) -> Any:
-    if isinstance(value, float):
-        return value if value == value and abs(value) != float("inf") else None
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_finite(v) for v in value]
-    return value
+        return json.dumps(json_finite(content), ensure_ascii=True, allow_nan=False, separators=(",", ":")).encode()
 
 
 async def sessions(request: Request) -> Response:

@@ -17,6 +17,7 @@ import numpy as np
 __all__ = [
     "host_name",
     "json_default",
+    "json_finite",
     "login_name",
     "now_iso",
     "package_version",
@@ -81,6 +82,18 @@ def json_default(obj: Any) -> Any:
     if isinstance(obj, np.ndarray):
         return obj.tolist()
     return str(obj)
+
+
+def json_finite(value: Any) -> Any:
+    """``value`` (plain JSON values: dicts, lists, numbers, text) with every NaN or infinite float as None: JSON
+    (RFC 8259) has no NaN, and SQLite's JSON functions and browsers refuse it."""
+    if isinstance(value, float):
+        return value if value == value and abs(value) != float("inf") else None
+    if isinstance(value, dict):
+        return {k: json_finite(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [json_finite(v) for v in value]
+    return value
 
 
 def to_json(value: Any, **kwargs: Any) -> str:

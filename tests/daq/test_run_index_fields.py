@@ -12,7 +12,7 @@ import os
 import shutil
 
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from contactrig.cli.main import main
@@ -44,6 +44,8 @@ def test_a_setting_by_its_dotted_name(lab):
     assert names(lab, "settings.delta.nplc <= 1") == ["a", "c"]
     assert names(lab, "settings.delta.nplc>=1", "sample=ring") == ["a", "b"]
     assert names(lab, "settings.delta.nplc=3") == []
+    assert names(lab, "start<=9999-12-31") == ["a", "b", "c", "d"]  # the last day there is: no overflow
+    assert names(lab, "start>=0001-01-01") == ["a", "b", "c", "d"]
 
 
 def test_text_booleans_nulls_and_contains(lab):
@@ -67,7 +69,8 @@ def test_a_name_nobody_records_is_said(lab, capsys):
 
 
 @pytest.mark.parametrize("bad", ["settings.delta.nplc>=fast", "settings.delta.nplc<1", "settings.delta.nplc=",
-                                 "setting.delta.nplc=1", "settingsx=1"])  # fmt: skip
+                                 "setting.delta.nplc=1", "settingsx=1",
+                                 "start>=9999-12-31T23:00:00-05:00"])  # past year 9999 in UTC  # fmt: skip
 def test_a_bad_field_condition_is_one_line_exit_2(lab, tmp_path, bad, capsys):
     folder = tmp_path / "copy"
     shutil.copytree(lab, folder)
@@ -184,3 +187,32 @@ def test_a_detail_that_is_not_strict_json_does_not_fail_a_search(lab, tmp_path):
     assert names(folder, "settings.delta.nplc>=1") == ["b", "d"]  # a: passed over; b, d: found
     rows = ri.query(folder, refresh=False)[0]
     assert len(rows) == 4
+
+
+_WHERE_TEXT = (
+    st.text(max_size=40)
+    | st.from_regex(r"(start|settings\.delta\.nplc|overrides\.session\.notes|sample|verdict|text)(>=|<=|=|~).{0,30}",
+                    fullmatch=True)  # fmt: skip
+    | st.builds(lambda op, t: f"start{op}{t.isoformat()}", st.sampled_from([">=", "<="]),
+                st.datetimes(timezones=st.timezones()))  # fmt: skip
+    | st.builds(lambda op, d: f"start{op}{d.isoformat()}", st.sampled_from([">=", "<="]), st.dates())
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(text=_WHERE_TEXT)
+@example(text="start<=9999-12-31")  # the calendar's last day: its end is past any datetime
+@example(text="start>=9999-12-31T23:00:00-05:00")  # past year 9999 once in UTC
+@example(text="start>=0001-01-01T00:30:00+01:00")  # before year 1 in UTC
+def test_any_where_text_is_a_condition_or_a_one_line_error(lab, text):
+    """Whatever an operator types: a condition the index answers, or a one-line SettingError naming --where; never
+    another exception (dates at the ends of the calendar, offsets that leave it in UTC, odd names and values)."""
+    from contactrig.core.validation import SettingError
+
+    try:
+        condition = ri.parse_where(text)
+    except SettingError as err:
+        assert err.field == "--where" and "\n" not in str(err)
+        return
+    rows, _ = ri.query(lab, [condition], refresh=False)
+    assert isinstance(rows, list)
