@@ -192,9 +192,9 @@ def test_a_detail_that_is_not_strict_json_does_not_fail_a_search(lab, tmp_path):
 _WHERE_TEXT = (
     st.text(max_size=40)
     | st.from_regex(r"(start|settings\.delta\.nplc|overrides\.session\.notes|sample|verdict|text)(>=|<=|=|~).{0,30}",
-                    fullmatch=True)  # fmt: skip
+                    fullmatch=True)
     | st.builds(lambda op, t: f"start{op}{t.isoformat()}", st.sampled_from([">=", "<="]),
-                st.datetimes(timezones=st.timezones()))  # fmt: skip
+                st.datetimes(timezones=st.timezones()))
     | st.builds(lambda op, d: f"start{op}{d.isoformat()}", st.sampled_from([">=", "<="]), st.dates())
 )
 
