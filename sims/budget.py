@@ -67,22 +67,16 @@ def _grid_shape(spec: SurfaceSpec) -> tuple[tuple[int, int], str]:
     return (n, n), f"[{spec.section}] n = {n}"
 
 
-def _grid(spec: SurfaceSpec) -> tuple[int, str]:
-    """Points of a surface's grid and the scene key that sets it."""
-    shape, key = _grid_shape(spec)
-    return math.prod(shape), key
-
-
-def _grids(config: SimConfig) -> tuple[int, str]:
-    """The larger grid of the two surfaces [points] and the keys of both."""
-    (a, ka), (b, kb) = _grid(config.liner), _grid(config.piston)
-    return max(a, b), f"{ka}, {kb}"
-
-
 def _largest_shape(config: SimConfig) -> tuple[tuple[int, int], str]:
     """(ny, nx) of the larger of the two surfaces' grids and the keys of both."""
     (a, ka), (b, kb) = _grid_shape(config.liner), _grid_shape(config.piston)
     return max(a, b, key=math.prod), f"{ka}, {kb}"
+
+
+def _grids(config: SimConfig) -> tuple[int, str]:
+    """The larger grid of the two surfaces [points] and the keys of both."""
+    shape, keys = _largest_shape(config)
+    return math.prod(shape), keys
 
 
 def surfaces(config: SimConfig) -> Estimate:
