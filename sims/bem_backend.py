@@ -11,9 +11,8 @@ One solver (:mod:`sims.bem`) runs over an *array namespace* ``xp`` (NumPy or CuP
 * the element-wise passes over the ny×nx fields and their half spectra (:meth:`Backend.rows`): on the CPU in
   cache-sized blocks of rows, spread over the ``workers`` threads (NumPy's ufuncs release the GIL), so that several
   operations on one block read memory once and every core takes part; on the GPU one call over the whole array
-  (CuPy's element-wise operations are device kernels already), and a few passes of several operations fused into
-  one kernel (:meth:`Backend.kernel`, CuPy's ``ElementwiseKernel``/``ReductionKernel``: one read of each operand,
-  no temporary arrays);
+  (CuPy's element-wise operations are device kernels already; three passes fused into custom CuPy kernels made the
+  solve 2–4× slower on an H200 and were taken out: docs, Benchmarks);
 * whether the solver may take its decisions on the device (:attr:`Backend.defer`): on the GPU reading a value on the
   host waits for the card, so the solver keeps its scalars there and checks its iterations in groups
   (:mod:`sims.bem`); on the CPU every decision is taken at once, as it costs nothing.

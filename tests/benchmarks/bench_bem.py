@@ -24,7 +24,9 @@ Fairness (issue 21 §5):
   growth during the solves (VmHWM reset through /proc/self/clear_refs before them).
 * **The FFT limit** (issue 28): each child also times one ``scipy.fft`` rfft2 + irfft2 pair at its grid and thread
   count (best of 7, before and after the solves); our rows print the time per iteration, its ratio to that pair, the
-  FFT pairs our solver spent per iteration (counted) and the time per iteration over that many pairs; and the same
+  FFT pairs our solver spent per iteration (counted) and the time per iteration over that many pairs; the time per
+  iteration spent inside the solver's own FFT calls (timed around each) and outside them (the element-wise passes
+  and the work on the contact set: what "every core" must make small and parallel, whatever the FFT count); and the
   ratio in CPU time (``time.process_time``, every thread of the child summed; best timed run against the best pair):
   with one thread a measure of the work that other jobs on a shared machine barely move. ``ours`` is the default
   (Fourier-preconditioned) solver, ``ours-pk`` the plain Polonsky–Keer directions (``precondition=False``). The load
@@ -229,17 +231,22 @@ def fft_pair_seconds(n: int, threads: int, repeats: int = 7, clock: Callable[[],
     return best
 
 
-def _count_ffts() -> dict[str, int]:
-    """Count our solver's real FFTs (forward and inverse) from now on: the pairs it spends per iteration."""
+def _count_ffts() -> dict[str, float]:
+    """Count our solver's real FFTs (forward and inverse) from now on: the pairs it spends per iteration, and the
+    wall and CPU time spent inside them (``"wall"``, ``"cpu"``: what the solver does outside its FFTs is the rest)."""
     from sims.bem_backend import Backend
 
-    counts = {"rfft2": 0, "irfft2": 0}
-    for name in counts:
+    counts = {"rfft2": 0.0, "irfft2": 0.0, "wall": 0.0, "cpu": 0.0}
+    for name in ("rfft2", "irfft2"):
         original = getattr(Backend, name)
 
         def counted(self: Any, *a: Any, _f: Any = original, _k: str = name) -> Any:
             counts[_k] += 1
-            return _f(self, *a)
+            t0, c0 = time.perf_counter(), time.process_time()
+            out = _f(self, *a)
+            counts["wall"] += time.perf_counter() - t0
+            counts["cpu"] += time.process_time() - c0
+            return out
 
         setattr(Backend, name, counted)
     return counts
@@ -263,19 +270,22 @@ def child(n: int, case: str, code: str, threads: int, opts: dict[str, Any]) -> d
         t0 = time.perf_counter()
         p, nit, ok, limit = run(z, hardness, tol, threads, count=True)  # untimed: counts iterations
         counting_s = time.perf_counter() - t0
-        spent = sum(ffts.values()) / 2 if ffts is not None else math.nan
+        spent = (ffts["rfft2"] + ffts["irfft2"]) / 2 if ffts is not None else math.nan
         err = contact_error(p, z, hardness)
         ladder.append({"tol": tol, "error": err, "nit": nit, "converged": ok, "limit": limit})
         if limit or err <= opts["target"] or tol <= 1e-14 * 1.01:
             break
         tol /= 10.0
-    times, cpu_times = [], []
+    times, cpu_times, fft_times = [], [], []
     if not limit:
         for _ in range(opts["repeats"]):
+            if ffts is not None:
+                ffts.update(wall=0.0, cpu=0.0)
             t0, c0 = time.perf_counter(), time.process_time()
             run(z, hardness, tol, threads, count=False)
             times.append(time.perf_counter() - t0)
             cpu_times.append(time.process_time() - c0)
+            fft_times.append((ffts["wall"], ffts["cpu"]) if ffts is not None else (math.nan, math.nan))
     pair = min(pair, fft_pair_seconds(n, threads))  # timed again after the solves: the quieter moment counts
     pair_cpu = min(pair_cpu, fft_pair_seconds(n, threads, clock=time.process_time))
     last = ladder[-1]
@@ -283,6 +293,11 @@ def child(n: int, case: str, code: str, threads: int, opts: dict[str, Any]) -> d
     per_it = best / nit if nit > 0 else math.nan
     per_it_cpu = min(cpu_times) / nit if cpu_times and nit > 0 else math.nan
     pairs_it = spent / nit if nit > 0 else math.nan
+    # outside the FFTs (the run with the best wall time): the element-wise passes and the work on the contact set
+    i_best = times.index(best) if times else -1
+    fft_wall, fft_cpu = fft_times[i_best] if times else (math.nan, math.nan)
+    outside = (best - fft_wall) / nit if nit > 0 else math.nan
+    outside_cpu = (cpu_times[i_best] - fft_cpu) / nit if times and nit > 0 else math.nan
     return {
         **last,
         "time": best,
@@ -292,6 +307,10 @@ def child(n: int, case: str, code: str, threads: int, opts: dict[str, Any]) -> d
         "ratio_to_pair": per_it / pair,
         "fft_pairs_per_iteration": pairs_it,
         "ratio_to_pairs_spent": per_it / (pairs_it * pair),
+        "fft_ms_per_iteration": fft_wall / nit * 1e3 if nit > 0 else math.nan,
+        "outside_fft_ms_per_iteration": outside * 1e3,
+        "outside_fft_ratio_to_pair": outside / pair,
+        "outside_fft_cpu_ms_per_iteration": outside_cpu * 1e3,
         "cpu_pair_ms": pair_cpu * 1e3,
         "cpu_per_iteration_ms": per_it_cpu * 1e3,
         "cpu_ratio_to_pair": per_it_cpu / pair_cpu,
@@ -330,6 +349,12 @@ def _cell(r: dict[str, Any]) -> str:
         per_it = f" {r['per_iteration_ms']:7.1f} ms/it = {r['ratio_to_pair']:.2f}× pair ({r['pair_ms']:.1f} ms)"
         if math.isfinite(r["fft_pairs_per_iteration"]):
             per_it += f" = {r['ratio_to_pairs_spent']:.2f}× the {r['fft_pairs_per_iteration']:.2f} FFT pairs/it spent"
+        if math.isfinite(r.get("outside_fft_ms_per_iteration", math.nan)):
+            per_it += (
+                f"; in its FFTs {r['fft_ms_per_iteration']:.1f} ms/it, outside them"
+                f" {r['outside_fft_ms_per_iteration']:.1f} ms/it = {r['outside_fft_ratio_to_pair']:.2f}× pair"
+                f" (CPU time {r['outside_fft_cpu_ms_per_iteration']:.1f} ms/it, every thread)"
+            )
         if math.isfinite(r.get("cpu_ratio_to_pair", math.nan)):
             per_it += f"; CPU time {r['cpu_ratio_to_pair']:.2f}× pair"
     return (

@@ -105,7 +105,7 @@ def test_group_size_and_rare_branch_roll_backs_change_nothing(surface, monkeypat
 def test_a_stall_and_its_bracketing_fallback_are_the_same_in_groups(surface, monkeypatch):
     # a stall rule made hair-trigger: the load-controlled run stalls and the offset bracketing (many inner runs) takes
     # over; the group's stall check on the host must stop at the same iteration as the one-by-one check
-    monkeypatch.setattr(bem, "_STALL_ITERATIONS", 2)
+    monkeypatch.setattr(bem, "_STALL_ITERATIONS", 1)
     grouped = _solve(surface, 0.03, "pressure", xp=np)
     assert grouped.success and "stalled" in grouped.message
     monkeypatch.setattr(bem_backend, "DEVICE_DECISIONS", False)
