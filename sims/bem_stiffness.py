@@ -2,8 +2,8 @@
 
 The seed paper tabulates the contact pressure against the separation of the surfaces, p(h) (its Fig. 2, the
 database of §2.1); the interfacial stiffness is that curve's slope, K = −dp̄/dū (Pa/m, ū the mean gap), and through
-Barber's relation it is also the clean-metal conductance: r = (ρ₁ + ρ₂)·E*/(2K) per unit nominal area (Barber,
-Proc. R. Soc. A 459 (2003) 53; /work/shared/reference notes, "Contact resistance").
+Barber's relation it also gives the clean-metal contact resistance: r = (ρ₁ + ρ₂)·E*/(2K) per unit nominal area
+(Ω·m², ρ the resistivities; Barber, Proc. R. Soc. A 459 (2003) 53).
 
 Barber's theorem (same paper): the incremental normal stiffness of an elastic contact equals that of a rigid flat
 punch of the current contact area — the points joining or leaving the contact carry no pressure to first order.
