@@ -68,7 +68,8 @@ A solution is accepted only after the displacement has been recomputed from the 
 Public API:
 
 * :func:`solve_contact` — one solution (mean pressure, mean gap or approach prescribed) → :class:`ContactResult`.
-* :func:`solve_load_path` — a ramp of mean pressures with warm starts and the interfacial stiffness K = −dp̄/dū.
+* :func:`solve_load_path` — a ramp of mean pressures with warm starts and the interfacial stiffness K = −dp̄/dū
+  (finite differences, or the tangent on the contact set: :mod:`sims.bem_stiffness`).
 * :func:`refine` — Fourier (zero-padding) interpolation of a periodic, band-limited surface onto a finer grid.
 * :func:`convergence_check` — the same problem on the grid and on a refined grid, and the relative area change.
 * :func:`full_contact_pressure` — the elastic mean pressure at which contact becomes complete.

@@ -89,9 +89,14 @@ def test_westergaard_stiffness_is_the_derivative_of_the_closed_form_mean_gap():
 def test_full_contact_is_infinitely_stiff():
     n = 64
     z = np.tile((DELTA * np.cos(2 * np.pi * np.arange(n) / n))[:, None], (1, 4))
-    for method in ("tangent", "centred"):  # above p* the gap is closed everywhere: ū ≡ 0
-        path = bem.solve_load_path(z, LAM / n, E_W, [1.2 * P_STAR], stiffness=method)
-        assert path.success and path.stiffness[0] == math.inf
+    # above p* the gap is closed everywhere: ū ≡ 0; with a hardness below the crest's elastic pressure (2.2 p*) the
+    # crests are plastic and the rest free, and ū is still 0
+    for hardness in (None, 1.5 * P_STAR):
+        for method in ("tangent", "centred"):
+            path = bem.solve_load_path(z, LAM / n, E_W, [1.2 * P_STAR], hardness, stiffness=method)
+            assert path.success and path.stiffness[0] == math.inf
+            assert path.results[0].area_fraction == 1.0
+            assert (path.results[0].plastic_fraction > 0.5) == (hardness is not None)
 
 
 def _sets(res: bem.ContactResult, hardness: float | None) -> np.ndarray:
