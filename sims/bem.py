@@ -1465,7 +1465,7 @@ def solve_load_path(
     Args:
         z, pixel_m, E_star, hardness, tol, max_iter, workers, device: as for :func:`solve_contact`.
         pressures: mean pressures, Pa, strictly increasing, each > 0 (and below the hardness).
-        stiffness: the finite-difference scheme above.
+        stiffness: the scheme above (finite differences or the tangent).
         step: relative pressure step of the ``"centred"``/``"forward"`` schemes (and of the tangent's centred
             fallback), in (0, 0.5].
         keep_fields: keep every ny×nx field (:class:`ContactResult`); else keep the scalars only.
