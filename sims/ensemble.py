@@ -7,7 +7,8 @@ scene's own (k = 0 is the scene as written, the surface pair of its contact data
 * ``(k, "bem", p̄)`` — one mean pressure p̄ (Pa) on the composite surface z_liner + z_piston
   (:func:`sims.bem.solve_load_path`, elastic–perfectly-plastic with the softer body's hardness unless
   ``plastic=False``): real-area fraction (perimeter-corrected or counted), mean gap ū (m), separation of the mean
-  planes h = max z − mean z − δ (m), interfacial stiffness K = −dp̄/dū (Pa/m, centred difference at p̄(1 ± step)),
+  planes h = max z − mean z − δ (m), interfacial stiffness K = −dp̄/dū (Pa/m: by default the tangent, one linear solve
+  on the contact set, :mod:`sims.bem_stiffness`; or the centred difference at p̄(1 ± step), ``stiffness="centred"``),
   contact spots, iterations;
 * ``(k, model, all p̄)`` — an asperity or statistical model's curve from :func:`sims.database.build_database` on the
   same realisation, inverted at each p̄: h(p̄) (its "mean gap", the database's separation of the mean planes — the
@@ -33,7 +34,7 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from functools import partial
 from itertools import pairwise
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -62,6 +63,8 @@ __all__ = [
 ]
 
 BEM = "bem"
+#: BEM's stiffness schemes in a comparison (:func:`sims.bem.solve_load_path`): the tangent first, the default.
+STIFFNESS_METHODS = ("tangent", "centred")
 _H_MIN_SIGMA_STEPS = (-0.5, -1.0, -1.5, -2.0, -3.0)
 _Array = NDArray[np.float64]
 
@@ -71,7 +74,9 @@ class CompareSettings:
     """What to compare. ``pressures_pa``: mean nominal pressures, Pa, strictly increasing, > 0. ``models``:
     registered model keys to rank (not ``"bem"``, the reference). ``realisations``: surface realisations (1…1000).
     ``plastic``: BEM with the hardness cap. ``area``: BEM area ``"corrected"`` (perimeter correction, Yastrebov et
-    al. 2017) or ``"counted"``. ``step``: relative pressure step of the centred stiffness (0…0.5). ``refine``:
+    al. 2017) or ``"counted"``. ``stiffness``: how BEM's K = −dp̄/dū is found, ``"tangent"`` (default: one linear solve
+    on the contact set, :mod:`sims.bem_stiffness`) or ``"centred"`` (two more nonlinear solves at p̄(1 ± step)).
+    ``step``: relative pressure step of the centred stiffness (0…0.5). ``refine``:
     Fourier refinement factor of the composite surface for BEM (1…8). ``tol``, ``max_iter``: BEM solver settings."""
 
     pressures_pa: tuple[float, ...]
@@ -79,6 +84,7 @@ class CompareSettings:
     realisations: int = 1
     plastic: bool = True
     area: str = "corrected"
+    stiffness: Literal["tangent", "centred"] = "tangent"
     step: float = 5e-3
     refine: int = 1
     tol: float = 1e-6
@@ -100,6 +106,7 @@ class CompareSettings:
         object.__setattr__(self, "models", models)
         check_int("--realisations", self.realisations, 1, 1000)
         check_choice("area", self.area, ("corrected", "counted"))
+        check_choice("stiffness", self.stiffness, STIFFNESS_METHODS)
         check_range("step", self.step, 0.0, 0.5, lo_open=True)
         check_int("refine", self.refine, 1, 8)
 
@@ -211,7 +218,7 @@ def _bem_task(config: SimConfig, st: CompareSettings, task: Task, workers: int) 
     peak = float(z.max() - z.mean())
     path = bem.solve_load_path(
         z, pixel, config.materials.E_star, list(task.pressures_pa), hardness,
-        stiffness="centred", step=st.step, tol=st.tol, max_iter=st.max_iter, workers=workers, keep_fields=False,
+        stiffness=st.stiffness, step=st.step, tol=st.tol, max_iter=st.max_iter, workers=workers, keep_fields=False,
     )  # fmt: skip
     res = path.results
     area = [s.area_fraction_corrected if st.area == "corrected" else s.area_fraction for s in res]

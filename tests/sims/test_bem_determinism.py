@@ -45,14 +45,16 @@ def test_a_warm_start_reset_plastically_does_not_depend_on_garbage(shape, monkey
         np.testing.assert_array_equal(r.pressure, runs[0].pressure)
 
 
-def test_a_load_path_gives_the_same_numbers_twice():
-    """compare-models' BEM work (a warm-started load path with the centred stiffness), twice in one process."""
+@pytest.mark.parametrize("stiffness", ["tangent", "centred"])
+def test_a_load_path_gives_the_same_numbers_twice(stiffness):
+    """compare-models' BEM work (a warm-started load path with the tangent stiffness, its default, or the centred
+    one), twice in one process."""
     z = rough(48, 80, seed=3)
     pixel, e_star = 1e-6, 1e11
     hardness = 0.02 * e_star * float(z.std()) / pixel
     pressures = [f * hardness for f in (0.01, 0.05, 0.2)]
-    a = bem.solve_load_path(z, pixel, e_star, pressures, hardness, workers=1)
-    b = bem.solve_load_path(z, pixel, e_star, pressures, hardness, workers=2)
+    a = bem.solve_load_path(z, pixel, e_star, pressures, hardness, stiffness=stiffness, workers=1)
+    b = bem.solve_load_path(z, pixel, e_star, pressures, hardness, stiffness=stiffness, workers=2)
     assert a.nit == b.nit
     np.testing.assert_array_equal(a.stiffness, b.stiffness)
     np.testing.assert_array_equal(a.mean_gap, b.mean_gap)

@@ -13,6 +13,7 @@ from contactrig.core.scene import load_scene
 from contactrig.core.validation import SettingError
 from sims import bem, ensemble
 from sims.bem_database import composite_from_config
+from sims.bem_stiffness import tangent_stiffness
 from sims.config import SimConfig
 from sims.database import build_database
 
@@ -43,10 +44,14 @@ def test_tasks_match_direct_computations(small):
     assert task.mean_gap_m[0] == pytest.approx(direct.mean_gap, rel=1e-6)
     # separation of the mean planes: the peak of z above its mean, less the approach
     assert task.separation_m[0] == pytest.approx(float(z.max() - z.mean()) - direct.approach, rel=1e-6)
-    # centred difference of two more solves at p(1 ± step)
+    # the default stiffness: the tangent of the direct solution (sims.bem_stiffness, tested against closed forms)
+    assert SETTINGS.stiffness == "tangent"
+    assert task.stiffness_pa_per_m[0] == pytest.approx(tangent_stiffness(direct).stiffness, rel=1e-9)
+    # stiffness="centred": the centred difference of two more solves at p(1 ± step)
+    centred = ensemble.run_task(small, replace(SETTINGS, stiffness="centred"), ensemble.Task(1, "bem", (8e6,)))
     lo = bem.solve_contact(z, pix, r1.materials.E_star, 8e6 * (1 - 5e-3), hardness=r1.materials.H)
     hi = bem.solve_contact(z, pix, r1.materials.E_star, 8e6 * (1 + 5e-3), hardness=r1.materials.H)
-    assert task.stiffness_pa_per_m[0] == pytest.approx(-2 * 5e-3 * 8e6 / (hi.mean_gap - lo.mean_gap), rel=1e-3)
+    assert centred.stiffness_pa_per_m[0] == pytest.approx(-2 * 5e-3 * 8e6 / (hi.mean_gap - lo.mean_gap), rel=1e-3)
     model = ensemble.run_task(small, SETTINGS, ensemble.Task(1, "hertz", (1e6, 8e6)))
     curve = build_database(r1, ["hertz"])["hertz"]
     np.testing.assert_allclose(curve.pressure(model.separation_m), [1e6, 8e6], rtol=1e-9)
@@ -115,6 +120,8 @@ def test_invalid_settings_raise(small):
         ensemble.CompareSettings(pressures_pa=(1e6,), models=("bem",))
     with pytest.raises(SettingError, match="realisations"):
         ensemble.CompareSettings(pressures_pa=(1e6,), models=("hertz",), realisations=0)
+    with pytest.raises(SettingError, match=r"stiffness.*'forward'.*tangent.*centred"):  # one line: key, value, choices
+        ensemble.CompareSettings(pressures_pa=(1e6,), models=("hertz",), stiffness="forward")
     measured = replace(small.liner, kind="file")
     with pytest.raises(SettingError, match="measured map"):
         ensemble.realisation_config(small.with_changes(liner=measured), 1)
