@@ -107,6 +107,7 @@ def test_table_fits_100_columns_with_every_model_and_json_keeps_full_precision()
     d = cm.comparison_dict(cmp)
     assert d["models"][st.models[0]]["area_ratio"][0] == 0.1 / 0.3  # not the 3 digits of the table
     assert d["units"]["pressure"] == "Pa" and d["settings"]["pressures_pa"] == list(pressures)
+    assert d["settings"]["stiffness"] == st.stiffness == "tangent"  # which scheme made BEM's K (the default)
 
 
 def test_cli_on_a_small_scene(tmp_path, capsys):

@@ -14,7 +14,8 @@ Parts, each skipped with a note once the time budget (``--budget``, s) is spent:
 4. **CPU table**: the same on the CPU with 1 thread (1024², 2048²) and every core (1024²–4096²).
 5. **A profilometer-sized map**: what ``compare-models`` runs on a measured map, on a rectangle of the shape of
    SurfaceTopography's ``sur-2.sur`` mirrored (968 × 1126; 1126 = 2·563, a prime factor for the FFT) and on
-   1024 × 2048: the load path at three pressures with the centred stiffness (3 solves a pressure, warm-started),
+   1024 × 2048: the load path at three pressures with the tangent stiffness (compare-models' default: a solve and
+   one linear solve on its contact set a pressure, warm-started),
    capped, CPU (every core) against GPU: time, iterations, max |Δp|/max p between them.
 
 ``--quick`` (≤ 90 s on an H200): instead of parts 1–4, the solver's GPU path before and after the host
@@ -202,7 +203,7 @@ class _Run:
 
 
     def load_path(self, shape: tuple[int, int]) -> None:
-        """Part 5: ``compare-models``' BEM work (:func:`sims.bem.solve_load_path`, centred stiffness) on a rectangle."""
+        """Part 5: ``compare-models``' BEM work (:func:`sims.bem.solve_load_path`, tangent stiffness) on a rectangle."""
         from sims import bem
 
         ny, nx = (max(4, k // SHRINK[0]) for k in shape)
@@ -216,7 +217,7 @@ class _Run:
                 solve(z[:64, :64].copy(), "gpu", self.cores, HARDNESS)  # CuPy compiles its kernels once
             t0 = time.perf_counter()
             paths[device] = bem.solve_load_path(z, 1.0 / nx, E_STAR, pressures, HARDNESS, workers=self.cores,
-                                                device=device)  # fmt: skip
+                                                device=device, stiffness="tangent")  # fmt: skip
             row[f"{device}_s"], row[f"{device}_nit"] = time.perf_counter() - t0, paths[device].nit
         row["rel_max_dp"] = max(
             float(np.abs(g.pressure - c.pressure).max()) / float(c.pressure.max())
@@ -246,7 +247,7 @@ def _parts(run: _Run, parts: set[int], cores: int) -> None:
         2: "2. FFT pair (rfft2 + irfft2, float64)",
         3: "3. GPU solver (targets: ≤ 2× the cuFFT pair per iteration; 4096² ≤ 1 s, 8192² ≤ 5 s; it(4096²) ≤ 93)",
         4: f"4. CPU solver, 1 thread and {cores} threads",
-        5: "5. compare-models' BEM work on a profilometer-sized rectangle (3 pressures, centred stiffness, capped)",
+        5: "5. compare-models' BEM work on a profilometer-sized rectangle (3 pressures, tangent stiffness, capped)",
     }
     tasks: dict[int, list[tuple[str, float, Callable[[], None]]]] = {k: [] for k in heads}
     for n, case in itertools.product((512, 1024), cases):
