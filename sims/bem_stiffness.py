@@ -48,7 +48,7 @@ takes the centred difference, as its centred scheme would.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
@@ -74,7 +74,8 @@ class TangentStiffness:
     Attributes:
         stiffness: K, Pa/m; inf at full contact; None where no point is free (every contact point at p = H).
         nit: conjugate-gradient iterations (one float64 and one float32 FFT pair each).
-        success: converged (relative change of K below ``tol``), or an exact limit (full contact, no free point).
+        success: converged (relative change of K below ``tol``), or an exact limit (full contact, no free point), and
+            the contact state itself converged (``state.success``).
         message: what happened, in words.
     """
 
@@ -106,6 +107,16 @@ def tangent_stiffness(
     tol = check_range("tol", tol, 1e-14, 0.1)
     max_iter = check_int("max_iter", max_iter, 1, 10**6)
     be = get_backend(device, bem._check_workers(workers), xp)
+    t = _tangent(state, tol, max_iter, be)
+    if state.success:
+        return t
+    return replace(t, success=False, message=f"the contact state is not converged ({state.message}); {t.message}")
+
+
+def _tangent(state: ContactResult, tol: float, max_iter: int, be: Any) -> TangentStiffness:
+    """:func:`tangent_stiffness` with its settings checked, on the backend ``be``."""
+    from sims import bem
+
     ns = be.xp
     p = np.asarray(state.pressure, dtype=np.float64).reshape(-1)
     cap = math.inf if state.hardness is None else state.hardness * (1.0 - _AT_CAP)

@@ -213,3 +213,16 @@ def test_the_stop_rule_meets_tol_on_k_with_most_contact_points_plastic():
     t = tangent_stiffness(state, tol=1e-6, workers=1)
     assert t.success and t.stiffness is not None
     assert t.stiffness == pytest.approx(chord, rel=1e-6)
+
+
+def test_the_stiffness_of_an_unconverged_state_is_not_reported_as_converged():
+    # the linear solve converges on whatever contact set it is given: a state stopped at max_iter has the wrong set
+    # (its K 35 % off here) and its K must not carry success=True
+    z = rough_surface(64, seed=1)
+    rough_state = bem.solve_contact(z, 1 / 64, 1.0, 0.0025, max_iter=2)
+    assert not rough_state.success
+    t = tangent_stiffness(rough_state)
+    assert not t.success and "not converged" in t.message
+    converged = tangent_stiffness(bem.solve_contact(z, 1 / 64, 1.0, 0.0025))
+    assert converged.success and t.stiffness is not None and converged.stiffness is not None
+    assert abs(t.stiffness / converged.stiffness - 1) > 0.01  # the set matters: not a harmless flag
