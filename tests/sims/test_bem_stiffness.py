@@ -226,3 +226,17 @@ def test_the_stiffness_of_an_unconverged_state_is_not_reported_as_converged():
     converged = tangent_stiffness(bem.solve_contact(z, 1 / 64, 1.0, 0.0025))
     assert converged.success and t.stiffness is not None and converged.stiffness is not None
     assert abs(t.stiffness / converged.stiffness - 1) > 0.01  # the set matters: not a harmless flag
+
+
+@pytest.mark.parametrize("hardness", [None, 0.03])
+def test_the_gpu_path_reads_the_host_a_bounded_number_of_times_per_iteration(hardness):
+    # on the CuPy stand-in (every host read counted): three dot products and K's value, whatever the plastic set;
+    # the difference between 8 and 4 iterations, so that the fixed costs cancel
+    z = rough_surface(128, seed=7)
+    state = bem.solve_contact(z, 1 / 128, 1.0, 0.0025, hardness=hardness, tol=1e-10)
+    counts = []
+    for k in (4, 8):
+        fake.SYNCS.clear()
+        assert tangent_stiffness(state, xp=fake, max_iter=k, tol=1e-14).nit == k
+        counts.append(sum(fake.SYNCS.values()))
+    assert (counts[1] - counts[0]) / 4 <= 4.0
