@@ -1321,7 +1321,8 @@ def _cut_full_contact(xp: ModuleType, field: Any, mean: float, cap: float) -> An
 
     λ: Newton's method on the piecewise-linear sum Σ min(max(f + λ, 0), H′) (slope: the points strictly between the
     bounds), safeguarded by bisection inside [−max f, H′ − min f] (p̄ − min f without a cap), where the sum is below
-    and above the load; a few steps, one pass each."""
+    and above the load; a few steps, one pass each, and at most ~50 more where the load is below the resolution of
+    f + λ (p̄ ≲ 1e-13·|λ|: then the closest sum, off by more than ``_CUT_RTOL``, which the start's scaling corrects)."""
     target = mean * field.size
     top = cap * (1.0 - 2.0 * _CUT_RTOL) if math.isfinite(cap) else math.inf
     if not mean < top:  # a load within 0.2 % of the hardness: every point near H, Polonsky & Keer's uniform p̄
@@ -1329,21 +1330,24 @@ def _cut_full_contact(xp: ModuleType, field: Any, mean: float, cap: float) -> An
     lo = -_max(field, 0.0)
     hi = (top if math.isfinite(top) else mean) - _min(field, 0.0)
     lam = min(max(mean, lo), hi)  # the full-contact shift: the sum is ≥ the load there without a cap
-    cut = field
+    best = (math.inf, lam)  # (|excess|, λ) of the closest sum
     for _ in range(100):
         shifted = field + lam
         cut = xp.clip(shifted, 0.0, top)
         excess = float(cut.sum()) - target
         if abs(excess) <= _CUT_RTOL * target:
-            break
+            return cut
+        best = min(best, (abs(excess), lam))
         if excess > 0.0:
             hi = lam
         else:
             lo = lam
+        if not lo < 0.5 * (lo + hi) < hi:  # λ at its float resolution: the load is below that of f + λ
+            break
         slope = float(xp.count_nonzero((shifted > 0.0) & (shifted < top)))
         step = lam - excess / slope if slope > 0.0 else math.nan
         lam = step if lo < step < hi else 0.5 * (lo + hi)
-    return cut
+    return xp.clip(field + best[1], 0.0, top)  # the closest sum (one more pass, only where none met _CUT_RTOL)
 
 
 def solve_contact(

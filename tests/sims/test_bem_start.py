@@ -10,6 +10,7 @@ energy is strictly convex on the pressures) in fewer iterations.
 from __future__ import annotations
 
 import math
+import types
 
 import numpy as np
 import pytest
@@ -80,3 +81,24 @@ def test_the_cold_start_reaches_the_uniform_start_solution_in_fewer_iterations(h
     assert abs(cold.area_fraction - uniform.area_fraction) <= 2.0 / z.size
     assert cold.mean_gap == pytest.approx(uniform.mean_gap, rel=1e-6)
     assert cold.nit < uniform.nit
+
+
+@pytest.mark.parametrize("cap", [math.inf, 2e-6])
+def test_a_load_below_the_fields_resolution_ends_the_search_early(cap):
+    """One spike 1e18 times the load: λ ≈ −1e12 is known to ~1e-4, the load's 1e-3 tolerance is 1e-6 a point, no λ
+    meets it. The search ends when its bracket holds no float between its ends (it ran all 100 passes before) and
+    returns the closest sum it met (the solver's start scales it to the load)."""
+    passes = []
+
+    def clip(a: np.ndarray, lo: float, hi: float) -> np.ndarray:
+        passes.append(1)
+        return np.clip(a, lo, hi)
+
+    xp = types.SimpleNamespace(clip=clip, count_nonzero=np.count_nonzero, full=np.full)
+    field = np.zeros(1000)
+    field[0] = 1e12
+    field -= field.mean()
+    cut = bem._cut_full_contact(xp, field, 1e-6, cap)
+    assert len(passes) <= 60
+    assert np.all(cut >= 0.0) and np.all(cut <= min(cap * (1 - 2 * bem._CUT_RTOL), 1e12))
+    assert abs(cut.mean() / 1e-6 - 1) < 0.05

@@ -191,3 +191,52 @@ def test_every_contact_point_at_the_hardness_takes_the_centred_chord():
         bem.solve_load_path(z, 1e-5, 1e9, [p_mean], hardness, stiffness=m, tol=1e-10) for m in ("tangent", "centred")
     ]
     assert paths[0].stiffness[0] == paths[1].stiffness[0] > 0
+
+
+def test_the_stop_rule_meets_tol_on_k_with_most_contact_points_plastic():
+    # 63 % of the grid at the hardness: K = Σx/settle, and the plastic points' settling Σ_P (C x)_P converges slower
+    # than Σx (a linear functional of the error, not its energy norm); stopped on Σx alone K was 8e-6 off at tol 1e-6.
+    # Reference: the centred chord of the contact solver at a step below the next change of set (the definition of
+    # the derivative of the discrete problem, two nonlinear solves to 1e-12)
+    n, p_mean, hardness, step = 128, 0.02, 0.03, 1e-6
+    z = rough_surface(n, seed=1)
+
+    def solve(p: float, warm: np.ndarray | None = None) -> bem.ContactResult:
+        return bem.solve_contact(z, 1 / n, 1.0, p, hardness=hardness, tol=1e-12, workers=1, initial_pressure=warm)
+
+    state = solve(p_mean)
+    up, down = solve(p_mean * (1 + step), state.pressure), solve(p_mean * (1 - step), state.pressure)
+    assert not np.any(_sets(up, hardness) != _sets(state, hardness))
+    assert not np.any(_sets(down, hardness) != _sets(state, hardness))
+    assert state.plastic_fraction > 0.6
+    chord = 2 * step * p_mean / (down.mean_gap - up.mean_gap)
+    t = tangent_stiffness(state, tol=1e-6, workers=1)
+    assert t.success and t.stiffness is not None
+    assert t.stiffness == pytest.approx(chord, rel=1e-6)
+
+
+def test_the_stiffness_of_an_unconverged_state_is_not_reported_as_converged():
+    # the linear solve converges on whatever contact set it is given: a state stopped at max_iter has the wrong set
+    # (its K 35 % off here) and its K must not carry success=True
+    z = rough_surface(64, seed=1)
+    rough_state = bem.solve_contact(z, 1 / 64, 1.0, 0.0025, max_iter=2)
+    assert not rough_state.success
+    t = tangent_stiffness(rough_state)
+    assert not t.success and "not converged" in t.message
+    converged = tangent_stiffness(bem.solve_contact(z, 1 / 64, 1.0, 0.0025))
+    assert converged.success and t.stiffness is not None and converged.stiffness is not None
+    assert abs(t.stiffness / converged.stiffness - 1) > 0.01  # the set matters: not a harmless flag
+
+
+@pytest.mark.parametrize("hardness", [None, 0.03])
+def test_the_gpu_path_reads_the_host_a_bounded_number_of_times_per_iteration(hardness):
+    # on the CuPy stand-in (every host read counted): three dot products and K's value, whatever the plastic set;
+    # the difference between 8 and 4 iterations, so that the fixed costs cancel
+    z = rough_surface(128, seed=7)
+    state = bem.solve_contact(z, 1 / 128, 1.0, 0.0025, hardness=hardness, tol=1e-10)
+    counts = []
+    for k in (4, 8):
+        fake.SYNCS.clear()
+        assert tangent_stiffness(state, xp=fake, max_iter=k, tol=1e-14).nit == k
+        counts.append(sum(fake.SYNCS.values()))
+    assert (counts[1] - counts[0]) / 4 <= 4.0
