@@ -102,3 +102,19 @@ def test_a_load_below_the_fields_resolution_ends_the_search_early(cap):
     assert len(passes) <= 60
     assert np.all(cut >= 0.0) and np.all(cut <= min(cap * (1 - 2 * bem._CUT_RTOL), 1e12))
     assert abs(cut.mean() / 1e-6 - 1) < 0.05
+
+
+def test_a_stall_from_the_cut_start_starts_again_from_the_uniform_pressure():
+    """A flat surface with one crest that the hardness flattens (issue 28's review): from the cut start load control
+    stalled and the bracketing fallback ran out of iterations (success False), where the uniform start converges in
+    6. The solver now starts once more from the uniform pressure after such a stall, the iterations counted."""
+    z = np.zeros((32, 32))
+    z[5, 7] = 1e-9
+    cold = bem.solve_contact(z, PIX, E_STAR, 1e4, hardness=3e4)
+    uniform = bem.solve_contact(z, PIX, E_STAR, 1e4, hardness=3e4, initial_pressure=np.full(z.shape, 1e4))
+    assert cold.success and uniform.success
+    assert "restarted from the uniform pressure" in cold.message and "bracketing" not in cold.message
+    assert cold.nit > uniform.nit  # the stalled iterations are counted, not hidden
+    # the load is met, the crest flattened at the hardness, and the same field as the uniform start's
+    assert cold.mean_pressure == pytest.approx(1e4, rel=1e-12) and float(cold.pressure.max()) == pytest.approx(3e4)
+    assert float(np.abs(cold.pressure - uniform.pressure).max()) <= 1e-6 * 3e4
