@@ -216,16 +216,22 @@ def test_lattice_constant():
     assert float(value) == pytest.approx(LATTICE_Z, rel=1e-12)
 
 
+def flat_punch(n: int = 256, length: float = 1e-3, cells: int = 24) -> tuple[np.ndarray, float, float]:
+    """A flat-topped cylinder of radius ``cells`` pixels raised 1 µm above an n² periodic box of side ``length`` (m):
+    (heights, pixel, radius of the discretised face), m."""
+    pix = length / n
+    c = (np.arange(n) - n / 2) * pix
+    xx, yy = np.meshgrid(c, c, indexing="ij")
+    z = np.where(np.hypot(xx, yy) <= cells * pix, 1e-6, 0.0)
+    return z, pix, math.sqrt(np.count_nonzero(z) / math.pi) * pix
+
+
 def test_flat_punch_stiffness():
     # A flat-topped cylinder of radius a (24 cells) raised 1 µm above a 256² periodic box, displacement control.
     # Periodic images: each punch also loads its neighbours, so the periodic compliance is
     # 1/k = 1/(2aE*) + Z/(πE*L); removing the image term must leave Boussinesq's 2aE*.
     n, length, e_star = 256, 1e-3, 2e9
-    pix = length / n
-    c = (np.arange(n) - n / 2) * pix
-    xx, yy = np.meshgrid(c, c, indexing="ij")
-    z = np.where(np.hypot(xx, yy) <= 24 * pix, 1e-6, 0.0)
-    a = math.sqrt(np.count_nonzero(z) / math.pi) * pix  # radius of the discretised face
+    z, pix, a = flat_punch(n, length)
     d1, d2 = 1e-9, 3e-9
     r1 = bem.solve_contact(z, pix, e_star, approach=d1)
     r2 = bem.solve_contact(z, pix, e_star, approach=d2)

@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 from sims import bem
 from sims.bem_stiffness import tangent_stiffness
 
-from .test_bem import LATTICE_Z, rough_surface
+from .test_bem import LATTICE_Z, flat_punch, rough_surface
 from .test_bem_sync import fake
 
 
@@ -32,11 +32,7 @@ def _isolated(k_per_area: float, length: float, e_star: float) -> float:
 def test_flat_punch_stiffness_is_boussinesq():
     # the setting of test_bem.py::test_flat_punch_stiffness: a cylinder of radius 24 cells, 1 µm high, 256² box
     n, length, e_star = 256, 1e-3, 2e9
-    pix = length / n
-    c = (np.arange(n) - n / 2) * pix
-    xx, yy = np.meshgrid(c, c, indexing="ij")
-    z = np.where(np.hypot(xx, yy) <= 24 * pix, 1e-6, 0.0)
-    a = math.sqrt(np.count_nonzero(z) / math.pi) * pix
+    z, pix, a = flat_punch(n, length)
     state = bem.solve_contact(z, pix, e_star, approach=1e-9)
     assert state.area_fraction * n * n == np.count_nonzero(z)
     t = tangent_stiffness(state)
