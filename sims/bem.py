@@ -1287,13 +1287,13 @@ def _initial_pressure(
     solver: _Solver, sc: _Scales, load: float | None, initial: Any | None, field: Any | None = None
 ) -> Any:
     """Warm start if given and loaded; else under pressure control the full-contact field ``field`` cut down to the
-    load (:func:`_cut_full_contact`) up to p̄ = ``_CUT_BELOW``·H, Polonsky & Keer's uniform p̄ above that or without
-    ``field``; under displacement control the pressure each penetrating point would carry alone, (z − h₀)/C₀₀,
-    capped."""
+    load (:func:`_cut_full_contact`; :func:`solve_contact` passes it up to p̄ = ``_CUT_BELOW``·H) or without it
+    Polonsky & Keer's uniform p̄; under displacement control the pressure each penetrating point would carry alone,
+    (z − h₀)/C₀₀, capped."""
     if load is not None:
         if initial is not None and float(initial.sum()) > 0.0:
             return initial
-        if field is not None and load <= _CUT_BELOW * solver.cap:
+        if field is not None:
             return _cut_full_contact(solver.xp, field, load, solver.cap)
         return solver.xp.full(sc.shape[0] * sc.shape[1], load)  # Polonsky & Keer's uniform start
     return solver.xp.clip((solver.z - solver.h0) / solver.kernel.self_compliance, 0.0, solver.cap)
@@ -1438,6 +1438,7 @@ def solve_contact(
             solver, sc, status=STATUS_CONVERGED, message=shortcut, mode=mode, hardness=hardness, p_full=p_full
         )
     warm = None if initial is None else be.asarray(initial)
+    # the cut start: a cold start (no warm field carrying a load) under pressure control, up to p̄ = _CUT_BELOW·H
     cut = load is not None and (warm is None or float(warm.sum()) <= 0.0) and load <= _CUT_BELOW * solver.cap
     solver.start(_initial_pressure(solver, sc, load, warm, field if cut else None))
     del field
